@@ -1,0 +1,51 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// Reading and writing maps. Readers validate a whole file before anything is built from it
+/// (OctoMap's own readers trust their input: a truncated .bt makes them read garbage), and
+/// writers go through a temporary file renamed into place, so a failed write never leaves a
+/// half file behind.
+///
+///   StatusOr<OccupancyMap> map = loadMap("maps/district.yaml");   // survey, .bt or .ot
+///   Status s = writeOctomap(*map, "district.bt");
+
+#include <functional>
+#include <ostream>
+#include <string>
+
+#include "adit/map/occupancy_map.hpp"
+
+namespace adit::map {
+
+enum class MapFormat { kSurveyYaml, kOctomapBinary, kOctomapFull };
+
+/// From the file extension: .yaml/.yml, .bt, .ot (case-insensitive).
+StatusOr<MapFormat> formatFromPath(const std::string& path);
+
+struct LoadOptions {
+  UnknownPolicy unknown_policy = UnknownPolicy::kRock;
+  ProgressFn progress;  ///< optional
+};
+
+/// Loads any supported map: a survey roadway network (voxelized), an OctoMap .bt or .ot.
+StatusOr<OccupancyMap> loadMap(const std::string& path, const LoadOptions& options = {});
+
+/// OctoMap binary (.bt) or full (.ot, OcTree only) from a file or from bytes; `name` is used in
+/// messages. Every structural fact is checked: magic line, header fields, node encoding, depth
+/// <= 16, node count equal to the header's, no trailing bytes, finite log-odds.
+StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy = UnknownPolicy::kRock);
+StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string& name,
+                                    UnknownPolicy policy = UnknownPolicy::kRock);
+
+/// Writes .bt or .ot (by extension) atomically.
+Status writeOctomap(const OccupancyMap& map, const std::string& path);
+
+/// Calls `write` on a stream to a temporary file beside `path`, then renames it over `path`.
+/// If `write` returns false or throws, or the stream fails, the temporary file is removed and
+/// `path` is untouched.
+Status writeFileAtomically(const std::string& path, const std::function<bool(std::ostream&)>& write);
+
+/// Whole file into memory, with a clear error if it is missing, a directory or too large.
+StatusOr<std::string> readFile(const std::string& path, std::size_t max_bytes = std::size_t{1} << 32);
+
+}  // namespace adit::map

@@ -1,0 +1,100 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// OccupancyMap: the mine as an OctoMap octree with an explicit policy for unknown space.
+/// In a surveyed mine everything that nobody surveyed or scanned is rock, so the default policy is
+/// UnknownPolicy::kRock; FCL and OMPL would silently treat it as free. OctoMap keys are 16-bit, so
+/// a map spans at most +-32768 voxels from the origin on each axis (+-3.3 km at 0.1 m): maps that
+/// do not fit are refused, never wrapped.
+///
+///   StatusOr<OccupancyMap> map = loadMap("maps/district.bt");
+///   if (map.ok() && map->isFree({10, 0, 1.5})) { ... }
+///   MapStats s = map->stats();   // bounds, voxel counts, volumes
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+
+#include "adit/map/status.hpp"
+#include "adit/map/types.hpp"
+
+namespace octomap {
+class OcTree;
+}
+
+namespace adit::map {
+
+enum class VoxelState : std::uint8_t { kFree = 0, kOccupied = 1, kUnknown = 2 };
+const char* voxelStateName(VoxelState s);
+
+/// How unknown voxels (never observed, or outside the map) count for planning.
+enum class UnknownPolicy {
+  kRock,  ///< unknown is rock: the right default for a surveyed mine
+  kFree,  ///< unknown inside the map bounds is free (e.g. a partly scanned building)
+};
+const char* unknownPolicyName(UnknownPolicy p);
+StatusOr<UnknownPolicy> parseUnknownPolicy(const std::string& name);
+
+/// Summary of a map. Voxel counts are at the finest resolution (a pruned leaf counts 8^k voxels);
+/// unknown = voxels of the bounding box that are neither free nor occupied.
+struct MapStats {
+  double resolution_m = 0.0;
+  Aabb bounds;                   ///< of every known (free or occupied) voxel
+  std::uint64_t free_voxels = 0;
+  std::uint64_t occupied_voxels = 0;
+  std::uint64_t unknown_voxels = 0;
+  std::uint64_t octree_nodes = 0;
+  double voxelVolume() const { return resolution_m * resolution_m * resolution_m; }
+};
+
+/// Largest coordinate magnitude a map of this resolution can hold (OctoMap's 16-bit keys).
+double maxMapExtent(double resolution_m);
+/// OK when `box` fits OctoMap's key range at `resolution_m`; the error names the offending corner.
+Status checkExtent(const Aabb& box, double resolution_m);
+/// OK for a finite resolution > 0 (and >= 1 mm, below which float keys stop being meaningful).
+Status checkResolution(double resolution_m);
+
+class OccupancyMap {
+ public:
+  /// Wraps `tree` (taken over). Refuses an invalid resolution and a map without free space under
+  /// the chosen policy ("empty map").
+  static StatusOr<OccupancyMap> create(std::shared_ptr<octomap::OcTree> tree,
+                                       UnknownPolicy policy = UnknownPolicy::kRock);
+
+  double resolution() const;
+  UnknownPolicy unknownPolicy() const { return policy_; }
+  /// The same octree seen under another policy (shares the tree).
+  OccupancyMap withUnknownPolicy(UnknownPolicy policy) const;
+
+  /// Raw state of the voxel holding `p`; outside the key range it is kUnknown.
+  VoxelState state(const Vec3& p) const;
+  /// Free under the unknown-space policy. Outside the known bounds is always rock: adit never
+  /// plans off the map.
+  bool isFree(const Vec3& p) const;
+  bool isRock(const Vec3& p) const { return !isFree(p); }
+
+  Aabb bounds() const { return stats_.bounds; }
+  const MapStats& stats() const { return stats_; }
+
+  /// Visits every leaf: centre, edge length, and raw state (kFree or kOccupied).
+  void forEachLeaf(const std::function<void(const Vec3& center, double size, VoxelState state)>& fn) const;
+
+  /// Marks the voxel holding `p` occupied or free (e.g. sensed rubble); call
+  /// DistanceField::update() over the changed window afterwards. Refuses points off the key range.
+  Status setVoxel(const Vec3& p, VoxelState state) { return setVoxels({p}, state); }
+  /// Batch form: all points are checked first, so a refused batch changes nothing.
+  Status setVoxels(const std::vector<Vec3>& points, VoxelState state);
+
+  const octomap::OcTree& octree() const { return *tree_; }
+  std::shared_ptr<const octomap::OcTree> sharedOctree() const { return tree_; }
+
+ private:
+  OccupancyMap(std::shared_ptr<octomap::OcTree> tree, UnknownPolicy policy);
+  void recomputeStats();
+
+  std::shared_ptr<octomap::OcTree> tree_;
+  UnknownPolicy policy_ = UnknownPolicy::kRock;
+  MapStats stats_;
+};
+
+}  // namespace adit::map

@@ -1,0 +1,544 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Sparse exact Euclidean feature transform. See distance_field.hpp for the contract.
+#include "adit/map/distance_field.hpp"
+
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <unordered_set>
+
+#include "voxel_blocks.hpp"
+
+namespace adit::map {
+
+namespace {
+
+using internal::centreOf;
+using internal::kBlockBits;
+using internal::kBlockMask;
+using internal::kBlockSize;
+using internal::kBlockVoxels;
+using internal::keyOf;
+
+// A voxel word: the key of its nearest rock voxel (16 bits per axis) plus two flags. Rock
+// voxels are their own site.
+constexpr std::uint64_t kFreeBit = std::uint64_t{1} << 48;
+constexpr std::uint64_t kSiteBit = std::uint64_t{1} << 49;
+constexpr std::uint64_t kKeyMask = (std::uint64_t{1} << 48) - 1;
+
+inline std::uint64_t packKey(int x, int y, int z) {
+  return std::uint64_t(std::uint16_t(x)) | (std::uint64_t(std::uint16_t(y)) << 16) |
+         (std::uint64_t(std::uint16_t(z)) << 32);
+}
+inline int siteCoord(std::uint64_t w, int axis) { return int((w >> (16 * axis)) & 0xFFFF); }
+inline std::uint64_t rockWord(int x, int y, int z) { return packKey(x, y, z) | kSiteBit; }
+inline bool isFreeWord(std::uint64_t w) { return w & kFreeBit; }
+inline bool hasSite(std::uint64_t w) { return w & kSiteBit; }
+
+using Block = std::array<std::uint64_t, kBlockVoxels>;
+inline int localIndex(int x, int y, int z) {
+  return (x & kBlockMask) | ((y & kBlockMask) << kBlockBits) | ((z & kBlockMask) << (2 * kBlockBits));
+}
+
+// One line of the separable transform: candidates (position along the line, squared distance
+// already accumulated over the earlier axes, site word) in increasing position; for every query
+// position (increasing) the candidate minimising (q - p)^2 + f. Felzenszwalb & Huttenlocher 2012.
+class LineSolver {
+ public:
+  void clear() { pos_.clear(); f_.clear(); site_.clear(); }
+  void add(int p, double f, std::uint64_t site) { pos_.push_back(p); f_.push_back(f); site_.push_back(site); }
+  bool empty() const { return pos_.empty(); }
+
+  void prepare() {
+    const std::size_t n = pos_.size();
+    v_.resize(n);
+    z_.resize(n + 1);
+    int k = 0;
+    v_[0] = 0;
+    z_[0] = -std::numeric_limits<double>::infinity();
+    z_[1] = std::numeric_limits<double>::infinity();
+    for (std::size_t q = 1; q < n; ++q) {
+      double s;
+      for (;;) {
+        const std::size_t r = v_[std::size_t(k)];
+        s = ((f_[q] + double(pos_[q]) * pos_[q]) - (f_[r] + double(pos_[r]) * pos_[r])) /
+            (2.0 * double(pos_[q] - pos_[r]));
+        if (s <= z_[std::size_t(k)] && k > 0) { --k; continue; }
+        break;
+      }
+      if (s <= z_[std::size_t(k)]) {  // k == 0 and the new parabola dominates everywhere
+        v_[0] = q;
+        z_[1] = std::numeric_limits<double>::infinity();
+        continue;
+      }
+      ++k;
+      v_[std::size_t(k)] = q;
+      z_[std::size_t(k)] = s;
+      z_[std::size_t(k) + 1] = std::numeric_limits<double>::infinity();
+    }
+    k_ = 0;
+  }
+  // Queries must come in increasing position after prepare().
+  std::uint64_t solve(int q) {
+    while (z_[std::size_t(k_) + 1] < double(q)) ++k_;
+    return site_[v_[std::size_t(k_)]];
+  }
+
+ private:
+  std::vector<int> pos_;
+  std::vector<double> f_;
+  std::vector<std::uint64_t> site_;
+  std::vector<std::size_t> v_;
+  std::vector<double> z_;
+  int k_ = 0;
+};
+
+// Squared distance from voxel `key` to the site in `w`, over the axes before `axis` (the axes a
+// previous pass has already resolved; the other coordinates of the site equal the voxel's).
+inline double partialF(const int key[3], std::uint64_t w, int axis) {
+  double f = 0;
+  for (int a = 0; a < axis; ++a) {
+    const double d = key[a] - siteCoord(w, a);
+    f += d * d;
+  }
+  return f;
+}
+
+struct BoxI {
+  int lo[3], hi[3];  // inclusive voxel keys
+};
+
+}  // namespace
+
+struct DistanceField::Impl {
+  double res = 0.1, inv = 10.0;
+  int bmin[3] = {0, 0, 0};   // block grid origin (block coords)
+  int bdim[3] = {0, 0, 0};   // block grid size
+  std::vector<std::int32_t> index;  // dense, -1 = rock
+  std::vector<Block> blocks;
+  std::vector<std::array<int, 3>> block_coords;
+  DistanceFieldStats stats;
+
+  std::int32_t blockIndex(int bx, int by, int bz) const {
+    const int x = bx - bmin[0], y = by - bmin[1], z = bz - bmin[2];
+    if (unsigned(x) >= unsigned(bdim[0]) || unsigned(y) >= unsigned(bdim[1]) || unsigned(z) >= unsigned(bdim[2]))
+      return -1;
+    return index[(std::size_t(z) * std::size_t(bdim[1]) + std::size_t(y)) * std::size_t(bdim[0]) + std::size_t(x)];
+  }
+  std::uint64_t word(int x, int y, int z) const {
+    const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
+    return b < 0 ? rockWord(x, y, z) : blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))];
+  }
+
+  // Allocates (rock-initialised) tiles for the given distinct block coords and rebuilds the
+  // dense index over the union of old and new tiles.
+  void allocate(const std::vector<std::array<int, 3>>& coords) {
+    std::vector<std::array<int, 3>> fresh;
+    for (const auto& c : coords)
+      if (blockIndex(c[0], c[1], c[2]) < 0) fresh.push_back(c);
+    if (fresh.empty()) return;
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = blocks.empty() ? std::numeric_limits<int>::max() : bmin[a];
+      hi[a] = blocks.empty() ? std::numeric_limits<int>::min() : bmin[a] + bdim[a] - 1;
+    }
+    for (const auto& c : fresh)
+      for (int a = 0; a < 3; ++a) { lo[a] = std::min(lo[a], c[a]); hi[a] = std::max(hi[a], c[a]); }
+    for (const auto& c : fresh) {
+      Block b;
+      for (int z = 0; z < kBlockSize; ++z)
+        for (int y = 0; y < kBlockSize; ++y)
+          for (int x = 0; x < kBlockSize; ++x) {
+            const int kx = (c[0] << kBlockBits) + x, ky = (c[1] << kBlockBits) + y, kz = (c[2] << kBlockBits) + z;
+            b[std::size_t(localIndex(kx, ky, kz))] = rockWord(kx, ky, kz);
+          }
+      blocks.push_back(b);
+      block_coords.push_back(c);
+    }
+    for (int a = 0; a < 3; ++a) { bmin[a] = lo[a]; bdim[a] = hi[a] - lo[a] + 1; }
+    index.assign(std::size_t(bdim[0]) * std::size_t(bdim[1]) * std::size_t(bdim[2]), -1);
+    for (std::size_t i = 0; i < block_coords.size(); ++i) {
+      const auto& c = block_coords[i];
+      const std::size_t at = (std::size_t(c[2] - bmin[2]) * std::size_t(bdim[1]) + std::size_t(c[1] - bmin[1])) *
+                                 std::size_t(bdim[0]) + std::size_t(c[0] - bmin[0]);
+      if (index[at] >= 0) continue;  // duplicate coordinate, keep the first
+      index[at] = std::int32_t(i);
+    }
+  }
+
+  void setFree(int x, int y, int z, bool free) {
+    const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
+    if (b < 0) return;  // rock stays implicit
+    blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))] = free ? kFreeBit : rockWord(x, y, z);
+  }
+
+  // Full transform in place, over the allocated tiles only: along each axis, the tiles are
+  // grouped in lines; gaps between tiles (and the ends) are rock, of which only the two voxels
+  // bounding each gap can be nearest for anything outside it.
+  void transformAll(const ProgressFn& progress) {
+    for (Block& b : blocks)
+      for (std::uint64_t& w : b)
+        if (isFreeWord(w)) w = kFreeBit;  // the first pass must see rock voxels only
+    LineSolver solver;
+    std::vector<std::pair<int, std::uint64_t*>> queries;
+    for (int axis = 0; axis < 3; ++axis) {
+      const int b1 = (axis + 1) % 3, b2 = (axis + 2) % 3;
+      // Tiles sorted by (other two block coords, own coord) form the lines.
+      std::vector<std::uint32_t> order(blocks.size());
+      for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+        const auto& ca = block_coords[a];
+        const auto& cb = block_coords[b];
+        if (ca[b2] != cb[b2]) return ca[b2] < cb[b2];
+        if (ca[b1] != cb[b1]) return ca[b1] < cb[b1];
+        return ca[axis] < cb[axis];
+      });
+      std::size_t start = 0;
+      while (start < order.size()) {
+        std::size_t end = start + 1;
+        while (end < order.size() && block_coords[order[end]][b1] == block_coords[order[start]][b1] &&
+               block_coords[order[end]][b2] == block_coords[order[start]][b2])
+          ++end;
+        for (int u = 0; u < kBlockSize; ++u)
+          for (int v = 0; v < kBlockSize; ++v) {
+            int key[3];
+            key[b1] = (block_coords[order[start]][b1] << kBlockBits) + u;
+            key[b2] = (block_coords[order[start]][b2] << kBlockBits) + v;
+            solver.clear();
+            queries.clear();
+            auto addRock = [&](int p) {
+              key[axis] = p;
+              solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
+            };
+            int prev_end = std::numeric_limits<int>::min();
+            for (std::size_t i = start; i < end; ++i) {
+              const int first = block_coords[order[i]][axis] << kBlockBits;
+              if (first != prev_end + 1) {
+                if (prev_end != std::numeric_limits<int>::min()) addRock(prev_end + 1);
+                if (prev_end == std::numeric_limits<int>::min() || first - 1 > prev_end + 1) addRock(first - 1);
+              }
+              Block& blk = blocks[order[i]];
+              for (int p = first; p < first + kBlockSize; ++p) {
+                key[axis] = p;
+                std::uint64_t& w = blk[std::size_t(localIndex(key[0], key[1], key[2]))];
+                if (!isFreeWord(w)) {
+                  solver.add(p, 0.0, w & ~kFreeBit);
+                } else {
+                  if (hasSite(w)) solver.add(p, partialF(key, w, axis), w & kKeyMask);
+                  queries.emplace_back(p, &w);
+                }
+              }
+              prev_end = first + kBlockSize - 1;
+            }
+            addRock(prev_end + 1);
+            if (queries.empty()) continue;
+            solver.prepare();
+            for (auto& [p, w] : queries) *w = kFreeBit | kSiteBit | solver.solve(p);
+          }
+        start = end;
+      }
+      if (progress) progress("distance field", double(axis + 1) / 3.0);
+    }
+  }
+
+  // Transform over a dense copy of box `r` (outside it: no sites), writing back the free voxels
+  // of `write`. Returns the largest centre-to-centre distance (voxels) found in `write`, or
+  // infinity if some free voxel there saw no rock inside `r`.
+  double transformBox(const BoxI& r, BoxI write) {
+    for (int a = 0; a < 3; ++a) {  // nothing outside the tiles to write
+      write.lo[a] = std::max(write.lo[a], r.lo[a]);
+      write.hi[a] = std::min(write.hi[a], r.hi[a]);
+    }
+    const int n[3] = {r.hi[0] - r.lo[0] + 1, r.hi[1] - r.lo[1] + 1, r.hi[2] - r.lo[2] + 1};
+    std::vector<std::uint64_t> grid(static_cast<std::size_t>(n[0]) * std::size_t(n[1]) * std::size_t(n[2]));
+    auto at = [&](int x, int y, int z) -> std::uint64_t& {
+      return grid[(std::size_t(z - r.lo[2]) * std::size_t(n[1]) + std::size_t(y - r.lo[1])) * std::size_t(n[0]) +
+                  std::size_t(x - r.lo[0])];
+    };
+    for (int z = r.lo[2]; z <= r.hi[2]; ++z)
+      for (int y = r.lo[1]; y <= r.hi[1]; ++y)
+        for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
+          const std::uint64_t w = word(x, y, z);
+          at(x, y, z) = isFreeWord(w) ? kFreeBit : rockWord(x, y, z);
+        }
+    LineSolver solver;
+    std::vector<std::pair<int, std::uint64_t*>> queries;
+    for (int axis = 0; axis < 3; ++axis) {
+      const int b1 = (axis + 1) % 3, b2 = (axis + 2) % 3;
+      int key[3];
+      for (key[b1] = r.lo[b1]; key[b1] <= r.hi[b1]; ++key[b1])
+        for (key[b2] = r.lo[b2]; key[b2] <= r.hi[b2]; ++key[b2]) {
+          solver.clear();
+          queries.clear();
+          for (int p = r.lo[axis]; p <= r.hi[axis]; ++p) {
+            key[axis] = p;
+            std::uint64_t& w = at(key[0], key[1], key[2]);
+            if (!isFreeWord(w)) {
+              solver.add(p, 0.0, w);
+            } else {
+              if (hasSite(w)) solver.add(p, partialF(key, w, axis), w & kKeyMask);
+              queries.emplace_back(p, &w);
+            }
+          }
+          if (queries.empty()) continue;
+          if (solver.empty()) {
+            for (auto& q : queries) *q.second = kFreeBit;
+            continue;
+          }
+          solver.prepare();
+          for (auto& [p, w] : queries) *w = kFreeBit | kSiteBit | solver.solve(p);
+        }
+    }
+    double worst = 0;
+    for (int z = write.lo[2]; z <= write.hi[2]; ++z)
+      for (int y = write.lo[1]; y <= write.hi[1]; ++y)
+        for (int x = write.lo[0]; x <= write.hi[0]; ++x) {
+          const std::uint64_t w = at(x, y, z);
+          if (!isFreeWord(w)) continue;
+          if (!hasSite(w)) return std::numeric_limits<double>::infinity();
+          const double dx = x - siteCoord(w, 0), dy = y - siteCoord(w, 1), dz = z - siteCoord(w, 2);
+          worst = std::max(worst, std::sqrt(dx * dx + dy * dy + dz * dz));
+        }
+    for (int z = write.lo[2]; z <= write.hi[2]; ++z)
+      for (int y = write.lo[1]; y <= write.hi[1]; ++y)
+        for (int x = write.lo[0]; x <= write.hi[0]; ++x) {
+          const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
+          if (b >= 0) blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))] = at(x, y, z);
+        }
+    return worst;
+  }
+
+  void refreshStats() {
+    stats.blocks = blocks.size();
+    stats.index_entries = index.size();
+    stats.memory_bytes = blocks.size() * sizeof(Block) + index.size() * sizeof(std::int32_t) +
+                         block_coords.size() * sizeof(block_coords[0]);
+    std::uint64_t free_count = 0;
+    double max_d2 = 0;
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      const auto& c = block_coords[i];
+      for (int l = 0; l < kBlockVoxels; ++l) {
+        const std::uint64_t w = blocks[i][std::size_t(l)];
+        if (!isFreeWord(w)) continue;
+        ++free_count;
+        const int x = (c[0] << kBlockBits) + (l & kBlockMask), y = (c[1] << kBlockBits) + ((l >> kBlockBits) & kBlockMask),
+                  z = (c[2] << kBlockBits) + (l >> (2 * kBlockBits));
+        const double dx = x - siteCoord(w, 0), dy = y - siteCoord(w, 1), dz = z - siteCoord(w, 2);
+        max_d2 = std::max(max_d2, dx * dx + dy * dy + dz * dz);
+      }
+    }
+    stats.free_voxels = free_count;
+    stats.max_distance_m = std::sqrt(max_d2) * res;
+  }
+};
+
+DistanceField::DistanceField(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+DistanceField::DistanceField(DistanceField&&) noexcept = default;
+DistanceField& DistanceField::operator=(DistanceField&&) noexcept = default;
+DistanceField::DistanceField(const DistanceField& o) : impl_(std::make_unique<Impl>(*o.impl_)) {}
+DistanceField& DistanceField::operator=(const DistanceField& o) {
+  if (this != &o) impl_ = std::make_unique<Impl>(*o.impl_);
+  return *this;
+}
+DistanceField::~DistanceField() = default;
+
+double DistanceField::resolution() const { return impl_->res; }
+const DistanceFieldStats& DistanceField::stats() const { return impl_->stats; }
+
+StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const ProgressFn& progress,
+                                             std::uint64_t max_blocks) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto impl = std::make_unique<Impl>();
+  impl->res = map.resolution();
+  impl->inv = 1.0 / impl->res;
+  const double res = impl->res, inv = impl->inv;
+  const octomap::OcTree& tree = map.octree();
+  const unsigned depth = tree.getTreeDepth();
+
+  // Free voxels as key boxes: free leaves, plus (policy kFree) the unknown inside the bounds.
+  struct LeafBox { int lo[3]; int size; };
+  std::vector<LeafBox> free_boxes;
+  std::vector<LeafBox> occupied_boxes;
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    const int size = 1 << (depth - it.getDepth());
+    const octomap::point3d c = it.getCoordinate();
+    const double half = 0.5 * it.getSize();
+    LeafBox b{{keyOf(c.x() - half + 0.5 * res, inv), keyOf(c.y() - half + 0.5 * res, inv),
+               keyOf(c.z() - half + 0.5 * res, inv)}, size};
+    (tree.isNodeOccupied(*it) ? occupied_boxes : free_boxes).push_back(b);
+  }
+  const bool unknown_free = map.unknownPolicy() == UnknownPolicy::kFree && !map.bounds().empty();
+  BoxI bounds_keys{};
+  if (unknown_free) {
+    for (int a = 0; a < 3; ++a) {
+      bounds_keys.lo[a] = keyOf(map.bounds().min[a] + 0.5 * res, inv);
+      bounds_keys.hi[a] = keyOf(map.bounds().max[a] - 0.5 * res, inv);
+    }
+  }
+
+  std::unordered_set<std::uint64_t> seen;
+  std::vector<std::array<int, 3>> coords;
+  auto addBlocks = [&](const int lo[3], const int hi[3]) {
+    for (int bz = lo[2] >> kBlockBits; bz <= hi[2] >> kBlockBits; ++bz)
+      for (int by = lo[1] >> kBlockBits; by <= hi[1] >> kBlockBits; ++by)
+        for (int bx = lo[0] >> kBlockBits; bx <= hi[0] >> kBlockBits; ++bx)
+          if (seen.insert(internal::packBlock(bx, by, bz)).second) coords.push_back({bx, by, bz});
+  };
+  if (unknown_free) {
+    const double blocks_needed = std::ceil((bounds_keys.hi[0] - bounds_keys.lo[0] + 1) / 16.0 + 1) *
+                                 std::ceil((bounds_keys.hi[1] - bounds_keys.lo[1] + 1) / 16.0 + 1) *
+                                 std::ceil((bounds_keys.hi[2] - bounds_keys.lo[2] + 1) / 16.0 + 1);
+    if (blocks_needed > double(max_blocks))
+      return outOfRange("distance field: treating unknown space as free needs about " +
+                        std::to_string(std::uint64_t(blocks_needed)) + " tiles of 16^3 voxels (limit " +
+                        std::to_string(max_blocks) + "); use --unknown rock or a coarser map");
+    addBlocks(bounds_keys.lo, bounds_keys.hi);
+  }
+  for (const LeafBox& b : free_boxes) {
+    const int hi[3] = {b.lo[0] + b.size - 1, b.lo[1] + b.size - 1, b.lo[2] + b.size - 1};
+    addBlocks(b.lo, hi);
+    if (coords.size() > max_blocks)
+      return outOfRange("distance field: the free space needs more than " + std::to_string(max_blocks) +
+                        " tiles of 16^3 voxels (" + std::to_string(max_blocks * 32 / 1024) + " MiB)");
+  }
+  if (coords.empty()) return failedPrecondition("distance field: the map has no free voxel");
+  impl->allocate(coords);
+
+  if (unknown_free) {
+    for (int z = bounds_keys.lo[2]; z <= bounds_keys.hi[2]; ++z)
+      for (int y = bounds_keys.lo[1]; y <= bounds_keys.hi[1]; ++y)
+        for (int x = bounds_keys.lo[0]; x <= bounds_keys.hi[0]; ++x) impl->setFree(x, y, z, true);
+    for (const LeafBox& b : occupied_boxes)
+      for (int z = b.lo[2]; z < b.lo[2] + b.size; ++z)
+        for (int y = b.lo[1]; y < b.lo[1] + b.size; ++y)
+          for (int x = b.lo[0]; x < b.lo[0] + b.size; ++x) impl->setFree(x, y, z, false);
+  } else {
+    for (const LeafBox& b : free_boxes)
+      for (int z = b.lo[2]; z < b.lo[2] + b.size; ++z)
+        for (int y = b.lo[1]; y < b.lo[1] + b.size; ++y)
+          for (int x = b.lo[0]; x < b.lo[0] + b.size; ++x) impl->setFree(x, y, z, true);
+  }
+  impl->transformAll(progress);
+  impl->refreshStats();
+  impl->stats.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return DistanceField(std::move(impl));
+}
+
+bool DistanceField::isFree(const Vec3& p) const noexcept {
+  if (!allFinite(p)) return false;
+  const double inv = impl_->inv;
+  const double lim = 32767.0 * impl_->res;
+  if (std::abs(p.x()) > lim || std::abs(p.y()) > lim || std::abs(p.z()) > lim) return false;
+  return isFreeWord(impl_->word(keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv)));
+}
+
+Vec3 DistanceField::nearestRockVoxel(const Vec3& p) const noexcept {
+  const double inv = impl_->inv, res = impl_->res;
+  const std::uint64_t w = impl_->word(keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv));
+  if (!hasSite(w)) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  return {centreOf(siteCoord(w, 0), res), centreOf(siteCoord(w, 1), res), centreOf(siteCoord(w, 2), res)};
+}
+
+DistanceSample DistanceField::query(const Vec3& p) const noexcept {
+  DistanceSample out;
+  out.nearest = p;
+  const Impl& m = *impl_;
+  const double res = m.res, inv = m.inv, half = 0.5 * res;
+  const double lim = 32766.0 * res;
+  if (!allFinite(p) || std::abs(p.x()) > lim || std::abs(p.y()) > lim || std::abs(p.z()) > lim) return out;
+  const int own[3] = {keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv)};
+  if (!isFreeWord(m.word(own[0], own[1], own[2]))) return out;
+  // The 8 voxels whose centres surround p: their nearest rock voxels contain p's nearest one
+  // in all but contrived cases, and the result is an upper bound that is exact at voxel centres.
+  const int base[3] = {keyOf(p.x() - half, inv), keyOf(p.y() - half, inv), keyOf(p.z() - half, inv)};
+  double best = std::numeric_limits<double>::infinity();
+  Vec3 best_delta = Vec3::Zero();
+  std::uint64_t last_site = ~std::uint64_t{0};
+  for (int c = 0; c < 8; ++c) {
+    const int x = base[0] + (c & 1), y = base[1] + ((c >> 1) & 1), z = base[2] + (c >> 2);
+    const std::uint64_t w = m.word(x, y, z);
+    if (!hasSite(w)) continue;
+    const std::uint64_t site = w & kKeyMask;
+    if (site == last_site) continue;
+    last_site = site;
+    // Distance from p to the cube of the site voxel.
+    Vec3 delta;
+    for (int a = 0; a < 3; ++a) {
+      const double d = p[a] - centreOf(siteCoord(w, a), res);
+      delta[a] = d > half ? d - half : (d < -half ? d + half : 0.0);
+    }
+    const double d2 = delta.squaredNorm();
+    if (d2 < best) { best = d2; best_delta = delta; }
+  }
+  if (!std::isfinite(best)) return out;  // no rock known (only after a partial update)
+  out.in_rock = false;
+  out.distance = std::sqrt(best);
+  out.nearest = p - best_delta;
+  if (out.distance > 0) out.gradient = best_delta / out.distance;
+  return out;
+}
+
+Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) {
+  Impl& m = *impl_;
+  if (std::abs(map.resolution() - m.res) > 1e-12) return invalidArgument("distance field update: map resolution differs");
+  if (changed.empty() || !allFinite(changed.min) || !allFinite(changed.max))
+    return invalidArgument("distance field update: empty or non-finite window");
+  BoxI w;
+  for (int a = 0; a < 3; ++a) {
+    w.lo[a] = std::clamp(keyOf(changed.min[a], m.inv), 1, 65534);
+    w.hi[a] = std::clamp(keyOf(changed.max[a], m.inv), 1, 65534);
+  }
+  // Re-read the changed voxels; new free space outside the tiles gets tiles.
+  std::vector<std::array<int, 3>> coords;
+  std::vector<std::array<int, 3>> now_free;
+  for (int z = w.lo[2]; z <= w.hi[2]; ++z)
+    for (int y = w.lo[1]; y <= w.hi[1]; ++y)
+      for (int x = w.lo[0]; x <= w.hi[0]; ++x) {
+        const Vec3 c(centreOf(x, m.res), centreOf(y, m.res), centreOf(z, m.res));
+        if (map.isFree(c)) {
+          now_free.push_back({x, y, z});
+          coords.push_back({x >> kBlockBits, y >> kBlockBits, z >> kBlockBits});
+        } else {
+          m.setFree(x, y, z, false);
+        }
+      }
+  std::sort(coords.begin(), coords.end());
+  coords.erase(std::unique(coords.begin(), coords.end()), coords.end());
+  m.allocate(coords);
+  for (const auto& k : now_free) {
+    const std::uint64_t old = m.word(k[0], k[1], k[2]);
+    if (!isFreeWord(old)) m.setFree(k[0], k[1], k[2], true);
+  }
+  // Voxels whose nearest rock may change lie within the largest clearance of the window.
+  const int grow = int(std::ceil(m.stats.max_distance_m / m.res)) + 2;
+  BoxI write;
+  for (int a = 0; a < 3; ++a) { write.lo[a] = std::max(0, w.lo[a] - grow); write.hi[a] = std::min(65535, w.hi[a] + grow); }
+  int margin = grow + 1;
+  double worst = 0;
+  for (;;) {
+    BoxI r;
+    bool whole = true;
+    for (int a = 0; a < 3; ++a) {
+      const int glo = (m.bmin[a] << kBlockBits) - 1, ghi = ((m.bmin[a] + m.bdim[a]) << kBlockBits);
+      r.lo[a] = std::max(write.lo[a] - margin, glo);
+      r.hi[a] = std::min(write.hi[a] + margin, ghi);
+      whole = whole && r.lo[a] == glo && r.hi[a] == ghi;
+    }
+    const double volume = double(r.hi[0] - r.lo[0] + 1) * double(r.hi[1] - r.lo[1] + 1) * double(r.hi[2] - r.lo[2] + 1);
+    if (volume > 2e8) {  // the window grew to most of a large map: a full pass is cheaper
+      m.transformAll({});
+      break;
+    }
+    worst = m.transformBox(r, write);
+    if (worst <= margin || whole) break;
+    margin *= 2;
+  }
+  m.refreshStats();
+  return {};
+}
+
+}  // namespace adit::map

@@ -1,0 +1,21 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/map/map_io.hpp"
+#include "adit/map/survey_network.hpp"
+
+namespace adit::map {
+
+StatusOr<OccupancyMap> loadMap(const std::string& path, const LoadOptions& options) {
+  StatusOr<MapFormat> format = formatFromPath(path);
+  if (!format.ok()) return format.status();
+  if (*format != MapFormat::kSurveyYaml) return loadOctomap(path, options.unknown_policy);
+  StatusOr<SurveyNetwork> net = loadSurvey(path);
+  if (!net.ok()) return net.status();
+  VoxelizeOptions vo;
+  vo.unknown_policy = options.unknown_policy;
+  vo.progress = options.progress;
+  StatusOr<OccupancyMap> map = voxelize(*net, vo);
+  if (!map.ok()) return Status(map.status().code(), path + ": " + map.status().message());
+  return map;
+}
+
+}  // namespace adit::map

@@ -1,0 +1,154 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/map/occupancy_map.hpp"
+
+#include <octomap/OcTree.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace adit::map {
+
+const char* voxelStateName(VoxelState s) {
+  switch (s) {
+    case VoxelState::kFree: return "free";
+    case VoxelState::kOccupied: return "occupied";
+    case VoxelState::kUnknown: return "unknown";
+  }
+  return "?";
+}
+
+const char* unknownPolicyName(UnknownPolicy p) { return p == UnknownPolicy::kRock ? "rock" : "free"; }
+
+StatusOr<UnknownPolicy> parseUnknownPolicy(const std::string& name) {
+  if (name == "rock" || name == "occupied") return UnknownPolicy::kRock;
+  if (name == "free") return UnknownPolicy::kFree;
+  return invalidArgument("unknown-space policy '" + name + "' is not one of: rock, free");
+}
+
+double maxMapExtent(double resolution_m) { return 32768.0 * resolution_m; }
+
+Status checkResolution(double resolution_m) {
+  if (!std::isfinite(resolution_m) || resolution_m <= 0.0) {
+    std::ostringstream os;
+    os << "resolution = " << resolution_m << " must be finite and > 0";
+    return invalidArgument(os.str());
+  }
+  if (resolution_m < 1e-3) {
+    std::ostringstream os;
+    os << "resolution = " << resolution_m << " m is below the supported minimum of 0.001 m";
+    return invalidArgument(os.str());
+  }
+  return {};
+}
+
+Status checkExtent(const Aabb& box, double resolution_m) {
+  ADIT_RETURN_IF_ERROR(checkResolution(resolution_m));
+  if (box.empty()) return {};
+  if (!allFinite(box.min) || !allFinite(box.max)) return invalidArgument("map bounds are not finite");
+  // Keys are floor(c / res) + 32768 in [0, 65535]; keep one voxel of margin on each side.
+  const double lo = -32767.0 * resolution_m, hi = 32766.0 * resolution_m;
+  for (int i = 0; i < 3; ++i) {
+    if (box.min[i] < lo || box.max[i] > hi) {
+      std::ostringstream os;
+      os << "map extent [" << box.min.transpose() << "] .. [" << box.max.transpose()
+         << "] m does not fit OctoMap's 16-bit keys: at resolution " << resolution_m
+         << " m every coordinate must lie within +-" << maxMapExtent(resolution_m)
+         << " m of the origin (move the origin or use a coarser resolution)";
+      return outOfRange(os.str());
+    }
+  }
+  return {};
+}
+
+OccupancyMap::OccupancyMap(std::shared_ptr<octomap::OcTree> tree, UnknownPolicy policy)
+    : tree_(std::move(tree)), policy_(policy) {}
+
+StatusOr<OccupancyMap> OccupancyMap::create(std::shared_ptr<octomap::OcTree> tree, UnknownPolicy policy) {
+  if (!tree) return invalidArgument("no octree given");
+  ADIT_RETURN_IF_ERROR(checkResolution(tree->getResolution()));
+  OccupancyMap map(std::move(tree), policy);
+  map.recomputeStats();
+  if (map.stats_.free_voxels == 0 && !(policy == UnknownPolicy::kFree && map.stats_.unknown_voxels > 0)) {
+    return failedPrecondition("empty map: it has no free voxel (" + std::to_string(map.stats_.occupied_voxels) +
+                              " occupied), so there is nowhere to plan");
+  }
+  return map;
+}
+
+OccupancyMap OccupancyMap::withUnknownPolicy(UnknownPolicy policy) const {
+  OccupancyMap copy = *this;
+  copy.policy_ = policy;
+  return copy;
+}
+
+double OccupancyMap::resolution() const { return tree_->getResolution(); }
+
+void OccupancyMap::recomputeStats() {
+  MapStats s;
+  s.resolution_m = tree_->getResolution();
+  s.octree_nodes = tree_->size();
+  const unsigned depth = tree_->getTreeDepth();
+  for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
+    const std::uint64_t voxels = std::uint64_t{1} << (3 * (depth - it.getDepth()));
+    if (tree_->isNodeOccupied(*it)) s.occupied_voxels += voxels; else s.free_voxels += voxels;
+    const double half = 0.5 * it.getSize();
+    const octomap::point3d c = it.getCoordinate();
+    const Vec3 center(c.x(), c.y(), c.z());
+    s.bounds.extend(center - Vec3::Constant(half));
+    s.bounds.extend(center + Vec3::Constant(half));
+  }
+  if (!s.bounds.empty()) {
+    const Vec3 n = (s.bounds.size() / s.resolution_m).array().round();
+    const double total = n.x() * n.y() * n.z();
+    const double known = double(s.free_voxels + s.occupied_voxels);
+    s.unknown_voxels = total > known ? std::uint64_t(total - known) : 0;
+  }
+  stats_ = s;
+}
+
+VoxelState OccupancyMap::state(const Vec3& p) const {
+  octomap::OcTreeKey key;
+  if (!allFinite(p) || !tree_->coordToKeyChecked(p.x(), p.y(), p.z(), key)) return VoxelState::kUnknown;
+  const octomap::OcTreeNode* node = tree_->search(key);
+  if (!node) return VoxelState::kUnknown;
+  return tree_->isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree;
+}
+
+bool OccupancyMap::isFree(const Vec3& p) const {
+  switch (state(p)) {
+    case VoxelState::kFree: return true;
+    case VoxelState::kOccupied: return false;
+    case VoxelState::kUnknown: return policy_ == UnknownPolicy::kFree && stats_.bounds.contains(p);
+  }
+  return false;
+}
+
+void OccupancyMap::forEachLeaf(const std::function<void(const Vec3&, double, VoxelState)>& fn) const {
+  for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
+    const octomap::point3d c = it.getCoordinate();
+    fn(Vec3(c.x(), c.y(), c.z()), it.getSize(),
+       tree_->isNodeOccupied(*it) ? VoxelState::kOccupied : VoxelState::kFree);
+  }
+}
+
+Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state) {
+  std::vector<octomap::OcTreeKey> keys(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Vec3& p = points[i];
+    if (!allFinite(p) || !tree_->coordToKeyChecked(p.x(), p.y(), p.z(), keys[i])) {
+      std::ostringstream os;
+      os << "point " << i << " (" << p.transpose() << ") is outside the map's key range";
+      return outOfRange(os.str());
+    }
+  }
+  const float value = state == VoxelState::kOccupied ? tree_->getClampingThresMaxLog()
+                                                     : tree_->getClampingThresMinLog();
+  for (const octomap::OcTreeKey& key : keys) {
+    if (state == VoxelState::kUnknown) tree_->deleteNode(key);
+    else tree_->setNodeValue(key, value);
+  }
+  recomputeStats();
+  return {};
+}
+
+}  // namespace adit::map

@@ -1,0 +1,192 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Survey network -> voxels -> OctoMap. Sweeps are done in a sparse bit set first (fast, exact
+// voxel-centre tests), then written into the octree once and pruned.
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include "adit/map/survey_network.hpp"
+#include "voxel_blocks.hpp"
+
+namespace adit::map {
+
+namespace {
+
+using internal::BitVoxelSet;
+using internal::centreOf;
+using internal::keyOf;
+
+class Sweeper {
+ public:
+  Sweeper(double res, BitVoxelSet* out) : res_(res), inv_(1.0 / res), out_(out) {}
+
+  // Section swept along the floor segment a->b: horizontal lateral axis, vertical walls, floor
+  // interpolated along the segment and flat across it.
+  void segment(const Vec3& a, const Vec3& b, const CrossSection& s) {
+    const Eigen::Vector2d d = (b - a).head<2>();
+    const double len = d.norm();
+    const Eigen::Vector2d t = d / len, n(-t.y(), t.x());
+    const double hw = 0.5 * s.maxWidth(), h = s.height();
+    double xmin = 1e300, xmax = -1e300;
+    for (double sa : {0.0, len})
+      for (double su : {-hw, hw}) {
+        const double x = a.x() + sa * t.x() + su * n.x();
+        xmin = std::min(xmin, x);
+        xmax = std::max(xmax, x);
+      }
+    for (int kx = keyOf(xmin, inv_); kx <= keyOf(xmax, inv_); ++kx) {
+      const double xc = centreOf(kx, res_);
+      // y interval from 0 <= (p-a).t <= len and |(p-a).n| <= hw.
+      double ylo = -1e300, yhi = 1e300;
+      if (!slab(xc - a.x(), t.x(), t.y(), 0.0, len, a.y(), &ylo, &yhi)) continue;
+      if (!slab(xc - a.x(), n.x(), n.y(), -hw, hw, a.y(), &ylo, &yhi)) continue;
+      for (int ky = keyOf(ylo, inv_); ky <= keyOf(yhi, inv_); ++ky) {
+        const double yc = centreOf(ky, res_);
+        const Eigen::Vector2d p(xc - a.x(), yc - a.y());
+        const double along = p.dot(t), u = p.dot(n);
+        if (along < 0 || along > len || std::abs(u) > hw) continue;
+        const double floor_z = a.z() + (b.z() - a.z()) * (along / len);
+        column(kx, ky, floor_z, h, [&](double v) { return std::abs(u) <= s.halfWidthAt(v); });
+      }
+    }
+  }
+
+  // Section revolved about the vertical through a station: fills the wedge at a bend and rounds
+  // the corner where roadways meet.
+  void revolve(const Vec3& p, const CrossSection& s) {
+    const double hw = 0.5 * s.maxWidth(), h = s.height();
+    for (int kx = keyOf(p.x() - hw, inv_); kx <= keyOf(p.x() + hw, inv_); ++kx)
+      for (int ky = keyOf(p.y() - hw, inv_); ky <= keyOf(p.y() + hw, inv_); ++ky) {
+        const double r = std::hypot(centreOf(kx, res_) - p.x(), centreOf(ky, res_) - p.y());
+        if (r > hw) continue;
+        column(kx, ky, p.z(), h, [&](double v) { return r <= s.halfWidthAt(v); });
+      }
+  }
+
+ private:
+  // Intersects [lo, hi] with the y values where c0 + cy*(y - y0) lies in [a, b], c0 = cx*dx.
+  static bool slab(double dx, double cx, double cy, double a, double b, double y0, double* lo, double* hi) {
+    const double c0 = cx * dx;
+    if (std::abs(cy) < 1e-12) return c0 >= a - 1e-9 && c0 <= b + 1e-9;
+    double y1 = y0 + (a - c0) / cy, y2 = y0 + (b - c0) / cy;
+    if (y1 > y2) std::swap(y1, y2);
+    *lo = std::max(*lo, y1);
+    *hi = std::min(*hi, y2);
+    return *lo <= *hi;
+  }
+
+  template <class Inside>
+  void column(int kx, int ky, double floor_z, double h, Inside&& inside) {
+    for (int kz = keyOf(floor_z, inv_); kz <= keyOf(floor_z + h, inv_); ++kz) {
+      const double v = centreOf(kz, res_) - floor_z;
+      if (v >= 0 && v <= h && inside(v)) out_->set(kx, ky, kz);
+    }
+  }
+
+  double res_, inv_;
+  BitVoxelSet* out_;
+};
+
+// One step of 26-neighbourhood dilation (x, then y, then z), creating blocks as the set grows.
+BitVoxelSet dilateOnce(const BitVoxelSet& in) {
+  using internal::kBlockBits;
+  using internal::kBlockMask;
+  using internal::kBlockSize;
+  auto pass = [](const BitVoxelSet& src, int axis) {
+    BitVoxelSet dst;
+    for (std::size_t i = 0; i < src.blockCount(); ++i) {
+      const auto& c = src.blockCoord(i);
+      const auto& blk = src.blockAt(i);
+      for (int r = 0; r < kBlockSize * kBlockSize; ++r) {
+        const std::uint16_t bits = blk[r];
+        if (!bits) continue;
+        const int y = (c[1] << kBlockBits) + (r & kBlockMask), z = (c[2] << kBlockBits) + (r >> kBlockBits);
+        if (axis == 0) {
+          dst.row(c[0], y, z, true) |= std::uint16_t(bits | (bits << 1) | (bits >> 1));
+          if (bits & 1u) dst.row(c[0] - 1, y, z, true) |= std::uint16_t(1u << kBlockMask);
+          if (bits & (1u << kBlockMask)) dst.row(c[0] + 1, y, z, true) |= 1u;
+        } else {
+          dst.row(c[0], y, z, true) |= bits;
+          for (int d : {-1, 1}) {
+            if (axis == 1) dst.row(c[0], y + d, z, true) |= bits;
+            else dst.row(c[0], y, z + d, true) |= bits;
+          }
+        }
+      }
+    }
+    return dst;
+  };
+  return pass(pass(pass(in, 0), 1), 2);
+}
+
+}  // namespace
+
+StatusOr<OccupancyMap> voxelize(const SurveyNetwork& net, const VoxelizeOptions& options) {
+  ADIT_RETURN_IF_ERROR(net.validate());
+  if (net.estimatedVoxels() > options.max_voxels) {
+    std::ostringstream os;
+    os << "the survey network would need about " << net.estimatedVoxels() << " voxels at resolution "
+       << net.resolution_m << " m (limit " << options.max_voxels << "); use a coarser resolution";
+    return outOfRange(os.str());
+  }
+  auto progress = [&](const char* stage, double f) { if (options.progress) options.progress(stage, f); };
+  const double res = net.resolution_m;
+
+  BitVoxelSet free;
+  Sweeper sweeper(res, &free);
+  std::map<std::string, int> endpoint_use;  // how many roadway ends meet at each station
+  for (const SurveyRoadway& road : net.roadways) {
+    ++endpoint_use[road.stations.front()];
+    ++endpoint_use[road.stations.back()];
+  }
+  for (std::size_t i = 0; i < net.roadways.size(); ++i) {
+    const SurveyRoadway& road = net.roadways[i];
+    const CrossSection& s = net.sections.at(road.section);
+    for (std::size_t k = 1; k < road.stations.size(); ++k)
+      sweeper.segment(net.stations.at(road.stations[k - 1]), net.stations.at(road.stations[k]), s);
+    for (std::size_t k = 0; k < road.stations.size(); ++k) {
+      const bool interior = k > 0 && k + 1 < road.stations.size();
+      if (interior || endpoint_use[road.stations[k]] > 1) sweeper.revolve(net.stations.at(road.stations[k]), s);
+    }
+    progress("sweeping roadways", double(i + 1) / double(net.roadways.size()));
+  }
+
+  // Rock shell: dilate the free set by the shell thickness (cube element), minus the free set.
+  BitVoxelSet grown = free;
+  const int shell_steps = int(std::ceil(net.rock_shell_m / res - 1e-9));
+  for (int i = 0; i < shell_steps; ++i) {
+    grown = dilateOnce(grown);
+    progress("rock shell", double(i + 1) / shell_steps);
+  }
+
+  auto tree = std::make_shared<octomap::OcTree>(res);
+  const float free_value = tree->getClampingThresMinLog(), rock_value = tree->getClampingThresMaxLog();
+  const double total_blocks = double(grown.blockCount());
+  for (std::size_t i = 0; i < grown.blockCount(); ++i) {
+    const auto& c = grown.blockCoord(i);
+    const auto& blk = grown.blockAt(i);
+    const BitVoxelSet::Block* fblk = free.find(c[0], c[1], c[2]);
+    for (int r = 0; r < internal::kBlockSize * internal::kBlockSize; ++r) {
+      unsigned bits = blk[r];
+      const unsigned fbits = fblk ? (*fblk)[r] : 0u;
+      while (bits) {
+        const int bx = __builtin_ctz(bits);
+        bits &= bits - 1;
+        const octomap::OcTreeKey key(
+            octomap::key_type((c[0] << internal::kBlockBits) + bx),
+            octomap::key_type((c[1] << internal::kBlockBits) + (r & internal::kBlockMask)),
+            octomap::key_type((c[2] << internal::kBlockBits) + (r >> internal::kBlockBits)));
+        tree->setNodeValue(key, ((fbits >> bx) & 1u) ? free_value : rock_value, /*lazy_eval=*/true);
+      }
+    }
+    if ((i & 255) == 0 || i + 1 == grown.blockCount()) progress("building octree", double(i + 1) / total_blocks);
+  }
+  tree->updateInnerOccupancy();
+  tree->prune();
+  return OccupancyMap::create(std::move(tree), options.unknown_policy);
+}
+
+}  // namespace adit::map

@@ -1,0 +1,145 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Oracle tests: the distance field against brute force over every rock voxel.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "adit/map/brute_force_distance.hpp"
+#include "adit/map/distance_field.hpp"
+#include "support/synthetic_roadway.hpp"
+
+namespace adit::map {
+namespace {
+
+struct Case {
+  const char* name;
+  SurveyNetwork net;
+};
+
+std::vector<Case> oracleCases() {
+  return {
+      {"straight_rectangle", test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 10.0, 0.2)},
+      {"straight_arch_sloped", test::straightRoadway(CrossSection::arch(4.0, 2.0), 10.0, 0.25, 0.6)},
+      {"bent_trapezoid", test::bentRoadway(CrossSection::trapezoid(4.0, 3.0, 3.0), 0.25)},
+      {"junctions", test::junctionNetwork(0.25)},
+  };
+}
+
+class DistanceFieldOracle : public ::testing::TestWithParam<std::size_t> {};
+
+// Half a voxel: the field is exact at voxel centres; between them it reads the nearest rock of
+// the 8 surrounding voxels, whose error is a fraction of a voxel.
+TEST_P(DistanceFieldOracle, MatchesBruteForceWithinHalfAVoxel) {
+  const Case c = oracleCases()[GetParam()];
+  const OccupancyMap map = test::voxelizeOrFail(c.net);
+  StatusOr<DistanceField> df = DistanceField::build(map);
+  ASSERT_TRUE(df.ok()) << df.status().toString();
+  StatusOr<BruteForceDistance> oracle = BruteForceDistance::create(map);
+  ASSERT_TRUE(oracle.ok());
+  const double res = map.resolution();
+  std::mt19937_64 rng(42);
+  int free_points = 0;
+  double max_err = 0;
+  for (int i = 0; i < 1500; ++i) {
+    const Vec3 p = test::randomPoint(rng, map.bounds());
+    const DistanceSample a = df->query(p), b = oracle->query(p);
+    ASSERT_EQ(a.in_rock, b.in_rock) << c.name << " at " << p.transpose();
+    EXPECT_NEAR(a.distance, b.distance, 0.5 * res) << c.name << " at " << p.transpose();
+    max_err = std::max(max_err, std::abs(a.distance - b.distance));
+    EXPECT_GE(a.distance + 1e-9, b.distance) << "field must never be closer than the nearest rock";
+    if (!a.in_rock) {
+      ++free_points;
+      if (a.distance > 1e-6) {
+        EXPECT_NEAR(a.gradient.norm(), 1.0, 1e-9);
+        // The closest point is on rock and the gradient points from it to p.
+        EXPECT_FALSE(map.isFree(a.nearest - 1e-6 * a.gradient)) << p.transpose();
+        EXPECT_LT((p - a.nearest - a.distance * a.gradient).norm(), 1e-9);
+      }
+    }
+  }
+  EXPECT_GT(free_points, 100) << c.name;
+  RecordProperty("max_error_m", std::to_string(max_err));
+}
+
+TEST_P(DistanceFieldOracle, ExactAtVoxelCentres) {
+  const Case c = oracleCases()[GetParam()];
+  const OccupancyMap map = test::voxelizeOrFail(c.net);
+  StatusOr<DistanceField> df = DistanceField::build(map);
+  ASSERT_TRUE(df.ok());
+  StatusOr<BruteForceDistance> oracle = BruteForceDistance::create(map);
+  ASSERT_TRUE(oracle.ok());
+  const double res = map.resolution();
+  std::mt19937_64 rng(7);
+  for (int i = 0; i < 800; ++i) {
+    Vec3 p = test::randomPoint(rng, map.bounds());
+    p = ((p / res).array().floor() + 0.5) * res;  // snap to a voxel centre
+    // The stored feature is the nearest rock voxel centre-to-centre; compare that exactly.
+    if (!map.isFree(p)) continue;
+    const Vec3 site = df->nearestRockVoxel(p);
+    double best = 1e300;
+    for (const Vec3& r : oracle->rockCentres()) best = std::min(best, (r - p).norm());
+    EXPECT_NEAR((site - p).norm(), best, 1e-9) << p.transpose();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Roadways, DistanceFieldOracle, ::testing::Range<std::size_t>(0, 4),
+                         [](const ::testing::TestParamInfo<std::size_t>& i) { return std::string(oracleCases()[i.param].name); });
+
+TEST(DistanceField, WindowUpdateMatchesFullRebuild) {
+  OccupancyMap map = test::voxelizeOrFail(test::junctionNetwork(0.25));
+  StatusOr<DistanceField> df = DistanceField::build(map);
+  ASSERT_TRUE(df.ok());
+  // Rubble: a 1 m block in the main roadway, then part of it cleared and a wall opened.
+  std::vector<Vec3> rubble, cleared;
+  for (double x = 3.0; x < 4.0; x += 0.25)
+    for (double y = -0.5; y < 0.5; y += 0.25)
+      for (double z = 0.1; z < 1.1; z += 0.25) rubble.push_back({x, y, z});
+  ASSERT_TRUE(map.setVoxels(rubble, VoxelState::kOccupied).ok());
+  ASSERT_TRUE(df->update(map, Aabb({3.0, -0.5, 0.1}, {4.0, 0.5, 1.1})).ok());
+  for (double y = 2.0; y < 3.5; y += 0.25)
+    for (double z = 0.2; z < 2.0; z += 0.25) cleared.push_back({10.0, y, z});
+  ASSERT_TRUE(map.setVoxels(cleared, VoxelState::kFree).ok());
+  ASSERT_TRUE(df->update(map, Aabb({10.0, 2.0, 0.2}, {10.25, 3.5, 2.0})).ok());
+
+  StatusOr<DistanceField> fresh = DistanceField::build(map);
+  ASSERT_TRUE(fresh.ok());
+  EXPECT_EQ(df->stats().free_voxels, fresh->stats().free_voxels);
+  std::mt19937_64 rng(3);
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3 p = test::randomPoint(rng, map.bounds());
+    ASSERT_EQ(df->isFree(p), fresh->isFree(p)) << p.transpose();
+    EXPECT_NEAR(df->distance(p), fresh->distance(p), 1e-9) << p.transpose();
+  }
+  EXPECT_FALSE(df->isFree({3.5, 0.0, 0.5}));
+  EXPECT_TRUE(df->isFree({10.1, 2.6, 1.0}));
+}
+
+TEST(DistanceField, RockAndBadInputGiveZeroDistance) {
+  const OccupancyMap map = test::voxelizeOrFail(test::straightRoadway(CrossSection::rectangle(4, 3)));
+  StatusOr<DistanceField> df = DistanceField::build(map);
+  ASSERT_TRUE(df.ok());
+  for (const Vec3& p : {Vec3(5, 10, 1), Vec3(5, 0, -2), Vec3(1e9, 0, 0), Vec3(NAN, 0, 0), Vec3(5, 0, INFINITY)}) {
+    const DistanceSample s = df->query(p);
+    EXPECT_TRUE(s.in_rock) << p.transpose();
+    EXPECT_EQ(s.distance, 0.0);
+    EXPECT_EQ(s.gradient, Vec3::Zero());
+  }
+}
+
+TEST(DistanceField, MemoryIsProportionalToRoadwaysNotBoundingBox) {
+  // Two 60 m roadways 400 m apart: the bounding box is 2400x larger than the free space.
+  SurveyNetwork net;
+  net.resolution_m = 0.25;
+  net.stations = {{"A", {0, 0, 0}}, {"B", {60, 0, 0}}, {"C", {0, 400, 0}}, {"D", {60, 400, 0}}};
+  net.sections = {{"s", CrossSection::rectangle(4, 3)}};
+  net.roadways = {{"r1", {"A", "B"}, "s"}, {"r2", {"C", "D"}, "s"}};
+  const OccupancyMap map = test::voxelizeOrFail(net);
+  StatusOr<DistanceField> df = DistanceField::build(map);
+  ASSERT_TRUE(df.ok());
+  const double box_voxels = map.bounds().volume() / std::pow(map.resolution(), 3);
+  EXPECT_LT(double(df->stats().memory_bytes), 0.05 * box_voxels * 8.0);
+  EXPECT_LT(df->stats().bytesPerFreeVoxel(), 64.0);
+}
+
+}  // namespace
+}  // namespace adit::map

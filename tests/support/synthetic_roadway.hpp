@@ -1,0 +1,27 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+// Roadways generated in code for tests: small survey networks with known geometry.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "adit/map/occupancy_map.hpp"
+#include "adit/map/survey_network.hpp"
+
+namespace adit::test {
+
+/// One straight roadway from (0,0,0) to (length, 0, rise).
+map::SurveyNetwork straightRoadway(const map::CrossSection& section, double length_m = 12.0,
+                                   double resolution_m = 0.2, double rise_m = 0.0);
+/// Two roadways meeting at a right angle (an L), plus a cross-cut making a T.
+map::SurveyNetwork junctionNetwork(double resolution_m = 0.2);
+/// A roadway with several bends and a gradient, stations given in the schema order.
+map::SurveyNetwork bentRoadway(const map::CrossSection& section, double resolution_m = 0.2);
+
+/// voxelize() that fails the current test on error.
+map::OccupancyMap voxelizeOrFail(const map::SurveyNetwork& net);
+
+/// Uniform random point inside a box, from a seeded engine (tests are deterministic).
+map::Vec3 randomPoint(std::mt19937_64& rng, const map::Aabb& box);
+
+}  // namespace adit::test
