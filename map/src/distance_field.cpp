@@ -112,6 +112,27 @@ struct BoxI {
   int lo[3], hi[3];  // inclusive voxel keys
 };
 
+struct LeafBox {
+  int lo[3];  // smallest voxel key
+  int size;   // edge in voxels
+};
+
+// A direct walk of the octree: several times faster than OctoMap's leaf_iterator, and it yields
+// the key box of each leaf without going through coordinates.
+void collectLeaves(const octomap::OcTree& tree, const octomap::OcTreeNode* node, const int lo[3], int size,
+                   std::vector<LeafBox>* free_boxes, std::vector<LeafBox>* occupied_boxes) {
+  if (!tree.nodeHasChildren(node)) {
+    (tree.isNodeOccupied(node) ? occupied_boxes : free_boxes)->push_back({{lo[0], lo[1], lo[2]}, size});
+    return;
+  }
+  const int h = size / 2;
+  for (unsigned i = 0; i < 8; ++i) {
+    if (!tree.nodeChildExists(node, i)) continue;
+    const int child_lo[3] = {lo[0] + int(i & 1u) * h, lo[1] + int((i >> 1) & 1u) * h, lo[2] + int((i >> 2) & 1u) * h};
+    collectLeaves(tree, tree.getNodeChild(node, i), child_lo, h, free_boxes, occupied_boxes);
+  }
+}
+
 }  // namespace
 
 struct DistanceField::Impl {
@@ -148,15 +169,15 @@ struct DistanceField::Impl {
     }
     for (const auto& c : fresh)
       for (int a = 0; a < 3; ++a) { lo[a] = std::min(lo[a], c[a]); hi[a] = std::max(hi[a], c[a]); }
+    blocks.reserve(blocks.size() + fresh.size());  // no regrowth copies of 32 KiB tiles
     for (const auto& c : fresh) {
-      Block b;
+      Block& b = blocks.emplace_back();
       for (int z = 0; z < kBlockSize; ++z)
         for (int y = 0; y < kBlockSize; ++y)
           for (int x = 0; x < kBlockSize; ++x) {
             const int kx = (c[0] << kBlockBits) + x, ky = (c[1] << kBlockBits) + y, kz = (c[2] << kBlockBits) + z;
             b[std::size_t(localIndex(kx, ky, kz))] = rockWord(kx, ky, kz);
           }
-      blocks.push_back(b);
       block_coords.push_back(c);
     }
     for (int a = 0; a < 3; ++a) { bmin[a] = lo[a]; bdim[a] = hi[a] - lo[a] + 1; }
@@ -360,16 +381,11 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
   const unsigned depth = tree.getTreeDepth();
 
   // Free voxels as key boxes: free leaves, plus (policy kFree) the unknown inside the bounds.
-  struct LeafBox { int lo[3]; int size; };
   std::vector<LeafBox> free_boxes;
   std::vector<LeafBox> occupied_boxes;
-  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
-    const int size = 1 << (depth - it.getDepth());
-    const octomap::point3d c = it.getCoordinate();
-    const double half = 0.5 * it.getSize();
-    LeafBox b{{keyOf(c.x() - half + 0.5 * res, inv), keyOf(c.y() - half + 0.5 * res, inv),
-               keyOf(c.z() - half + 0.5 * res, inv)}, size};
-    (tree.isNodeOccupied(*it) ? occupied_boxes : free_boxes).push_back(b);
+  if (tree.getRoot()) {
+    const int lo[3] = {0, 0, 0};
+    collectLeaves(tree, tree.getRoot(), lo, 1 << depth, &free_boxes, &occupied_boxes);
   }
   const bool unknown_free = map.unknownPolicy() == UnknownPolicy::kFree && !map.bounds().empty();
   BoxI bounds_keys{};
@@ -382,11 +398,15 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
 
   std::unordered_set<std::uint64_t> seen;
   std::vector<std::array<int, 3>> coords;
+  std::uint64_t last = ~std::uint64_t{0};  // leaves come in octree order: mostly the same tile
   auto addBlocks = [&](const int lo[3], const int hi[3]) {
     for (int bz = lo[2] >> kBlockBits; bz <= hi[2] >> kBlockBits; ++bz)
       for (int by = lo[1] >> kBlockBits; by <= hi[1] >> kBlockBits; ++by)
-        for (int bx = lo[0] >> kBlockBits; bx <= hi[0] >> kBlockBits; ++bx)
-          if (seen.insert(internal::packBlock(bx, by, bz)).second) coords.push_back({bx, by, bz});
+        for (int bx = lo[0] >> kBlockBits; bx <= hi[0] >> kBlockBits; ++bx) {
+          const std::uint64_t key = internal::packBlock(bx, by, bz);
+          if (key != last && seen.insert(key).second) coords.push_back({bx, by, bz});
+          last = key;
+        }
   };
   if (unknown_free) {
     const double blocks_needed = std::ceil((bounds_keys.hi[0] - bounds_keys.lo[0] + 1) / 16.0 + 1) *
@@ -400,6 +420,10 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
   }
   for (const LeafBox& b : free_boxes) {
     const int hi[3] = {b.lo[0] + b.size - 1, b.lo[1] + b.size - 1, b.lo[2] + b.size - 1};
+    const double tiles = std::pow(std::max(1.0, b.size / double(kBlockSize)), 3.0);
+    if (double(coords.size()) + tiles > double(max_blocks))
+      return outOfRange("distance field: the free space needs more than " + std::to_string(max_blocks) +
+                        " tiles of 16^3 voxels (" + std::to_string(max_blocks * 32 / 1024) + " MiB)");
     addBlocks(b.lo, hi);
     if (coords.size() > max_blocks)
       return outOfRange("distance field: the free space needs more than " + std::to_string(max_blocks) +
@@ -451,28 +475,43 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
   const double lim = 32766.0 * res;
   if (!allFinite(p) || std::abs(p.x()) > lim || std::abs(p.y()) > lim || std::abs(p.z()) > lim) return out;
   const int own[3] = {keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv)};
-  if (!isFreeWord(m.word(own[0], own[1], own[2]))) return out;
   // The 8 voxels whose centres surround p: their nearest rock voxels contain p's nearest one
   // in all but contrived cases, and the result is an upper bound that is exact at voxel centres.
   const int base[3] = {keyOf(p.x() - half, inv), keyOf(p.y() - half, inv), keyOf(p.z() - half, inv)};
-  double best = std::numeric_limits<double>::infinity();
-  Vec3 best_delta = Vec3::Zero();
-  std::uint64_t last_site = ~std::uint64_t{0};
+  std::uint64_t words[8];
+  if ((base[0] & kBlockMask) != kBlockMask && (base[1] & kBlockMask) != kBlockMask &&
+      (base[2] & kBlockMask) != kBlockMask) {
+    // Common case: all 8 in one tile, one index read; the 8 loads are independent.
+    const std::int32_t b = m.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
+    if (b < 0) return out;  // the whole neighbourhood, p's voxel included, is rock
+    const std::uint64_t* blk = m.blocks[std::size_t(b)].data() + localIndex(base[0], base[1], base[2]);
+    constexpr int kDy = kBlockSize, kDz = kBlockSize * kBlockSize;
+    words[0] = blk[0];       words[1] = blk[1];
+    words[2] = blk[kDy];     words[3] = blk[kDy + 1];
+    words[4] = blk[kDz];     words[5] = blk[kDz + 1];
+    words[6] = blk[kDz + kDy]; words[7] = blk[kDz + kDy + 1];
+  } else {
+    for (int c = 0; c < 8; ++c) words[c] = m.word(base[0] + (c & 1), base[1] + ((c >> 1) & 1), base[2] + (c >> 2));
+  }
+  const int own_corner = (own[0] - base[0]) | ((own[1] - base[1]) << 1) | ((own[2] - base[2]) << 2);
+  if (!isFreeWord(words[own_corner])) return out;
+  // Branch-free over the 8 candidates: distance from p to each site voxel's cube.
+  const double ox = (0.5 - internal::kKeyOffset) * res;
+  double d2[8];
   for (int c = 0; c < 8; ++c) {
-    const int x = base[0] + (c & 1), y = base[1] + ((c >> 1) & 1), z = base[2] + (c >> 2);
-    const std::uint64_t w = m.word(x, y, z);
-    if (!hasSite(w)) continue;
-    const std::uint64_t site = w & kKeyMask;
-    if (site == last_site) continue;
-    last_site = site;
-    // Distance from p to the cube of the site voxel.
-    Vec3 delta;
-    for (int a = 0; a < 3; ++a) {
-      const double d = p[a] - centreOf(siteCoord(w, a), res);
-      delta[a] = d > half ? d - half : (d < -half ? d + half : 0.0);
-    }
-    const double d2 = delta.squaredNorm();
-    if (d2 < best) { best = d2; best_delta = delta; }
+    const std::uint64_t w = words[c];
+    const double ex = std::max(std::abs(p.x() - (double(siteCoord(w, 0)) * res + ox)) - half, 0.0);
+    const double ey = std::max(std::abs(p.y() - (double(siteCoord(w, 1)) * res + ox)) - half, 0.0);
+    const double ez = std::max(std::abs(p.z() - (double(siteCoord(w, 2)) * res + ox)) - half, 0.0);
+    d2[c] = hasSite(w) ? ex * ex + ey * ey + ez * ez : std::numeric_limits<double>::infinity();
+  }
+  int arg = 0;
+  for (int c = 1; c < 8; ++c) arg = d2[c] < d2[arg] ? c : arg;
+  const double best = d2[arg];
+  Vec3 best_delta;
+  for (int a = 0; a < 3; ++a) {
+    const double d = p[a] - centreOf(siteCoord(words[arg], a), res);
+    best_delta[a] = std::copysign(std::max(std::abs(d) - half, 0.0), d);
   }
   if (!std::isfinite(best)) return out;  // no rock known (only after a partial update)
   out.in_rock = false;

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // OctoMap .bt/.ot reading with full validation, and atomic writing.
+#include <fcntl.h>
 #include <octomap/OcTree.h>
 #include <unistd.h>
 
@@ -10,6 +11,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
+#include <locale>
 #include <random>
 #include <sstream>
 #include <vector>
@@ -23,6 +26,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr unsigned kTreeDepth = 16;  // OctoMap's fixed depth for 16-bit keys
+constexpr double kMaxResolution = 1000.0;  // metres; see parseHeader
 
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
@@ -66,44 +70,64 @@ StatusOr<Header> parseHeader(const std::string& bytes, const std::string& name) 
   }
   int lineno = 1;
   bool got_data = false;
+  bool has_id = false;
   while (lineno < 64 && nextLine(&line)) {
     ++lineno;
     if (line.empty() || line[0] == '#') continue;
     std::istringstream ls(line);
-    std::string token;
-    ls >> token;
-    if (token == "data") { got_data = true; break; }
+    ls.imbue(std::locale::classic());
+    std::string token, value, extra;
+    ls >> token >> value >> extra;
+    const std::string where = name + ":" + std::to_string(lineno) + ": ";
+    if (token == "data" && value.empty()) { got_data = true; break; }
+    if (token != "id" && token != "size" && token != "res")
+      return invalidArgument(where + "unknown header field '" + token + "'");
+    if (value.empty()) return invalidArgument(where + "header field '" + token + "' has no value");
+    if (!extra.empty())
+      return invalidArgument(where + "header field '" + token + "' has more than one value ('" + value + "' '" +
+                             extra + "')");
+    bool& seen = token == "id" ? has_id : token == "size" ? h.has_size : h.has_res;
+    if (seen) return invalidArgument(where + "header field '" + token + "' given twice");
+    seen = true;
     if (token == "id") {
-      ls >> h.id;
+      h.id = value;
     } else if (token == "size") {
-      long double v = -1;
-      if (!(ls >> v) || v < 0 || v > 1e15)
-        return invalidArgument(name + ":" + std::to_string(lineno) + ": bad 'size' value in header");
-      h.size = std::uint64_t(v);
-      h.has_size = true;
-    } else if (token == "res") {
-      double r = 0;
-      if (!(ls >> r)) return invalidArgument(name + ":" + std::to_string(lineno) + ": bad 'res' value in header");
-      h.resolution = r;
-      h.has_res = true;
+      // A plain decimal node count (istream would accept "-5" for an unsigned and wrap it).
+      if (value.size() > 15 || value.find_first_not_of("0123456789") != std::string::npos)
+        return invalidArgument(where + "bad 'size' value '" + value + "' in header (expected a node count)");
+      h.size = std::stoull(value);
     } else {
-      return invalidArgument(name + ":" + std::to_string(lineno) + ": unknown header field '" + token + "'");
+      std::istringstream vs(value);
+      vs.imbue(std::locale::classic());
+      double r = 0;
+      if (!(vs >> r) || vs.peek() != std::char_traits<char>::eof())
+        return invalidArgument(where + "bad 'res' value '" + value + "' in header (expected metres)");
+      h.resolution = r;
     }
   }
   if (!got_data) return dataLoss(name + ": header has no 'data' line (truncated or not an OctoMap file)");
-  if (h.binary && h.id.empty()) h.id = "OcTree";  // old binary files had no id line
+  if (h.binary && !has_id) h.id = "OcTree";  // old binary files had no id line
   if (h.id != "OcTree")
     return invalidArgument(name + ": tree type '" + h.id + "' is not supported (adit reads OcTree maps only)");
   if (!h.has_res) return invalidArgument(name + ": header has no 'res' line");
   Status rs = checkResolution(h.resolution);
-  if (!rs.ok()) return invalidArgument(name + ": header " + rs.message());
+  if (!rs.ok()) return invalidArgument(name + ": header 'res': " + rs.message());
+  // OctoMap keeps coordinates in float: far beyond any real map, voxel centres overflow.
+  if (h.resolution > kMaxResolution) {
+    std::ostringstream os;
+    os.imbue(std::locale::classic());
+    os << name << ": header 'res': resolution = " << h.resolution << " m is above the supported maximum of "
+       << kMaxResolution << " m";
+    return invalidArgument(os.str());
+  }
   if (!h.has_size) return invalidArgument(name + ": header has no 'size' line");
   h.data_offset = pos;
   return h;
 }
 
-// Walks the .bt node encoding (2 bytes per inner node, 2 bits per child: 01 occupied leaf,
-// 10 free leaf, 11 inner, 00 unknown) in OctoMap's order without building anything.
+// Walks the .bt node encoding (2 bytes per inner node, 2 bits per child; OctoMap 1.9.7 writes
+// the low bit alone for a free leaf, the high bit alone for an occupied leaf, both for an inner
+// node, neither for no child) in OctoMap's order without building anything.
 Status validateBinaryData(const std::string& bytes, std::size_t offset, std::uint64_t expected_nodes,
                           const std::string& name) {
   struct Frame { unsigned depth; };
@@ -119,11 +143,17 @@ Status validateBinaryData(const std::string& bytes, std::size_t offset, std::uin
     const auto lo = static_cast<unsigned char>(bytes[pos]), hi = static_cast<unsigned char>(bytes[pos + 1]);
     pos += 2;
     const unsigned bits = unsigned(lo) | (unsigned(hi) << 8);
+    // OctoMap marks a node "inner" only when it has children; its reader would turn a childless
+    // one into a leaf with log-odds -FLT_MAX. (A childless root is a one-node tree.)
+    if (bits == 0 && f.depth > 0)
+      return dataLoss(name + ": node at byte " + std::to_string(pos - 2) +
+                      " is marked as having children but has none (corrupt file)");
     // Children with children are read after all 8 flags, in child order: push in reverse.
     for (int i = 7; i >= 0; --i) {
       const unsigned b = (bits >> (2 * i)) & 3u;
       if (b == 0) continue;
-      if (f.depth + 1 > kTreeDepth)
+      // A leaf may sit at depth 16 (a finest voxel); an inner node there would have children at 17.
+      if (f.depth + (b == 3 ? 2 : 1) > kTreeDepth)
         return dataLoss(name + ": node at byte " + std::to_string(pos - 2) + " is deeper than 16 levels");
       ++nodes;
       if (b == 3) stack.push_back({f.depth + 1});
@@ -185,8 +215,12 @@ StatusOr<MapFormat> formatFromPath(const std::string& path) {
 StatusOr<std::string> readFile(const std::string& path, std::size_t max_bytes) {
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
-  if (ec || !fs::exists(st)) return notFound(path + ": no such file");
+  if (st.type() == fs::file_type::not_found) return notFound(path + ": no such file");
+  if (ec) return notFound(path + ": cannot access: " + ec.message());
   if (fs::is_directory(st)) return invalidArgument(path + ": is a directory, not a file");
+  // Opening a FIFO blocks until someone writes to it, and devices have no size: refuse both.
+  if (!fs::is_regular_file(st))
+    return invalidArgument(path + ": not a regular file (a device, FIFO or socket)");
   std::ifstream in(path, std::ios::binary);
   if (!in) return notFound(path + ": cannot open: " + std::strerror(errno));
   in.seekg(0, std::ios::end);
@@ -243,15 +277,26 @@ Status writeFileAtomically(const std::string& path, const std::function<bool(std
   try {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) return invalidArgument(path + ": cannot create a file in '" + dir.string() + "': " + std::strerror(errno));
-    ok = write(out);
+    const bool wrote = write(out);
     out.flush();
-    ok = ok && out.good();
+    const bool stream_ok = out.good();
     out.close();
-    ok = ok && !out.fail();
-    if (!ok) why = "write failed (disk full or I/O error?)";
+    ok = wrote && stream_ok && !out.fail();
+    if (!wrote) why = "the writer reported a failure";
+    else if (!ok) why = "write failed (disk full or I/O error?)";
   } catch (const std::exception& e) {
     ok = false;
-    why = e.what();
+    why = std::string("the writer threw: ") + e.what();
+  } catch (...) {
+    ok = false;
+    why = "the writer threw an exception";
+  }
+  if (ok) {
+    // Make the data durable before the rename makes it visible, so a crash cannot leave an empty
+    // file under the target's name.
+    const int fd = ::open(tmp.c_str(), O_RDONLY);
+    if (fd < 0 || ::fsync(fd) != 0) { ok = false; why = std::string("fsync failed: ") + std::strerror(errno); }
+    if (fd >= 0) ::close(fd);
   }
   if (ok) {
     fs::rename(tmp, target, ec);
@@ -264,14 +309,52 @@ Status writeFileAtomically(const std::string& path, const std::function<bool(std
   return {};
 }
 
+namespace {
+
+// OctoMap's writers print the resolution with the stream's default 6 significant digits, so a
+// map at 0.1234567891 m would come back at 0.123457 m with every voxel moved. Print the shortest
+// form that reads back exactly (0.25 stays "0.25", matching OctoMap byte for byte).
+std::string exactNumber(double v) {
+  for (int digits = 6; digits <= 17; ++digits) {
+    std::ostringstream os;
+    os.imbue(std::locale::classic());
+    os << std::setprecision(digits) << v;
+    std::istringstream back(os.str());
+    back.imbue(std::locale::classic());
+    double r = 0;
+    if ((back >> r) && r == v) return os.str();
+  }
+  std::ostringstream os;
+  os.imbue(std::locale::classic());
+  os << std::setprecision(17) << v;
+  return os.str();
+}
+
+// The header OctoMap's AbstractOcTree::write / AbstractOccupancyOcTree::writeBinaryConst write,
+// with an exact resolution.
+std::string octomapHeader(const octomap::OcTree& tree, bool binary) {
+  std::string h = binary ? "# Octomap OcTree binary file" : "# Octomap OcTree file";
+  h += "\n# (feel free to add / change comments, but leave the first line as it is!)\n#\n";
+  h += "id " + tree.getTreeType() + "\n";
+  h += "size " + std::to_string(tree.size()) + "\n";
+  h += "res " + exactNumber(tree.getResolution()) + "\n";
+  h += "data\n";
+  return h;
+}
+
+}  // namespace
+
 Status writeOctomap(const OccupancyMap& map, const std::string& path) {
   StatusOr<MapFormat> format = formatFromPath(path);
   if (!format.ok()) return format.status();
   if (*format == MapFormat::kSurveyYaml)
     return invalidArgument(path + ": a survey network cannot be written from an octree; use .bt or .ot");
   const bool binary = *format == MapFormat::kOctomapBinary;
+  const octomap::OcTree& tree = map.octree();
   return writeFileAtomically(path, [&](std::ostream& os) {
-    return binary ? map.octree().writeBinaryConst(os) : map.octree().write(os);
+    os << octomapHeader(tree, binary);
+    if (binary) tree.writeBinaryData(os); else tree.writeData(os);
+    return bool(os);
   });
 }
 

@@ -59,6 +59,7 @@ TEST_P(DistanceFieldOracle, MatchesBruteForceWithinHalfAVoxel) {
   }
   EXPECT_GT(free_points, 100) << c.name;
   RecordProperty("max_error_m", std::to_string(max_err));
+  std::printf("max error %s: %.4f voxels\n", c.name, max_err / res);
 }
 
 TEST_P(DistanceFieldOracle, ExactAtVoxelCentres) {

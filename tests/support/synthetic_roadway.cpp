@@ -38,6 +38,39 @@ SurveyNetwork bentRoadway(const CrossSection& section, double resolution_m) {
   return net;
 }
 
+SurveyNetwork syntheticDistrict(double width_m, double depth_m, double resolution_m, double panel_m) {
+  SurveyNetwork net;
+  net.name = "synthetic-district";
+  net.resolution_m = resolution_m;
+  net.sections = {{"main", CrossSection::arch(4.8, 1.5)},
+                  {"gate", CrossSection::rectangle(4.5, 3.5)},
+                  {"face", CrossSection::rectangle(4.2, 3.0)}};
+  auto z = [](double x, double y) { return -0.03 * x + 0.04 * y; };  // a few degrees of dip
+  std::vector<std::string> main_s, return_s;
+  for (double x = 0; x <= width_m + 1e-9; x += 100.0) {
+    const std::string m = "M" + std::to_string(int(x)), r = "R" + std::to_string(int(x));
+    net.stations[m] = Vec3(x, 0, z(x, 0));
+    net.stations[r] = Vec3(x, 40, z(x, 40));
+    main_s.push_back(m);
+    return_s.push_back(r);
+    net.roadways.push_back({"crosscut-" + std::to_string(int(x)), {m, r}, "gate"});
+  }
+  net.roadways.push_back({"main", main_s, "main"});
+  net.roadways.push_back({"return", return_s, "main"});
+  int gate = 0;
+  std::string previous_top;
+  for (double x = 50.0; x < width_m; x += panel_m, ++gate) {
+    const std::string g = "G" + std::to_string(gate);
+    net.stations[g + "a"] = Vec3(x, 40, z(x, 40));
+    net.stations[g + "b"] = Vec3(x, depth_m, z(x, depth_m));
+    // The gate road leaves the return airway at a station of its own on the return's line.
+    net.roadways.push_back({"gate-" + std::to_string(gate), {g + "a", g + "b"}, "gate"});
+    if (gate % 2 == 1) net.roadways.push_back({"face-" + std::to_string(gate / 2), {previous_top, g + "b"}, "face"});
+    previous_top = g + "b";
+  }
+  return net;
+}
+
 map::OccupancyMap voxelizeOrFail(const SurveyNetwork& net) {
   map::StatusOr<map::OccupancyMap> m = map::voxelize(net);
   if (!m.ok()) {

@@ -18,6 +18,12 @@ map::SurveyNetwork junctionNetwork(double resolution_m = 0.2);
 /// A roadway with several bends and a gradient, stations given in the schema order.
 map::SurveyNetwork bentRoadway(const map::CrossSection& section, double resolution_m = 0.2);
 
+/// A coal district `width_m` east by `depth_m` north: two parallel mains along the south edge,
+/// cross-cuts every 100 m, and longwall panels whose gate roads (every `panel_m`) run north to
+/// faces at the far edge. Mostly rock: the benchmark for memory-bounded distance fields.
+map::SurveyNetwork syntheticDistrict(double width_m = 2000.0, double depth_m = 1000.0,
+                                     double resolution_m = 0.2, double panel_m = 250.0);
+
 /// voxelize() that fails the current test on error.
 map::OccupancyMap voxelizeOrFail(const map::SurveyNetwork& net);
 

@@ -1,0 +1,575 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/map/collision.hpp"
+
+#include <fcl/geometry/octree/octree.h>
+#include <fcl/geometry/shape/box.h>
+#include <fcl/geometry/shape/capsule.h>
+#include <fcl/geometry/shape/cylinder.h>
+#include <fcl/geometry/shape/sphere.h>
+#include <fcl/narrowphase/collision.h>
+#include <fcl/narrowphase/distance.h>
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <sstream>
+#include <type_traits>
+#include <variant>
+#include <vector>
+
+namespace adit::map {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kHalfSqrt3 = 0.86602540378443864676;
+// A search window beyond this many voxels (16 MB of scratch) means a robot absurdly large for
+// the map's resolution; the query is refused like invalid input rather than stalling the caller.
+constexpr std::int64_t kMaxWindowVoxels = std::int64_t{1} << 24;
+// Slack on bounds that are mathematically tight but computed in floating point.
+constexpr double kBoundSlack = 1e-9;
+
+static_assert(std::is_same_v<fcl::Transform3d, Eigen::Isometry3d>,
+              "adit passes Eigen::Isometry3d to FCL unchanged");
+
+// The answer for a query that cannot be evaluated (see the header): reject the state.
+ShapeDistance invalidResult() {
+  ShapeDistance r;
+  r.collision = true;
+  r.exact = false;
+  return r;
+}
+
+ShapeDistance collisionAt(const Vec3& p, int checked) {
+  ShapeDistance r;
+  r.collision = true;
+  r.point_on_robot = r.point_on_obstacle = p;
+  r.candidates_checked = checked;
+  return r;
+}
+
+// One FCL primitive for a RobotShape, held by value so that a query allocates nothing for it.
+class FclShape {
+ public:
+  explicit FclShape(const RobotShape& s) {
+    switch (s.type) {
+      case ShapeType::kSphere: geom_.emplace<fcl::Sphered>(s.radius); break;
+      case ShapeType::kBox: geom_.emplace<fcl::Boxd>(s.size.x(), s.size.y(), s.size.z()); break;
+      case ShapeType::kCylinder: geom_.emplace<fcl::Cylinderd>(s.radius, s.length); break;
+      case ShapeType::kCapsule: geom_.emplace<fcl::Capsuled>(s.radius, s.length); break;
+    }
+  }
+  const fcl::CollisionGeometryd* get() const {
+    return std::visit(
+        [](const auto& g) -> const fcl::CollisionGeometryd* {
+          if constexpr (std::is_same_v<std::decay_t<decltype(g)>, std::monostate>) return nullptr;
+          else return &g;
+        },
+        geom_);
+  }
+
+ private:
+  std::variant<std::monostate, fcl::Sphered, fcl::Boxd, fcl::Cylinderd, fcl::Capsuled> geom_;
+};
+
+// FCL distance between two geometries, o1 being the robot. FCL's primitive distance reports -1
+// (or a meaningless value) on overlap, so anything <= 0 is settled by fcl::collide.
+ShapeDistance fclPairDistance(const fcl::CollisionGeometryd* robot, const Eigen::Isometry3d& tf_robot,
+                              const fcl::CollisionGeometryd* other, const Eigen::Isometry3d& tf_other) {
+  ShapeDistance out;
+  fcl::DistanceRequestd request(/*enable_nearest_points=*/true);
+  fcl::DistanceResultd result;
+  fcl::distance(robot, tf_robot, other, tf_other, request, result);
+  out.candidates_checked = 1;
+  if (result.min_distance > 0.0) {
+    out.distance_m = result.min_distance;
+    out.point_on_robot = result.nearest_points[0];
+    out.point_on_obstacle = result.nearest_points[1];
+    return out;
+  }
+  fcl::CollisionRequestd creq(/*num_max_contacts=*/1, /*enable_contact=*/true);
+  fcl::CollisionResultd cres;
+  fcl::collide(robot, tf_robot, other, tf_other, creq, cres);
+  out.candidates_checked = 2;
+  if (cres.isCollision()) {
+    out.collision = true;
+    out.point_on_robot = out.point_on_obstacle =
+        cres.numContacts() > 0 ? cres.getContact(0).pos : result.nearest_points[0];
+  } else {
+    // Touching (or GJK rounding at contact): distance 0 without overlap.
+    out.point_on_robot = result.nearest_points[0];
+    out.point_on_obstacle = result.nearest_points[1];
+  }
+  return out;
+}
+
+bool fclCollide(const fcl::CollisionGeometryd* a, const Eigen::Isometry3d& tf_a,
+                const fcl::CollisionGeometryd* b, const Eigen::Isometry3d& tf_b) {
+  fcl::CollisionRequestd request;
+  fcl::CollisionResultd result;
+  return fcl::collide(a, tf_a, b, tf_b, request, result) > 0;
+}
+
+// World-frame bounding box of a posed shape (tighter than the bounding sphere's box).
+Aabb shapeAabb(const RobotShape& s, const Eigen::Isometry3d& pose) {
+  const Eigen::Matrix3d& r = pose.linear();
+  Vec3 half = Vec3::Zero();
+  switch (s.type) {
+    case ShapeType::kSphere: half = Vec3::Constant(s.radius); break;
+    case ShapeType::kBox: half = r.cwiseAbs() * (0.5 * s.size); break;
+    case ShapeType::kCylinder:
+    case ShapeType::kCapsule: {
+      const Vec3 axis = r.col(2);
+      for (int i = 0; i < 3; ++i) {
+        const double disc = s.type == ShapeType::kCapsule
+                                ? s.radius
+                                : s.radius * std::sqrt(std::max(0.0, 1.0 - axis[i] * axis[i]));
+        half[i] = std::abs(axis[i]) * 0.5 * s.length + disc;
+      }
+      break;
+    }
+  }
+  const Vec3 c = pose.translation();
+  return {c - half, c + half};
+}
+
+// Points strictly inside the shape where the nearest rock is looked up to seed the search: the
+// origin and, for elongated shapes, near the ends of the long axis (world frame).
+struct SeedPoints {
+  Vec3 points[3];
+  int count = 1;
+};
+SeedPoints seedPoints(const RobotShape& s, const Eigen::Isometry3d& pose) {
+  SeedPoints out;
+  out.points[0] = pose.translation();
+  Vec3 half_axis = Vec3::Zero();
+  switch (s.type) {
+    case ShapeType::kSphere: return out;
+    case ShapeType::kBox: {
+      Eigen::Index longest = 0;
+      s.size.maxCoeff(&longest);
+      half_axis[longest] = 0.5 * s.size[longest];
+      break;
+    }
+    case ShapeType::kCylinder:
+    case ShapeType::kCapsule: half_axis.z() = 0.5 * s.length; break;
+  }
+  if (half_axis.isZero()) return out;
+  half_axis *= 0.999;  // inside the box and the cylinder, not on their faces
+  out.points[1] = pose * half_axis;
+  out.points[2] = pose * Vec3(-half_axis);
+  out.count = 3;
+  return out;
+}
+
+// Radius of the largest origin-centred ball inside the shape.
+double inscribedRadius(const RobotShape& s) {
+  switch (s.type) {
+    case ShapeType::kSphere: return s.radius;
+    case ShapeType::kBox: return 0.5 * s.size.minCoeff();
+    case ShapeType::kCylinder: return std::min(s.radius, 0.5 * s.length);
+    case ShapeType::kCapsule: return s.radius;
+  }
+  return 0.0;
+}
+
+// Distance from a point to the axis-aligned cube of edge `edge` around `centre` (0 inside).
+double pointToCube(const Vec3& p, const Vec3& centre, double edge) {
+  return ((p - centre).cwiseAbs() - Vec3::Constant(0.5 * edge)).cwiseMax(0.0).norm();
+}
+
+// Nearest point of the solid shape to `q` (both in the shape's frame).
+Vec3 nearestOnShape(const RobotShape& s, const Vec3& q) {
+  const double half_len = 0.5 * s.length;
+  switch (s.type) {
+    case ShapeType::kSphere: {
+      const double n = q.norm();
+      return n > s.radius ? Vec3(q * (s.radius / n)) : q;
+    }
+    case ShapeType::kBox: return q.cwiseMax(-0.5 * s.size).cwiseMin(0.5 * s.size);
+    case ShapeType::kCylinder: {
+      const double rho = std::hypot(q.x(), q.y());
+      const double k = rho > s.radius ? s.radius / rho : 1.0;
+      return {q.x() * k, q.y() * k, std::clamp(q.z(), -half_len, half_len)};
+    }
+    case ShapeType::kCapsule: {
+      const Vec3 axis_point(0.0, 0.0, std::clamp(q.z(), -half_len, half_len));
+      const Vec3 d = q - axis_point;
+      const double n = d.norm();
+      return n > s.radius ? Vec3(axis_point + d * (s.radius / n)) : q;
+    }
+  }
+  return q;
+}
+
+// Distance from the posed shape to the cube of edge 2 * half around a voxel centre v, from below.
+// Three bounds, the largest wins:
+//  - separating plane: with p the shape's point nearest to v and n = (v - p) / |v - p|, the
+//    plane through p normal to n has the convex shape behind it, and the cube reaches at most
+//    half * |n|_1 towards it, so the distance is >= |v - p| - half * |n|_1. Near a wall the
+//    nearest cubes lie along an axis, |n|_1 ~ 1, and the bound is within half a voxel;
+//  - bounding sphere: |cube - origin| - boundingRadius(), exact for spheres;
+//  - the cube's gap to the shape's bounding box.
+class CubeLowerBound {
+ public:
+  CubeLowerBound(const RobotShape& s, const Eigen::Isometry3d& pose, const Aabb& box, double edge)
+      : shape_(s), rot_(pose.linear()), origin_(pose.translation()), box_centre_(box.center()),
+        box_half_(0.5 * box.size()), half_(0.5 * edge), edge_(edge), radius_(s.boundingRadius()) {}
+
+  double radius() const { return radius_; }
+  /// The bounding-sphere and bounding-box bounds: a few flops, for every voxel of the window.
+  double coarse(const Vec3& v) const {
+    const Vec3 gap_v = ((v - box_centre_).cwiseAbs() - box_half_ - Vec3::Constant(half_)).cwiseMax(0.0);
+    return std::max({pointToCube(origin_, v, edge_) - radius_, gap_v.norm(), 0.0});
+  }
+  /// coarse(v) > reach, without square roots (the scan's inner loop).
+  bool coarseExceeds(const Vec3& v, double reach) const {
+    const Vec3 gap_v = ((v - box_centre_).cwiseAbs() - box_half_ - Vec3::Constant(half_)).cwiseMax(0.0);
+    if (gap_v.squaredNorm() > reach * reach) return true;
+    const double outer = radius_ + reach;
+    return ((v - origin_).cwiseAbs() - Vec3::Constant(half_)).cwiseMax(0.0).squaredNorm() > outer * outer;
+  }
+  /// All three, for the surface rock voxels that pass coarse().
+  double operator()(const Vec3& v) const {
+    const Vec3 q = rot_.transpose() * (v - origin_);
+    const Vec3 d = q - nearestOnShape(shape_, q);
+    const double dn = d.norm();
+    const double plane = dn > 0.0 ? dn - half_ * (rot_ * d).lpNorm<1>() / dn : 0.0;
+    return std::max(plane, coarse(v));
+  }
+
+ private:
+  const RobotShape& shape_;
+  Eigen::Matrix3d rot_;
+  Vec3 origin_, box_centre_, box_half_;
+  double half_, edge_, radius_;
+};
+
+struct Candidate {
+  double lower_bound;
+  Vec3 centre;
+};
+
+// Scratch buffers reused across queries of a thread (the hot path does not allocate).
+struct Scratch {
+  std::vector<std::uint8_t> rock;
+  std::vector<Candidate> candidates;
+};
+Scratch& scratch() {
+  thread_local Scratch s;
+  return s;
+}
+
+}  // namespace
+
+Status validateQuery(const RobotShape& shape, const Eigen::Isometry3d& pose) {
+  switch (shape.type) {
+    case ShapeType::kSphere: case ShapeType::kBox: case ShapeType::kCylinder: case ShapeType::kCapsule: break;
+    default: return invalidArgument("shape type " + std::to_string(int(shape.type)) + " is not a ShapeType");
+  }
+  ADIT_RETURN_IF_ERROR(shape.validate());
+  if (!pose.matrix().allFinite()) {
+    std::ostringstream os;
+    os << "pose is not finite: translation (" << pose.translation().transpose() << ")";
+    return invalidArgument(os.str());
+  }
+  const Eigen::Matrix3d r = pose.linear();
+  const double orth = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (orth > 1e-6 || r.determinant() < 0.0) {
+    std::ostringstream os;
+    os << "pose rotation is not a rotation (|R^T R - I| = " << orth << ", det = " << r.determinant() << ")";
+    return invalidArgument(os.str());
+  }
+  return {};
+}
+
+ShapeDistance shapeDistance(const RobotShape& a, const Eigen::Isometry3d& pose_a,
+                            const RobotShape& b, const Eigen::Isometry3d& pose_b) {
+  if (!validateQuery(a, pose_a).ok() || !validateQuery(b, pose_b).ok()) return invalidResult();
+  const FclShape ga(a), gb(b);
+  return fclPairDistance(ga.get(), pose_a, gb.get(), pose_b);
+}
+
+ShapeDistance obstacleDistance(const RobotShape& robot, const Eigen::Isometry3d& pose,
+                               const MovingObstacle& ob, double t_s) {
+  if (!std::isfinite(t_s)) return invalidResult();
+  Eigen::Isometry3d ob_pose = Eigen::Isometry3d::Identity();
+  ob_pose.translation() = ob.positionAt(t_s);
+  return shapeDistance(robot, pose, ob.shape, ob_pose);
+}
+
+// ---- CollisionChecker ----------------------------------------------------------------------
+
+StatusOr<CollisionChecker> CollisionChecker::create(const OccupancyMap& map, const DistanceField& field) {
+  if (std::abs(map.resolution() - field.resolution()) > 1e-9 * map.resolution()) {
+    std::ostringstream os;
+    os << "CollisionChecker: distance field resolution " << field.resolution()
+       << " m differs from the map's " << map.resolution() << " m (build the field from this map)";
+    return invalidArgument(os.str());
+  }
+  return CollisionChecker(map, field);
+}
+
+double CollisionChecker::resolution() const { return field_->resolution(); }
+
+namespace {
+
+// Collects the rock voxels of `window` that have a free 6-neighbour and a lower bound <= `reach`.
+// Only those can hold the nearest rock point of a shape whose origin is free: the nearest point
+// lies on the boundary of the rock, and every boundary point belongs to a rock cube that shares a
+// face with a free one (walk the 2x2x2 voxels around the point from a free one to a rock one).
+// The same argument covers penetration: a shape with a free origin that overlaps rock crosses
+// that boundary. The field is read lazily, only for voxels within reach and their neighbours, and
+// not at all inside the ball of radius `clear_lb` around `origin`, which is known to be free.
+// Returns false when the window is too large.
+bool collectSurfaceRock(const DistanceField& field, const Aabb& window, const CubeLowerBound& bound,
+                        double reach, const Vec3& origin, double clear_lb, std::vector<Candidate>& out,
+                        std::vector<std::uint8_t>& state) {
+  const double res = field.resolution(), inv = 1.0 / res, half = 0.5 * res;
+  if (!((window.size() * inv).array() < 1e6).all()) return false;  // also NaN and infinity
+  std::int64_t lo[3], n[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::int64_t(std::floor(window.min[a] * inv)) - 1;  // grown by one voxel
+    n[a] = std::int64_t(std::floor(window.max[a] * inv)) + 1 - lo[a] + 1;
+  }
+  if (n[0] * n[1] * n[2] > kMaxWindowVoxels) return false;
+  const std::int64_t sy = n[0], sz = n[0] * n[1];
+  enum : std::uint8_t { kUnread = 0, kFree = 1, kRock = 2 };
+  state.assign(std::size_t(n[0] * n[1] * n[2]), kUnread);
+  auto centre = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    return Vec3((Vec3(double(lo[0] + i), double(lo[1] + j), double(lo[2] + k)).array() + 0.5) * res);
+  };
+  auto isRock = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    std::uint8_t& s = state[std::size_t(i + sy * j + sz * k)];
+    if (s == kUnread) {
+      const Vec3 c = centre(i, j, k);
+      const double g2 = ((c - origin).cwiseAbs() - Vec3::Constant(half)).cwiseMax(0.0).squaredNorm();
+      s = ((clear_lb > 0.0 && g2 < clear_lb * clear_lb) || field.isFree(c)) ? kFree : kRock;
+    }
+    return s == kRock;
+  };
+  // Per x-row, only the voxels in the shell between the known-free ball (cube distance from the
+  // origin < clear_lb) and the ball beyond which the bounding sphere is out of reach (cube
+  // distance > boundingRadius() + reach) are visited; the per-voxel tests would reject the rest.
+  // The row limits err outwards by kBoundSlack, so rounding only ever visits a voxel more.
+  const double outer = bound.radius() + reach;
+  auto axisGap = [half](double c, double o) { return std::max(std::abs(c - o) - half, 0.0); };
+  auto firstAtOrAbove = [&](double x) { return std::int64_t(std::ceil(x * inv - 0.5)) - lo[0]; };
+  auto lastAtOrBelow = [&](double x) { return std::int64_t(std::floor(x * inv - 0.5)) - lo[0]; };
+  out.clear();
+  for (std::int64_t k = 1; k + 1 < n[2]; ++k) {
+    const double gz = axisGap((double(lo[2] + k) + 0.5) * res, origin.z());
+    for (std::int64_t j = 1; j + 1 < n[1]; ++j) {
+      const double gy = axisGap((double(lo[1] + j) + 0.5) * res, origin.y());
+      const double rem_outer = outer * outer - gy * gy - gz * gz;
+      if (rem_outer < -kBoundSlack) continue;
+      const double w_outer = std::sqrt(std::max(rem_outer, 0.0)) + half + kBoundSlack;
+      const std::int64_t i_lo = std::max<std::int64_t>(1, firstAtOrAbove(origin.x() - w_outer));
+      const std::int64_t i_hi = std::min<std::int64_t>(n[0] - 2, lastAtOrBelow(origin.x() + w_outer));
+      // Free voxels: |cx - ox| < w_inner; skipped only when clearly inside.
+      const double rem_inner = clear_lb * clear_lb - gy * gy - gz * gz;
+      std::int64_t skip_lo = 1, skip_hi = 0;  // empty
+      if (clear_lb > 0.0 && rem_inner > 0.0) {
+        const double w_inner = std::sqrt(rem_inner) + half - kBoundSlack;
+        skip_lo = firstAtOrAbove(origin.x() - w_inner) + 1;
+        skip_hi = lastAtOrBelow(origin.x() + w_inner) - 1;
+      }
+      for (std::int64_t i = i_lo; i <= i_hi; ++i) {
+        if (i == skip_lo && skip_lo <= skip_hi) {
+          i = skip_hi;
+          continue;
+        }
+        const Vec3 c = centre(i, j, k);
+        if (bound.coarseExceeds(c, reach) || !isRock(i, j, k)) continue;
+        if (isRock(i - 1, j, k) && isRock(i + 1, j, k) && isRock(i, j - 1, k) && isRock(i, j + 1, k) &&
+            isRock(i, j, k - 1) && isRock(i, j, k + 1))
+          continue;  // interior rock
+        const double lb = bound(c);
+        if (lb <= reach) out.push_back({lb, c});
+      }
+    }
+  }
+  return true;
+}
+
+// Lower bound on the distance from `p` to any rock cube, from the field's feature transform:
+// the voxel centre v of p is at least |v - s| from every rock centre (s = its nearest rock voxel),
+// and a cube reaches at most sqrt(3)/2 edge from its centre. -inf when the field has no site.
+double clearanceLowerBound(const DistanceField& field, const Vec3& p) {
+  const double res = field.resolution(), inv = 1.0 / res;  // the field's own key formula
+  const Vec3 site = field.nearestRockVoxel(p);
+  if (!allFinite(site)) return -kInf;
+  const Vec3 v = ((p * inv).array().floor() + 0.5) * res;
+  return (v - site).norm() - kHalfSqrt3 * res - (p - v).norm();
+}
+
+}  // namespace
+
+bool CollisionChecker::inCollision(const RobotShape& shape, const Eigen::Isometry3d& pose) const {
+  if (!validateQuery(shape, pose).ok()) return true;
+  const Vec3 origin = pose.translation();
+  if (!field_->isFree(origin)) return true;
+  // The bounding ball is clear of rock: no FCL needed.
+  const double clearance_lb = clearanceLowerBound(*field_, origin);
+  if (clearance_lb > shape.boundingRadius()) return false;
+
+  const Aabb box = shapeAabb(shape, pose);
+  const CubeLowerBound bound(shape, pose, box, resolution());
+  Scratch& s = scratch();
+  if (!collectSurfaceRock(*field_, box, bound, 0.0, origin, clearance_lb, s.candidates, s.rock)) return true;
+  const FclShape robot(shape);
+  fcl::Boxd cube(resolution(), resolution(), resolution());
+  Eigen::Isometry3d cube_pose = Eigen::Isometry3d::Identity();
+  for (const Candidate& c : s.candidates) {
+    cube_pose.translation() = c.centre;
+    if (fclCollide(robot.get(), pose, &cube, cube_pose)) return true;
+  }
+  return false;
+}
+
+ShapeDistance CollisionChecker::distance(const RobotShape& shape, const Eigen::Isometry3d& pose,
+                                         double max_distance_m) const {
+  if (std::isnan(max_distance_m) || !validateQuery(shape, pose).ok()) return invalidResult();
+  const double max_d = std::max(max_distance_m, 0.0);
+  const Vec3 origin = pose.translation();
+  if (!field_->isFree(origin)) return collisionAt(origin, 0);
+
+  // 1. Far from rock: a lower bound from the field alone.
+  const double radius = shape.boundingRadius();
+  const double clearance_lb = clearanceLowerBound(*field_, origin);
+  if (clearance_lb - radius > max_d) {
+    ShapeDistance r;
+    r.distance_m = clearance_lb - radius;
+    r.exact = false;
+    return r;
+  }
+
+  // 2. How far the search must look. The robot holds the ball of its inscribed radius around the
+  // origin, and the field's distance is that of a real rock cube, so the true distance is at
+  // most clearance - inscribed radius: nothing beyond can be the nearest.
+  const DistanceSample at_origin = field_->query(origin);
+  double reach = max_d;
+  if (!at_origin.in_rock)
+    reach = std::min(reach, std::max(at_origin.distance - inscribedRadius(shape), 0.0) + kBoundSlack);
+  if (!std::isfinite(reach)) return invalidResult();  // field inconsistent and no limit given
+
+  // 3. Seeds: FCL against the field's nearest rock voxel of the origin and of the ends of the
+  // shape's long axis. Any rock voxel bounds the distance from above, and a close one shrinks the
+  // window of step 4 far more than it costs.
+  const FclShape robot(shape);
+  const fcl::Boxd cube(resolution(), resolution(), resolution());
+  Eigen::Isometry3d cube_pose = Eigen::Isometry3d::Identity();
+  ShapeDistance best;
+  best.distance_m = kInf;
+  int checked = 0;
+  Vec3 seeds[3];
+  int seed_count = 0;
+  auto evaluate = [&](const Vec3& centre) {
+    cube_pose.translation() = centre;
+    const ShapeDistance d = fclPairDistance(robot.get(), pose, &cube, cube_pose);
+    checked += d.candidates_checked;
+    if (d.distance_m < best.distance_m || d.collision) best = d;
+    return d.collision;
+  };
+  const SeedPoints seed_points = seedPoints(shape, pose);
+  for (int i = 0; i < seed_points.count; ++i) {
+    const Vec3& p = seed_points.points[i];
+    const Vec3 site = field_->nearestRockVoxel(p);
+    if (!allFinite(site)) {
+      // p lies inside the robot: in rock means overlap.
+      if (!field_->isFree(p)) return collisionAt(p, checked);
+      continue;
+    }
+    if (std::find(seeds, seeds + seed_count, site) != seeds + seed_count) continue;
+    seeds[seed_count++] = site;
+    if (evaluate(site)) return collisionAt(best.point_on_robot, checked);
+  }
+  reach = std::min(reach, best.distance_m + kBoundSlack);
+
+  // 4. Branch and bound over the surface rock voxels in the robot's box grown by `reach`.
+  const Aabb box = shapeAabb(shape, pose);
+  const CubeLowerBound bound(shape, pose, box, resolution());
+  Scratch& s = scratch();
+  if (!collectSurfaceRock(*field_, box.inflated(reach), bound, reach, origin, clearance_lb, s.candidates, s.rock))
+    return invalidResult();
+  auto by_bound = [](const Candidate& a, const Candidate& b) { return a.lower_bound > b.lower_bound; };
+  std::make_heap(s.candidates.begin(), s.candidates.end(), by_bound);
+  for (auto end = s.candidates.end(); end != s.candidates.begin(); --end) {
+    std::pop_heap(s.candidates.begin(), end, by_bound);
+    const Candidate& c = *(end - 1);
+    if (c.lower_bound >= best.distance_m || best.distance_m <= 0.0) break;  // touching: none nearer
+    if (std::find(seeds, seeds + seed_count, c.centre) != seeds + seed_count) continue;
+    if (evaluate(c.centre)) return collisionAt(best.point_on_robot, checked);
+  }
+  best.candidates_checked = checked;
+  if (best.distance_m <= max_d) return best;
+  // Every unchecked voxel is farther than `reach` (<= max_d) or than `best` (> max_d).
+  ShapeDistance r;
+  r.distance_m = max_d;
+  r.exact = false;
+  r.candidates_checked = checked;
+  return r;
+}
+
+// ---- FclOctreeDistance -----------------------------------------------------------------------
+
+struct FclOctreeDistance::Impl {
+  explicit Impl(std::shared_ptr<const octomap::OcTree> t) : tree(std::move(t)), octree(tree) {}
+  std::shared_ptr<const octomap::OcTree> tree;
+  fcl::OcTreed octree;
+};
+
+FclOctreeDistance::FclOctreeDistance(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+FclOctreeDistance::FclOctreeDistance(const FclOctreeDistance&) = default;
+FclOctreeDistance& FclOctreeDistance::operator=(const FclOctreeDistance&) = default;
+FclOctreeDistance::FclOctreeDistance(FclOctreeDistance&&) noexcept = default;
+FclOctreeDistance& FclOctreeDistance::operator=(FclOctreeDistance&&) noexcept = default;
+FclOctreeDistance::~FclOctreeDistance() = default;
+
+StatusOr<FclOctreeDistance> FclOctreeDistance::create(const OccupancyMap& map) {
+  std::shared_ptr<const octomap::OcTree> tree = map.sharedOctree();
+  if (!tree) return failedPrecondition("FclOctreeDistance: the map has no octree");
+  return FclOctreeDistance(std::make_shared<const Impl>(std::move(tree)));
+}
+
+ShapeDistance FclOctreeDistance::distance(const RobotShape& shape, const Eigen::Isometry3d& pose) const {
+  if (!validateQuery(shape, pose).ok()) return invalidResult();
+  const FclShape robot(shape);
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  fcl::DistanceRequestd request(/*enable_nearest_points=*/true);
+  fcl::DistanceResultd result;
+  fcl::distance(robot.get(), pose, &impl_->octree, identity, request, result);
+
+  ShapeDistance out;
+  if (result.min_distance == std::numeric_limits<double>::max()) {
+    out.distance_m = kInf;  // not a single occupied node
+    return out;
+  }
+  if (result.min_distance <= 0.0) {
+    // -1 on overlap: ask fcl::collide (which also sees occupied nodes only).
+    fcl::CollisionRequestd creq(/*num_max_contacts=*/1, /*enable_contact=*/true);
+    fcl::CollisionResultd cres;
+    fcl::collide(robot.get(), pose, &impl_->octree, identity, creq, cres);
+    if (cres.isCollision()) {
+      out.collision = true;
+      out.point_on_robot = out.point_on_obstacle =
+          cres.numContacts() > 0 ? cres.getContact(0).pos : pose.translation();
+      return out;
+    }
+  }
+  out.distance_m = std::max(result.min_distance, 0.0);
+  // FCL 0.7's shape-octree distance records the octree as o1 and its point first, whatever the
+  // argument order; follow result.o1 so that a fixed FCL keeps working.
+  const bool swapped = result.o1 != robot.get();
+  out.point_on_robot = result.nearest_points[swapped ? 1 : 0];
+  out.point_on_obstacle = result.nearest_points[swapped ? 0 : 1];
+  return out;
+}
+
+bool FclOctreeDistance::inCollision(const RobotShape& shape, const Eigen::Isometry3d& pose) const {
+  if (!validateQuery(shape, pose).ok()) return true;
+  const FclShape robot(shape);
+  return fclCollide(robot.get(), pose, &impl_->octree, Eigen::Isometry3d::Identity());
+}
+
+}  // namespace adit::map

@@ -1,0 +1,305 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// renderTopView: pictures are read back with Cairo and checked pixel by pixel at known places of
+// generated roadways (junctionNetwork: main roadway y in [-2, 2] from x = 0 to 14 with floor 0 to
+// 0.3 m, branch x in [12.5, 15.5] up to y = 10 with floor up to 0.5 m, cross-cut x in [4.5, 7.5]
+// down to y = -8 with floor 0; rock elsewhere).
+#include "common/render_topview.hpp"
+
+#include <cairo.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+
+#include "adit/map/survey_network.hpp"
+#include "support/synthetic_roadway.hpp"
+
+namespace adit::tools {
+namespace {
+
+namespace fs = std::filesystem;
+using map::StatusCode;
+
+struct SurfaceDeleter {
+  void operator()(cairo_surface_t* s) const { cairo_surface_destroy(s); }
+};
+using SurfacePtr = std::unique_ptr<cairo_surface_t, SurfaceDeleter>;
+
+/// A PNG read back with Cairo; colours as 0xRRGGBB.
+class Picture {
+ public:
+  explicit Picture(const fs::path& path) : surface_(cairo_image_surface_create_from_png(path.c_str())) {}
+  bool ok() const { return cairo_surface_status(surface_.get()) == CAIRO_STATUS_SUCCESS; }
+  int width() const { return cairo_image_surface_get_width(surface_.get()); }
+  int height() const { return cairo_image_surface_get_height(surface_.get()); }
+  std::uint32_t at(int col, int row) const {
+    const unsigned char* data = cairo_image_surface_get_data(surface_.get());
+    const int stride = cairo_image_surface_get_stride(surface_.get());
+    return *reinterpret_cast<const std::uint32_t*>(data + row * stride + 4 * col) & 0xFFFFFF;
+  }
+  /// Colour of the pixel holding world point (x, y).
+  std::uint32_t atWorld(const TopViewInfo& info, double x, double y) const {
+    return at(static_cast<int>(std::floor(info.columnOf(x))), static_cast<int>(std::floor(info.rowOf(y))));
+  }
+
+ private:
+  SurfacePtr surface_;
+};
+
+class RenderTopViewTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("adit_render_topview_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::permissions(dir_, fs::perms::owner_all, ec);
+    fs::remove_all(dir_, ec);
+  }
+  static const map::OccupancyMap& junction() {
+    static const map::OccupancyMap m = test::voxelizeOrFail(test::junctionNetwork(0.25));
+    return m;
+  }
+  fs::path dir_;
+};
+
+TEST_F(RenderTopViewTest, ProjectionPngShowsRoadwaysOverRockBackground) {
+  TopViewOptions o;
+  o.title = "junction";
+  o.max_pixels = 600;
+  TopViewInfo info;
+  const fs::path out = dir_ / "top.png";
+  ASSERT_TRUE(renderTopView(junction(), o, out.string(), &info).ok());
+
+  Picture pic(out);
+  ASSERT_TRUE(pic.ok());
+  EXPECT_EQ(pic.width(), info.width_px);
+  EXPECT_EQ(pic.height(), info.height_px);
+  // The map (17.5 x 19.5 m) fills about max_pixels on its longer side; annotations add margins.
+  EXPECT_NEAR(std::max(info.map_width_px, info.map_height_px), 600, 2);
+  EXPECT_FALSE(info.scale_raised);
+  EXPECT_GT(pic.width(), info.map_width_px + 100);
+  EXPECT_LT(pic.width(), info.map_width_px + 700);
+  EXPECT_GT(pic.height(), info.map_height_px + 80);
+  EXPECT_LT(pic.height(), info.map_height_px + 400);
+  EXPECT_GE(info.map_left_px, 1);
+  EXPECT_LE(info.map_left_px + info.map_width_px, pic.width());
+  EXPECT_LE(info.map_top_px + info.map_height_px, pic.height());
+
+  // Roadway centres are drawn, each in a ramp colour (neither background nor page white).
+  for (auto [x, y] : {std::pair{2.0, 0.0}, {10.0, 0.0}, {6.0, -5.0}, {14.0, 7.0}}) {
+    SCOPED_TRACE(::testing::Message() << "roadway centre (" << x << ", " << y << ")");
+    EXPECT_NE(pic.atWorld(info, x, y), kTopViewBackground);
+    EXPECT_NE(pic.atWorld(info, x, y), 0xFFFFFFu);
+  }
+  // Rock between the roadways is background.
+  for (auto [x, y] : {std::pair{3.0, 8.0}, {10.0, -6.0}, {2.0, -5.0}, {9.0, 6.0}}) {
+    SCOPED_TRACE(::testing::Message() << "rock (" << x << ", " << y << ")");
+    EXPECT_EQ(pic.atWorld(info, x, y), kTopViewBackground);
+  }
+  // Floor elevation colours: the cross-cut (floor 0) and the far branch (floor 0.5) differ.
+  EXPECT_NE(pic.atWorld(info, 6.0, -5.0), pic.atWorld(info, 14.0, 8.0));
+  ASSERT_TRUE(info.floor_min_m && info.floor_max_m);
+  EXPECT_NEAR(*info.floor_min_m, 0.0, 0.25 + 1e-9);
+  EXPECT_NEAR(*info.floor_max_m, 0.5, 0.25 + 1e-9);
+  EXPECT_GT(info.free_pixels, 0u);
+  EXPECT_GT(info.scale_bar_m, 0.0);
+}
+
+TEST_F(RenderTopViewTest, ProjectionColoursAColumnByItsLowestFloor) {
+  // Two roadways crossing 10 m apart in height: at the crossing the lower floor wins.
+  map::SurveyNetwork net;
+  net.name = "crossing";
+  net.resolution_m = 0.25;
+  net.stations = {{"A", map::Vec3(0, 0, 0)}, {"B", map::Vec3(40, 0, 0)},
+                  {"C", map::Vec3(20, -20, 10)}, {"D", map::Vec3(20, 20, 10)}};
+  net.sections = {{"s", map::CrossSection::rectangle(4.0, 3.0)}};
+  net.roadways = {{"low", {"A", "B"}, "s"}, {"high", {"C", "D"}, "s"}};
+  const map::OccupancyMap m = test::voxelizeOrFail(net);
+
+  TopViewOptions o;
+  o.max_pixels = 400;
+  TopViewInfo info;
+  const fs::path out = dir_ / "crossing.png";
+  ASSERT_TRUE(renderTopView(m, o, out.string(), &info).ok());
+  Picture pic(out);
+  ASSERT_TRUE(pic.ok());
+  const std::uint32_t low = pic.atWorld(info, 10, 0), high = pic.atWorld(info, 20, 12);
+  EXPECT_NE(low, kTopViewBackground);
+  EXPECT_NE(high, kTopViewBackground);
+  EXPECT_NE(low, high);
+  EXPECT_EQ(pic.atWorld(info, 20, 0), low);
+  ASSERT_TRUE(info.floor_min_m && info.floor_max_m);
+  EXPECT_NEAR(*info.floor_max_m - *info.floor_min_m, 10.0, 0.5);
+}
+
+TEST_F(RenderTopViewTest, SliceShowsFreeOccupiedAndUnknown) {
+  TopViewOptions o;
+  o.max_pixels = 500;
+  o.slice_z_m = 1.0;
+  TopViewInfo info;
+  const fs::path out = dir_ / "slice.png";
+  ASSERT_TRUE(renderTopView(junction(), o, out.string(), &info).ok());
+  Picture pic(out);
+  ASSERT_TRUE(pic.ok());
+  EXPECT_EQ(pic.atWorld(info, 10, 0), kTopViewSliceFree);
+  EXPECT_EQ(pic.atWorld(info, 6, -5), kTopViewSliceFree);
+  EXPECT_EQ(pic.atWorld(info, 10, 2.3), kTopViewSliceOccupied);  // the rock shell beside the wall
+  EXPECT_EQ(pic.atWorld(info, 3, 8), kTopViewBackground);        // never surveyed
+  EXPECT_GT(info.free_pixels, 0u);
+  EXPECT_FALSE(info.floor_min_m.has_value());
+}
+
+TEST_F(RenderTopViewTest, SliceAboveTheRoofShowsNoFreeSpace) {
+  // The highest roof is 0.3 + 4.5 m (main arch at B); the rock shell reaches 5.5 m.
+  TopViewOptions o;
+  o.max_pixels = 400;
+  o.slice_z_m = 5.2;
+  o.slice_band_m = 0.2;
+  TopViewInfo info;
+  const fs::path out = dir_ / "above.png";
+  ASSERT_TRUE(renderTopView(junction(), o, out.string(), &info).ok());
+  Picture pic(out);
+  ASSERT_TRUE(pic.ok());
+  EXPECT_EQ(info.free_pixels, 0u);
+  int free = 0, occupied = 0;
+  for (int r = info.map_top_px; r < info.map_top_px + info.map_height_px; ++r)
+    for (int c = info.map_left_px; c < info.map_left_px + info.map_width_px; ++c) {
+      free += pic.at(c, r) == kTopViewSliceFree;
+      occupied += pic.at(c, r) == kTopViewSliceOccupied;
+    }
+  EXPECT_EQ(free, 0);
+  EXPECT_GT(occupied, 0);  // the shell above the roof is still drawn
+}
+
+TEST_F(RenderTopViewTest, SvgEmbedsTheRaster) {
+  TopViewOptions o;
+  o.title = "junction";
+  o.max_pixels = 300;
+  const fs::path out = dir_ / "top.SVG";  // extension is case-insensitive
+  ASSERT_TRUE(renderTopView(junction(), o, out.string()).ok());
+  std::ifstream in(out, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_GT(text.size(), 1000u);
+  EXPECT_TRUE(text.rfind("<?xml", 0) == 0 || text.rfind("<svg", 0) == 0) << text.substr(0, 80);
+  EXPECT_NE(text.find("<svg"), std::string::npos);
+  EXPECT_NE(text.find("data:image/png;base64"), std::string::npos);
+  EXPECT_NE(text.find("</svg>"), std::string::npos);
+}
+
+TEST_F(RenderTopViewTest, ExplicitScaleIsUsed) {
+  TopViewOptions o;
+  o.pixels_per_m = 10.0;
+  TopViewInfo info;
+  const fs::path out = dir_ / "scaled.png";
+  ASSERT_TRUE(renderTopView(junction(), o, out.string(), &info).ok());
+  EXPECT_DOUBLE_EQ(info.pixels_per_m, 10.0);
+  EXPECT_EQ(info.map_width_px, 175);   // 17.5 m
+  EXPECT_EQ(info.map_height_px, 195);  // 19.5 m
+  Picture pic(out);
+  ASSERT_TRUE(pic.ok());
+  EXPECT_NE(pic.atWorld(info, 10, 0), kTopViewBackground);
+}
+
+TEST_F(RenderTopViewTest, AutomaticScaleKeepsThinRoadwaysVisible) {
+  // 300 m of 4 m roadway: max_pixels = 100 would make it 1.3 px wide; the scale is raised to 3 px.
+  const map::OccupancyMap m =
+      test::voxelizeOrFail(test::straightRoadway(map::CrossSection::rectangle(4.0, 3.0), 300.0, 0.5));
+  TopViewOptions o;
+  o.max_pixels = 100;
+  TopViewInfo info;
+  const fs::path out = dir_ / "long.png";
+  ASSERT_TRUE(renderTopView(m, o, out.string(), &info).ok());
+  EXPECT_TRUE(info.scale_raised);
+  EXPECT_NEAR(info.pixels_per_m, 0.75, 1e-9);
+  Picture pic(out);
+  ASSERT_TRUE(pic.ok());
+  const int col = static_cast<int>(info.columnOf(150.0));
+  int free_rows = 0;
+  for (int r = info.map_top_px; r < info.map_top_px + info.map_height_px; ++r)
+    free_rows += pic.at(col, r) != kTopViewBackground;
+  EXPECT_GE(free_rows, 3);
+  EXPECT_LE(free_rows, 5);
+}
+
+TEST_F(RenderTopViewTest, UnknownExtensionIsRefusedAndWritesNothing) {
+  const std::string path = (dir_ / "top.jpg").string();
+  const map::Status s = renderTopView(junction(), {}, path);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find(path), std::string::npos) << s.message();
+  EXPECT_TRUE(fs::is_empty(dir_));
+  EXPECT_EQ(renderTopView(junction(), {}, (dir_ / "top").string()).code(), StatusCode::kInvalidArgument);
+}
+
+TEST_F(RenderTopViewTest, MissingDirectoryIsAnError) {
+  const std::string path = (dir_ / "no_such_dir" / "top.png").string();
+  const map::Status s = renderTopView(junction(), {}, path);
+  EXPECT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("no_such_dir"), std::string::npos) << s.message();
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+TEST_F(RenderTopViewTest, DirectoryAsOutputIsAnErrorAndLeavesNoFile) {
+  const fs::path target = dir_ / "taken.png";
+  fs::create_directory(target);
+  TopViewOptions o;
+  o.max_pixels = 200;
+  EXPECT_FALSE(renderTopView(junction(), o, target.string()).ok());
+  EXPECT_TRUE(fs::is_directory(target));
+  EXPECT_TRUE(fs::is_empty(target));
+  int entries = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir_)) ++entries;
+  EXPECT_EQ(entries, 1);  // no temporary file left beside it
+}
+
+TEST_F(RenderTopViewTest, TooLargePictureIsRefused) {
+  TopViewOptions o;
+  o.pixels_per_m = 2000.0;  // 35000 x 39000 px
+  const std::string path = (dir_ / "huge.png").string();
+  const map::Status s = renderTopView(junction(), o, path);
+  EXPECT_EQ(s.code(), StatusCode::kOutOfRange);
+  EXPECT_NE(s.message().find("Mpx"), std::string::npos) << s.message();
+  EXPECT_TRUE(fs::is_empty(dir_));
+
+  // The automatic scale raised for thin roadways still honours the cap.
+  const map::OccupancyMap m =
+      test::voxelizeOrFail(test::straightRoadway(map::CrossSection::rectangle(4.0, 3.0), 300.0, 0.5));
+  TopViewOptions tight;
+  tight.max_pixels = 100;
+  tight.max_megapixels = 0.01;
+  const map::Status t = renderTopView(m, tight, path);
+  EXPECT_EQ(t.code(), StatusCode::kOutOfRange);
+  EXPECT_NE(t.message().find("roadway"), std::string::npos) << t.message();
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+TEST_F(RenderTopViewTest, InvalidOptionsAreRefused) {
+  const std::string path = (dir_ / "top.png").string();
+  TopViewOptions o;
+  o.pixels_per_m = std::nan("");
+  EXPECT_EQ(renderTopView(junction(), o, path).code(), StatusCode::kInvalidArgument);
+  o = {};
+  o.pixels_per_m = -1;
+  EXPECT_EQ(renderTopView(junction(), o, path).code(), StatusCode::kInvalidArgument);
+  o = {};
+  o.slice_z_m = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(renderTopView(junction(), o, path).code(), StatusCode::kInvalidArgument);
+  o = {};
+  o.slice_z_m = 1.0;
+  o.slice_band_m = -0.5;
+  EXPECT_EQ(renderTopView(junction(), o, path).code(), StatusCode::kInvalidArgument);
+  o = {};
+  o.max_pixels = 0;
+  EXPECT_EQ(renderTopView(junction(), o, path).code(), StatusCode::kInvalidArgument);
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+}  // namespace
+}  // namespace adit::tools

@@ -1,0 +1,315 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// `adit map ...`: inspect, convert, query and draw maps. Thin: parse, call the map library, print.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "adit/map/distance_field.hpp"
+#include "adit/map/map_io.hpp"
+#include "adit/map/map_summary.hpp"
+#include "adit/map/survey_network.hpp"
+#include "common/cli.hpp"
+#include "common/progress.hpp"
+#include "common/render_topview.hpp"
+#include "verbs.hpp"
+
+namespace adit::tools {
+
+namespace {
+
+using namespace adit::map;
+
+struct MapArgs {
+  std::string path;
+  std::string unknown = "rock";
+  bool quiet = false;
+};
+
+void addMapArgs(CLI::App* cmd, MapArgs* a) {
+  cmd->add_option("MAP", a->path, "Map file: survey network .yaml, OctoMap .bt or .ot")->required();
+  cmd->add_option("--unknown", a->unknown, "Unknown space counts as: rock (default, surveyed mines) or free")
+      ->check(CLI::IsMember({"rock", "free"}));
+  cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
+}
+
+// Loads a map; for a survey also returns the network (its centreline length is exact).
+struct Loaded {
+  std::optional<OccupancyMap> map;
+  std::optional<SurveyNetwork> survey;
+};
+
+StatusOr<Loaded> load(const MapArgs& a, ProgressBar& bar) {
+  StatusOr<UnknownPolicy> policy = parseUnknownPolicy(a.unknown);
+  if (!policy.ok()) return policy.status();
+  StatusOr<MapFormat> format = formatFromPath(a.path);
+  if (!format.ok()) return format.status();
+  Loaded out;
+  if (*format == MapFormat::kSurveyYaml) {
+    StatusOr<SurveyNetwork> net = loadSurvey(a.path);
+    if (!net.ok()) return net.status();
+    VoxelizeOptions vo;
+    vo.unknown_policy = *policy;
+    vo.progress = bar.callback();
+    StatusOr<OccupancyMap> map = voxelize(*net, vo);
+    if (!map.ok()) return Status(map.status().code(), a.path + ": " + map.status().message());
+    out.survey = std::move(net).value();
+    out.map = std::move(map).value();
+  } else {
+    StatusOr<OccupancyMap> map = loadMap(a.path, {*policy, bar.callback()});
+    if (!map.ok()) return map.status();
+    out.map = std::move(map).value();
+  }
+  bar.finish();
+  return out;
+}
+
+std::string fmtCount(std::uint64_t n) {
+  std::string s = std::to_string(n);
+  for (int i = int(s.size()) - 3; i > 0; i -= 3) s.insert(std::size_t(i), ",");
+  return s;
+}
+
+int runInfo(const MapArgs& a, bool json) {
+  ProgressBar bar(a.quiet);
+  StatusOr<Loaded> loaded = load(a, bar);
+  if (!loaded.ok()) return report(loaded.status());
+  const OccupancyMap& map = *loaded->map;
+  const MapStats& s = map.stats();
+  StatusOr<RoadwayLengthEstimate> est = estimateRoadwayLength(map);
+  if (!est.ok()) return report(est.status());
+  const double v3 = s.voxelVolume();
+  const bool survey = loaded->survey.has_value();
+  const double length = survey ? loaded->survey->totalLength() : est->length_m;
+  if (json) {
+    nlohmann::ordered_json j;
+    j["file"] = a.path;
+    j["format"] = survey ? "survey" : "octomap";
+    j["resolution_m"] = s.resolution_m;
+    j["max_extent_m"] = maxMapExtent(s.resolution_m);
+    j["unknown_policy"] = unknownPolicyName(map.unknownPolicy());
+    j["bounds"] = {{"min", {s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z()}},
+                   {"max", {s.bounds.max.x(), s.bounds.max.y(), s.bounds.max.z()}}};
+    j["voxels"] = {{"free", s.free_voxels}, {"occupied", s.occupied_voxels}, {"unknown", s.unknown_voxels}};
+    j["volume_m3"] = {{"free", double(s.free_voxels) * v3}, {"occupied", double(s.occupied_voxels) * v3},
+                      {"unknown", double(s.unknown_voxels) * v3}};
+    j["octree_nodes"] = s.octree_nodes;
+    j["roadway_length_m"] = length;
+    j["roadway_length_method"] = survey ? "survey centrelines" : "footprint estimate";
+    j["roadway_length_estimate_m"] = est->length_m;
+    j["median_width_m"] = est->median_width_m;
+    if (survey) {
+      const SurveyNetwork& n = *loaded->survey;
+      j["survey"] = {{"name", n.name}, {"stations", n.stations.size()}, {"sections", n.sections.size()},
+                     {"roadways", n.roadways.size()}, {"rock_shell_m", n.rock_shell_m}};
+    }
+    std::cout << j.dump(2) << "\n";
+    return kExitOk;
+  }
+  const Vec3 size = s.bounds.size();
+  std::printf("map          %s\n", a.path.c_str());
+  if (survey) {
+    const SurveyNetwork& n = *loaded->survey;
+    std::printf("survey       %s%s%zu stations, %zu sections, %zu roadways\n", n.name.c_str(),
+                n.name.empty() ? "" : ": ", n.stations.size(), n.sections.size(), n.roadways.size());
+  }
+  std::printf("resolution   %.3f m  (OctoMap keys: coordinates within +-%.1f m of the origin)\n", s.resolution_m,
+              maxMapExtent(s.resolution_m));
+  std::printf("bounds       x [%.2f, %.2f]  y [%.2f, %.2f]  z [%.2f, %.2f] m\n", s.bounds.min.x(), s.bounds.max.x(),
+              s.bounds.min.y(), s.bounds.max.y(), s.bounds.min.z(), s.bounds.max.z());
+  std::printf("size         %.1f x %.1f x %.1f m\n", size.x(), size.y(), size.z());
+  std::printf("free         %15s voxels  %12.1f m3\n", fmtCount(s.free_voxels).c_str(), double(s.free_voxels) * v3);
+  std::printf("occupied     %15s voxels  %12.1f m3\n", fmtCount(s.occupied_voxels).c_str(), double(s.occupied_voxels) * v3);
+  std::printf("unknown      %15s voxels  %12.1f m3  (counted as %s)\n", fmtCount(s.unknown_voxels).c_str(),
+              double(s.unknown_voxels) * v3, unknownPolicyName(map.unknownPolicy()));
+  if (survey)
+    std::printf("roadways     %.1f m of centreline (footprint estimate %.1f m, median width %.2f m)\n", length,
+                est->length_m, est->median_width_m);
+  else
+    std::printf("roadways     ~%.1f m (estimate from the free-space footprint, median width %.2f m)\n", length,
+                est->median_width_m);
+  std::printf("octree       %s nodes\n", fmtCount(s.octree_nodes).c_str());
+  return kExitOk;
+}
+
+int runConvert(const MapArgs& a, const std::string& out) {
+  StatusOr<MapFormat> target = formatFromPath(out);
+  if (!target.ok()) return report(target.status());
+  if (*target == MapFormat::kSurveyYaml)
+    return report(invalidArgument(out + ": can only convert to an OctoMap .bt or .ot file"));
+  ProgressBar bar(a.quiet);
+  StatusOr<Loaded> loaded = load(a, bar);
+  if (!loaded.ok()) return report(loaded.status());
+  if (!a.quiet) std::fprintf(stderr, "writing %s ...\n", out.c_str());
+  Status w = writeOctomap(*loaded->map, out);
+  if (!w.ok()) return report(w);
+  if (!a.quiet)
+    std::fprintf(stderr, "wrote %s: %s octree nodes, resolution %.3f m\n", out.c_str(),
+                 fmtCount(loaded->map->stats().octree_nodes).c_str(), loaded->map->resolution());
+  return kExitOk;
+}
+
+// "x,y,z" with finite numbers; `where` names the source in errors.
+StatusOr<Vec3> parsePoint(const std::string& text, const std::string& where) {
+  std::string t = text;
+  for (char& c : t)
+    if (c == ',' || c == ';' || c == '\t') c = ' ';
+  std::istringstream is(t);
+  Vec3 p;
+  std::string tok;
+  for (int i = 0; i < 3; ++i) {
+    if (!(is >> tok)) return invalidArgument(where + ": expected x,y,z, got '" + text + "'");
+    char* end = nullptr;
+    p[i] = std::strtod(tok.c_str(), &end);
+    if (end == tok.c_str() || *end != '\0') return invalidArgument(where + ": '" + tok + "' is not a number");
+    if (!std::isfinite(p[i])) return invalidArgument(where + ": coordinate '" + tok + "' is not finite");
+  }
+  if (is >> tok) return invalidArgument(where + ": expected three values, got more in '" + text + "'");
+  return p;
+}
+
+StatusOr<std::vector<Vec3>> readPointsCsv(const std::string& path) {
+  StatusOr<std::string> text = readFile(path, std::size_t{1} << 30);
+  if (!text.ok()) return text.status();
+  std::vector<Vec3> pts;
+  std::istringstream in(*text);
+  std::string line;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') continue;
+    // A header row such as "x,y,z" is allowed on the first data line.
+    if (pts.empty() && (std::isalpha(static_cast<unsigned char>(line[first])) && line.substr(first, 3) != "nan" &&
+                        line.substr(first, 3) != "inf"))
+      continue;
+    StatusOr<Vec3> p = parsePoint(line, path + ":" + std::to_string(lineno));
+    if (!p.ok()) return p.status();
+    pts.push_back(*p);
+  }
+  if (pts.empty()) return invalidArgument(path + ": no points (expected lines of x,y,z)");
+  return pts;
+}
+
+int runQuery(const MapArgs& a, const std::string& points_file, const std::vector<std::string>& points,
+             const std::string& out_path) {
+  std::vector<Vec3> pts;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    StatusOr<Vec3> p = parsePoint(points[i], "point " + std::to_string(i + 1));
+    if (!p.ok()) return report(p.status());
+    pts.push_back(*p);
+  }
+  if (!points_file.empty()) {
+    StatusOr<std::vector<Vec3>> more = readPointsCsv(points_file);
+    if (!more.ok()) return report(more.status());
+    pts.insert(pts.end(), more->begin(), more->end());
+  }
+  if (pts.empty()) return report(invalidArgument("no points given: use --points FILE.csv or x,y,z arguments"));
+  ProgressBar bar(a.quiet);
+  StatusOr<Loaded> loaded = load(a, bar);
+  if (!loaded.ok()) return report(loaded.status());
+  StatusOr<DistanceField> df = DistanceField::build(*loaded->map, bar.callback());
+  bar.finish();
+  if (!df.ok()) return report(df.status());
+  // All input is validated before the first byte of output.
+  std::ostringstream os;
+  os << "x,y,z,state,distance,gx,gy,gz\n";
+  char buf[256];
+  for (const Vec3& p : pts) {
+    const DistanceSample s = df->query(p);
+    std::snprintf(buf, sizeof buf, "%.6g,%.6g,%.6g,%s,%.4f,%.6f,%.6f,%.6f\n", p.x(), p.y(), p.z(),
+                  voxelStateName(loaded->map->state(p)), s.distance, s.gradient.x(), s.gradient.y(), s.gradient.z());
+    os << buf;
+  }
+  if (out_path.empty()) {
+    std::cout << os.str();
+    std::cout.flush();
+    return std::cout ? kExitOk : kExitFailure;
+  }
+  Status w = writeFileAtomically(out_path, [&](std::ostream& f) { return bool(f << os.str()); });
+  return w.ok() ? kExitOk : report(w);
+}
+
+int runSlice(const MapArgs& a, const std::optional<double>& z, double band, double ppm, const std::string& out,
+             const std::string& title) {
+  TopViewOptions o;
+  o.slice_z_m = z;
+  o.slice_band_m = band;
+  o.pixels_per_m = ppm;
+  if ((z && !std::isfinite(*z)) || !std::isfinite(band) || band < 0 || !std::isfinite(ppm) || ppm < 0)
+    return report(invalidArgument("--z, --band and --px-per-m must be finite (band and scale >= 0)"));
+  ProgressBar bar(a.quiet);
+  StatusOr<Loaded> loaded = load(a, bar);
+  if (!loaded.ok()) return report(loaded.status());
+  o.title = !title.empty() ? title : (loaded->survey && !loaded->survey->name.empty() ? loaded->survey->name : a.path);
+  Status s = renderTopView(*loaded->map, o, out);
+  if (!s.ok()) return report(s);
+  if (!a.quiet) std::fprintf(stderr, "wrote %s\n", out.c_str());
+  return kExitOk;
+}
+
+}  // namespace
+
+void registerMapVerbs(CLI::App& app, int* rc) {
+  CLI::App* map = app.add_subcommand("map", "Inspect, convert, query and draw mine maps");
+  map->require_subcommand(1);
+
+  {
+    auto a = std::make_shared<MapArgs>();
+    auto json = std::make_shared<bool>(false);
+    CLI::App* cmd = map->add_subcommand("info", "Resolution, bounds, free/occupied/unknown volumes, roadway length");
+    addMapArgs(cmd, a.get());
+    cmd->add_flag("--json", *json, "Machine-readable JSON on stdout");
+    cmd->callback([=] { *rc = runInfo(*a, *json); });
+  }
+  {
+    auto a = std::make_shared<MapArgs>();
+    auto out = std::make_shared<std::string>();
+    CLI::App* cmd = map->add_subcommand("convert", "Convert a survey .yaml (or .bt/.ot) to an OctoMap .bt/.ot file");
+    addMapArgs(cmd, a.get());
+    cmd->add_option("OUT", *out, "Output .bt or .ot (written atomically: never a half file)")->required();
+    cmd->callback([=] { *rc = runConvert(*a, *out); });
+  }
+  {
+    auto a = std::make_shared<MapArgs>();
+    auto file = std::make_shared<std::string>();
+    auto pts = std::make_shared<std::vector<std::string>>();
+    auto out = std::make_shared<std::string>();
+    CLI::App* cmd = map->add_subcommand(
+        "query", "State, distance to rock and its gradient at points; CSV x,y,z,state,distance,gx,gy,gz");
+    addMapArgs(cmd, a.get());
+    cmd->add_option("POINTS", *pts, "Points as x,y,z (metres)");
+    cmd->add_option("--points", *file, "CSV file with one x,y,z per line (header and # comments allowed)");
+    cmd->add_option("-o,--out", *out, "Write the CSV here instead of stdout");
+    cmd->callback([=] { *rc = runQuery(*a, *file, *pts, *out); });
+  }
+  {
+    auto a = std::make_shared<MapArgs>();
+    auto z = std::make_shared<double>(std::numeric_limits<double>::quiet_NaN());
+    auto band = std::make_shared<double>(0.0);
+    auto ppm = std::make_shared<double>(0.0);
+    auto out = std::make_shared<std::string>();
+    auto title = std::make_shared<std::string>();
+    CLI::App* cmd = map->add_subcommand(
+        "slice", "Top-view picture (PNG/SVG) with scale bar and north arrow: a slice at --z, or a projection");
+    addMapArgs(cmd, a.get());
+    CLI::Option* zopt = cmd->add_option("--z", *z, "Slice height [m]; without it, a top view of all heights "
+                                                   "coloured by floor elevation");
+    cmd->add_option("--band", *band, "With --z: free if any voxel within +-band/2 of z is free [m]");
+    cmd->add_option("--px-per-m", *ppm, "Pixels per metre (default: fit about 2000 px)");
+    cmd->add_option("--title", *title, "Title drawn on the picture (default: map name)");
+    cmd->add_option("-o,--out", *out, "Output .png or .svg")->required();
+    cmd->callback([=] {
+      std::optional<double> zz;
+      if (zopt->count() > 0) zz = *z;
+      *rc = runSlice(*a, zz, *band, *ppm, *out, *title);
+    });
+  }
+}
+
+}  // namespace adit::tools

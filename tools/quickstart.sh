@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
+# The README's quick start. On a fresh Debian 12 machine (as root, or with sudo):
+#   bash tools/quickstart.sh run    install what is missing, build (Release), run the main job
+#   bash tools/quickstart.sh test   install what is missing, build (Release), run the whole test suite
+# Environment: BUILD_DIR (default build), JOBS (default nproc), CMAKE_ARGS (extra configure flags).
+set -euo pipefail
+
+mode="${1:-}"
+case "$mode" in
+  run|test) ;;
+  *) echo "usage: $0 run|test" >&2; exit 2 ;;
+esac
+
+cd "$(dirname "$0")/.."
+BUILD_DIR="${BUILD_DIR:-build}"
+JOBS="${JOBS:-$(nproc)}"
+
+# Debian 12 packages adit builds against. OMPL and its boost/ODE companions join with the
+# global planner.
+PKGS=(cmake g++ make pkg-config
+      liboctomap-dev libfcl-dev libccd-dev libeigen3-dev
+      libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
+      libgtest-dev libgmock-dev libbenchmark-dev)
+
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "== installing: ${missing[*]}" >&2
+  SUDO=""
+  [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+echo "== configuring and building ($BUILD_DIR, Release, $JOBS jobs)" >&2
+# shellcheck disable=SC2086
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release ${CMAKE_ARGS:-} >/dev/null
+cmake --build "$BUILD_DIR" -j "$JOBS"
+
+if [ "$mode" = run ]; then
+  mkdir -p out
+  echo "== adit map info maps/district.yaml" >&2
+  "$BUILD_DIR/bin/adit" map info maps/district.yaml
+  echo "== adit map slice maps/district.yaml --out out/district_top.png" >&2
+  "$BUILD_DIR/bin/adit" map slice maps/district.yaml --out out/district_top.png
+  echo "== done: the top view is out/district_top.png" >&2
+else
+  ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
+fi

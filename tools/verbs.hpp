@@ -1,0 +1,13 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+// Registration of the verbs; each sets *rc when it runs.
+namespace CLI {
+class App;
+}
+
+namespace adit::tools {
+
+/// `adit map info|convert|query|slice`.
+void registerMapVerbs(CLI::App& app, int* rc);
+
+}  // namespace adit::tools
