@@ -110,6 +110,26 @@ bool fclCollide(const fcl::CollisionGeometryd* a, const Eigen::Isometry3d& tf_a,
   return fcl::collide(a, tf_a, b, tf_b, request, result) > 0;
 }
 
+// FCL throws from a few degenerate configurations (std::logic_error, FailedAtThisConfiguration
+// in its EPA). Queries never let that escape: `fn` runs under a catch, and a failure gives the
+// rejecting answer, as invalid input does.
+template <class Fn>
+ShapeDistance guarded(Fn&& fn) noexcept {
+  try {
+    return fn();
+  } catch (const std::exception&) {
+    return invalidResult();
+  }
+}
+template <class Fn>
+bool guardedCollide(Fn&& fn) noexcept {
+  try {
+    return fn();
+  } catch (const std::exception&) {
+    return true;
+  }
+}
+
 // World-frame bounding box of a posed shape (tighter than the bounding sphere's box).
 Aabb shapeAabb(const RobotShape& s, const Eigen::Isometry3d& pose) {
   const Eigen::Matrix3d& r = pose.linear();
@@ -287,7 +307,7 @@ ShapeDistance shapeDistance(const RobotShape& a, const Eigen::Isometry3d& pose_a
                             const RobotShape& b, const Eigen::Isometry3d& pose_b) {
   if (!validateQuery(a, pose_a).ok() || !validateQuery(b, pose_b).ok()) return invalidResult();
   const FclShape ga(a), gb(b);
-  return fclPairDistance(ga.get(), pose_a, gb.get(), pose_b);
+  return guarded([&] { return fclPairDistance(ga.get(), pose_a, gb.get(), pose_b); });
 }
 
 ShapeDistance obstacleDistance(const RobotShape& robot, const Eigen::Isometry3d& pose,
@@ -403,22 +423,20 @@ double clearanceLowerBound(const DistanceField& field, const Vec3& p) {
   return (v - site).norm() - kHalfSqrt3 * res - (p - v).norm();
 }
 
-}  // namespace
-
-bool CollisionChecker::inCollision(const RobotShape& shape, const Eigen::Isometry3d& pose) const {
+bool inCollisionImpl(const DistanceField& field, const RobotShape& shape, const Eigen::Isometry3d& pose) {
   if (!validateQuery(shape, pose).ok()) return true;
   const Vec3 origin = pose.translation();
-  if (!field_->isFree(origin)) return true;
+  if (!field.isFree(origin)) return true;
   // The bounding ball is clear of rock: no FCL needed.
-  const double clearance_lb = clearanceLowerBound(*field_, origin);
+  const double clearance_lb = clearanceLowerBound(field, origin);
   if (clearance_lb > shape.boundingRadius()) return false;
 
   const Aabb box = shapeAabb(shape, pose);
-  const CubeLowerBound bound(shape, pose, box, resolution());
+  const CubeLowerBound bound(shape, pose, box, field.resolution());
   Scratch& s = scratch();
-  if (!collectSurfaceRock(*field_, box, bound, 0.0, origin, clearance_lb, s.candidates, s.rock)) return true;
+  if (!collectSurfaceRock(field, box, bound, 0.0, origin, clearance_lb, s.candidates, s.rock)) return true;
   const FclShape robot(shape);
-  fcl::Boxd cube(resolution(), resolution(), resolution());
+  fcl::Boxd cube(field.resolution(), field.resolution(), field.resolution());
   Eigen::Isometry3d cube_pose = Eigen::Isometry3d::Identity();
   for (const Candidate& c : s.candidates) {
     cube_pose.translation() = c.centre;
@@ -427,16 +445,16 @@ bool CollisionChecker::inCollision(const RobotShape& shape, const Eigen::Isometr
   return false;
 }
 
-ShapeDistance CollisionChecker::distance(const RobotShape& shape, const Eigen::Isometry3d& pose,
-                                         double max_distance_m) const {
+ShapeDistance distanceImpl(const DistanceField& field, const RobotShape& shape, const Eigen::Isometry3d& pose,
+                           double max_distance_m) {
   if (std::isnan(max_distance_m) || !validateQuery(shape, pose).ok()) return invalidResult();
   const double max_d = std::max(max_distance_m, 0.0);
   const Vec3 origin = pose.translation();
-  if (!field_->isFree(origin)) return collisionAt(origin, 0);
+  if (!field.isFree(origin)) return collisionAt(origin, 0);
 
   // 1. Far from rock: a lower bound from the field alone.
   const double radius = shape.boundingRadius();
-  const double clearance_lb = clearanceLowerBound(*field_, origin);
+  const double clearance_lb = clearanceLowerBound(field, origin);
   if (clearance_lb - radius > max_d) {
     ShapeDistance r;
     r.distance_m = clearance_lb - radius;
@@ -447,17 +465,16 @@ ShapeDistance CollisionChecker::distance(const RobotShape& shape, const Eigen::I
   // 2. How far the search must look. The robot holds the ball of its inscribed radius around the
   // origin, and the field's distance is that of a real rock cube, so the true distance is at
   // most clearance - inscribed radius: nothing beyond can be the nearest.
-  const DistanceSample at_origin = field_->query(origin);
+  const DistanceSample at_origin = field.query(origin);
   double reach = max_d;
   if (!at_origin.in_rock)
     reach = std::min(reach, std::max(at_origin.distance - inscribedRadius(shape), 0.0) + kBoundSlack);
-  if (!std::isfinite(reach)) return invalidResult();  // field inconsistent and no limit given
 
   // 3. Seeds: FCL against the field's nearest rock voxel of the origin and of the ends of the
   // shape's long axis. Any rock voxel bounds the distance from above, and a close one shrinks the
   // window of step 4 far more than it costs.
   const FclShape robot(shape);
-  const fcl::Boxd cube(resolution(), resolution(), resolution());
+  const fcl::Boxd cube(field.resolution(), field.resolution(), field.resolution());
   Eigen::Isometry3d cube_pose = Eigen::Isometry3d::Identity();
   ShapeDistance best;
   best.distance_m = kInf;
@@ -474,10 +491,10 @@ ShapeDistance CollisionChecker::distance(const RobotShape& shape, const Eigen::I
   const SeedPoints seed_points = seedPoints(shape, pose);
   for (int i = 0; i < seed_points.count; ++i) {
     const Vec3& p = seed_points.points[i];
-    const Vec3 site = field_->nearestRockVoxel(p);
+    const Vec3 site = field.nearestRockVoxel(p);
     if (!allFinite(site)) {
       // p lies inside the robot: in rock means overlap.
-      if (!field_->isFree(p)) return collisionAt(p, checked);
+      if (!field.isFree(p)) return collisionAt(p, checked);
       continue;
     }
     if (std::find(seeds, seeds + seed_count, site) != seeds + seed_count) continue;
@@ -485,12 +502,13 @@ ShapeDistance CollisionChecker::distance(const RobotShape& shape, const Eigen::I
     if (evaluate(site)) return collisionAt(best.point_on_robot, checked);
   }
   reach = std::min(reach, best.distance_m + kBoundSlack);
+  if (!std::isfinite(reach)) return invalidResult();  // field inconsistent and no limit given
 
   // 4. Branch and bound over the surface rock voxels in the robot's box grown by `reach`.
   const Aabb box = shapeAabb(shape, pose);
-  const CubeLowerBound bound(shape, pose, box, resolution());
+  const CubeLowerBound bound(shape, pose, box, field.resolution());
   Scratch& s = scratch();
-  if (!collectSurfaceRock(*field_, box.inflated(reach), bound, reach, origin, clearance_lb, s.candidates, s.rock))
+  if (!collectSurfaceRock(field, box.inflated(reach), bound, reach, origin, clearance_lb, s.candidates, s.rock))
     return invalidResult();
   auto by_bound = [](const Candidate& a, const Candidate& b) { return a.lower_bound > b.lower_bound; };
   std::make_heap(s.candidates.begin(), s.candidates.end(), by_bound);
@@ -509,6 +527,17 @@ ShapeDistance CollisionChecker::distance(const RobotShape& shape, const Eigen::I
   r.exact = false;
   r.candidates_checked = checked;
   return r;
+}
+
+}  // namespace
+
+bool CollisionChecker::inCollision(const RobotShape& shape, const Eigen::Isometry3d& pose) const {
+  return guardedCollide([&] { return inCollisionImpl(*field_, shape, pose); });
+}
+
+ShapeDistance CollisionChecker::distance(const RobotShape& shape, const Eigen::Isometry3d& pose,
+                                         double max_distance_m) const {
+  return guarded([&] { return distanceImpl(*field_, shape, pose, max_distance_m); });
 }
 
 // ---- FclOctreeDistance -----------------------------------------------------------------------
@@ -532,13 +561,14 @@ StatusOr<FclOctreeDistance> FclOctreeDistance::create(const OccupancyMap& map) {
   return FclOctreeDistance(std::make_shared<const Impl>(std::move(tree)));
 }
 
-ShapeDistance FclOctreeDistance::distance(const RobotShape& shape, const Eigen::Isometry3d& pose) const {
-  if (!validateQuery(shape, pose).ok()) return invalidResult();
-  const FclShape robot(shape);
+namespace {
+
+ShapeDistance octreeDistance(const fcl::CollisionGeometryd* robot, const Eigen::Isometry3d& pose,
+                             const fcl::OcTreed& octree) {
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
   fcl::DistanceRequestd request(/*enable_nearest_points=*/true);
   fcl::DistanceResultd result;
-  fcl::distance(robot.get(), pose, &impl_->octree, identity, request, result);
+  fcl::distance(robot, pose, &octree, identity, request, result);
 
   ShapeDistance out;
   if (result.min_distance == std::numeric_limits<double>::max()) {
@@ -549,7 +579,7 @@ ShapeDistance FclOctreeDistance::distance(const RobotShape& shape, const Eigen::
     // -1 on overlap: ask fcl::collide (which also sees occupied nodes only).
     fcl::CollisionRequestd creq(/*num_max_contacts=*/1, /*enable_contact=*/true);
     fcl::CollisionResultd cres;
-    fcl::collide(robot.get(), pose, &impl_->octree, identity, creq, cres);
+    fcl::collide(robot, pose, &octree, identity, creq, cres);
     if (cres.isCollision()) {
       out.collision = true;
       out.point_on_robot = out.point_on_obstacle =
@@ -560,16 +590,24 @@ ShapeDistance FclOctreeDistance::distance(const RobotShape& shape, const Eigen::
   out.distance_m = std::max(result.min_distance, 0.0);
   // FCL 0.7's shape-octree distance records the octree as o1 and its point first, whatever the
   // argument order; follow result.o1 so that a fixed FCL keeps working.
-  const bool swapped = result.o1 != robot.get();
+  const bool swapped = result.o1 != robot;
   out.point_on_robot = result.nearest_points[swapped ? 1 : 0];
   out.point_on_obstacle = result.nearest_points[swapped ? 0 : 1];
   return out;
 }
 
+}  // namespace
+
+ShapeDistance FclOctreeDistance::distance(const RobotShape& shape, const Eigen::Isometry3d& pose) const {
+  if (!validateQuery(shape, pose).ok()) return invalidResult();
+  const FclShape robot(shape);
+  return guarded([&] { return octreeDistance(robot.get(), pose, impl_->octree); });
+}
+
 bool FclOctreeDistance::inCollision(const RobotShape& shape, const Eigen::Isometry3d& pose) const {
   if (!validateQuery(shape, pose).ok()) return true;
   const FclShape robot(shape);
-  return fclCollide(robot.get(), pose, &impl_->octree, Eigen::Isometry3d::Identity());
+  return guardedCollide([&] { return fclCollide(robot.get(), pose, &impl_->octree, Eigen::Isometry3d::Identity()); });
 }
 
 }  // namespace adit::map

@@ -49,11 +49,19 @@ inline int localIndex(int x, int y, int z) {
 // position (increasing) the candidate minimising (q - p)^2 + f. Felzenszwalb & Huttenlocher 2012.
 class LineSolver {
  public:
-  void clear() { pos_.clear(); f_.clear(); site_.clear(); }
-  void add(int p, double f, std::uint64_t site) { pos_.push_back(p); f_.push_back(f); site_.push_back(site); }
+  void clear() { pos_.clear(); f_.clear(); site_.clear(); all_zero_ = true; }
+  void add(int p, double f, std::uint64_t site) {
+    pos_.push_back(p);
+    f_.push_back(f);
+    site_.push_back(site);
+    all_zero_ = all_zero_ && f == 0.0;
+  }
   bool empty() const { return pos_.empty(); }
 
   void prepare() {
+    k_ = 0;
+    // Only rock on the line (the first pass): the nearest candidate by position, no envelope.
+    if (all_zero_) return;
     const std::size_t n = pos_.size();
     v_.resize(n);
     z_.resize(n + 1);
@@ -84,6 +92,17 @@ class LineSolver {
   }
   // Queries must come in increasing position after prepare().
   std::uint64_t solve(int q) {
+    if (all_zero_) {
+      const std::size_t n = pos_.size();
+      std::size_t k = std::size_t(k_);
+      while (k + 1 < n && pos_[k + 1] <= q) ++k;
+      if (k + 1 < n && (pos_[k] > q || pos_[k + 1] - q < q - pos_[k])) {
+        k_ = int(k);
+        return site_[pos_[k] > q ? k : k + 1];
+      }
+      k_ = int(k);
+      return site_[k];
+    }
     while (z_[std::size_t(k_) + 1] < double(q)) ++k_;
     return site_[v_[std::size_t(k_)]];
   }
@@ -95,6 +114,7 @@ class LineSolver {
   std::vector<std::size_t> v_;
   std::vector<double> z_;
   int k_ = 0;
+  bool all_zero_ = true;
 };
 
 // Squared distance from voxel `key` to the site in `w`, over the axes before `axis` (the axes a

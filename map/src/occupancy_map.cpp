@@ -38,6 +38,13 @@ Status checkResolution(double resolution_m) {
     os << "resolution = " << resolution_m << " m is below the supported minimum of 0.001 m";
     return invalidArgument(os.str());
   }
+  // Voxels of more than 100 m describe no roadway, and OctoMap's float coordinates overflow
+  // long before keys run out at absurd resolutions.
+  if (resolution_m > 100.0) {
+    std::ostringstream os;
+    os << "resolution = " << resolution_m << " m is above the supported maximum of 100 m";
+    return invalidArgument(os.str());
+  }
   return {};
 }
 

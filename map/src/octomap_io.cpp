@@ -26,7 +26,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr unsigned kTreeDepth = 16;  // OctoMap's fixed depth for 16-bit keys
-constexpr double kMaxResolution = 1000.0;  // metres; see parseHeader
 
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
@@ -112,14 +111,6 @@ StatusOr<Header> parseHeader(const std::string& bytes, const std::string& name) 
   if (!h.has_res) return invalidArgument(name + ": header has no 'res' line");
   Status rs = checkResolution(h.resolution);
   if (!rs.ok()) return invalidArgument(name + ": header 'res': " + rs.message());
-  // OctoMap keeps coordinates in float: far beyond any real map, voxel centres overflow.
-  if (h.resolution > kMaxResolution) {
-    std::ostringstream os;
-    os.imbue(std::locale::classic());
-    os << name << ": header 'res': resolution = " << h.resolution << " m is above the supported maximum of "
-       << kMaxResolution << " m";
-    return invalidArgument(os.str());
-  }
   if (!h.has_size) return invalidArgument(name + ": header has no 'size' line");
   h.data_offset = pos;
   return h;

@@ -184,8 +184,11 @@ std::vector<Case> collisionCases() {
   };
 }
 
-/// A voxelized roadway with its field, checker and oracles, built once per test.
+/// A voxelized roadway with its field, checker and oracles, built once per test. Not copyable:
+/// the checker and the oracle point into it.
 struct World {
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
   explicit World(const SurveyNetwork& net)
       : map(test::voxelizeOrFail(net)),
         field(std::move(DistanceField::build(map)).value()),
@@ -193,7 +196,8 @@ struct World {
         brute(std::move(BruteForceDistance::create(map)).value()),
         oracle(brute.rockCentres(), map.resolution()) {}
 
-  /// Half the poses anywhere in the bounds (mostly rock), half with a free origin.
+  /// A random orientation at a point anywhere in the bounds (mostly rock) or, with
+  /// `free_origin`, at a free point.
   Eigen::Isometry3d randomPose(std::mt19937_64& rng, bool free_origin) const {
     Vec3 p = test::randomPoint(rng, map.bounds());
     while (free_origin && !map.isFree(p)) p = test::randomPoint(rng, map.bounds());
@@ -599,8 +603,12 @@ TEST(CollisionBadInput, NonFiniteOrNonRigidPoseAndInvalidShapeAreRejectedNotCras
   const ShapeDistance off = w.checker.distance(good, far_away);
   EXPECT_TRUE(off.collision);
   EXPECT_TRUE(off.exact);
-  // A robot absurdly large for the resolution is refused, not scanned for minutes.
-  expectRejected(w.checker.distance(RobotShape::sphere(1e7), ok_pose));
+  // A robot absurdly large for the resolution answers at once (collision), never scans for minutes.
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_TRUE(w.checker.inCollision(RobotShape::sphere(1e7), ok_pose));
+  EXPECT_TRUE(w.checker.distance(RobotShape::sphere(1e7), ok_pose).collision);
+  EXPECT_TRUE(w.checker.inCollision(RobotShape::capsule(0.01, 1e7), ok_pose));
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
   // Negative max distance means 0: only contact is exact.
   const ShapeDistance neg = w.checker.distance(good, ok_pose, -1.0);
   EXPECT_FALSE(neg.exact);
@@ -619,13 +627,19 @@ TEST(CollisionTiming, QueriesNearAWallVersusFclOctree) {
   std::uniform_real_distribution<double> x(1.0, 7.0), gap(0.1, 0.6), z(0.8, 2.2);
   for (int i = 0; i < 200; ++i) poses.push_back(poseAt({x(rng), 2.0 - 0.3 - gap(rng), z(rng)}, randomRotation(rng)));
   using Clock = std::chrono::steady_clock;
+  // The best of three rounds: other jobs on the machine only ever add time.
   auto perQueryUs = [&](auto&& fn, int repeats) {
-    const auto t0 = Clock::now();
-    double sink = 0;
-    for (int r = 0; r < repeats; ++r)
-      for (const Eigen::Isometry3d& p : poses) sink += fn(p);
-    EXPECT_TRUE(std::isfinite(sink));
-    return std::chrono::duration<double, std::micro>(Clock::now() - t0).count() / double(repeats * poses.size());
+    double best = std::numeric_limits<double>::infinity();
+    for (int round = 0; round < 3; ++round) {
+      const auto t0 = Clock::now();
+      double sink = 0;
+      for (int r = 0; r < repeats; ++r)
+        for (const Eigen::Isometry3d& p : poses) sink += fn(p);
+      EXPECT_FALSE(std::isnan(sink));
+      best = std::min(best, std::chrono::duration<double, std::micro>(Clock::now() - t0).count() /
+                                double(repeats * poses.size()));
+    }
+    return best;
   };
   const RobotShape sphere = RobotShape::sphere(0.3), capsule = RobotShape::capsule(0.3, 0.8);
   const double checker_sphere = perQueryUs([&](const auto& p) { return w.checker.distance(sphere, p, 1.0).distance_m; }, 10);

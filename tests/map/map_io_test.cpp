@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -18,6 +19,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <future>
 #include <limits>
 #include <random>
@@ -28,6 +30,7 @@
 #include <vector>
 
 #include "adit/map/survey_network.hpp"
+#include "support/survey_example.hpp"
 #include "support/synthetic_roadway.hpp"
 
 namespace adit::map {
@@ -547,11 +550,15 @@ TEST(MapIoMalformed, BinaryInnerNodeWithoutChildren) {
   // leaf with log-odds -FLT_MAX. Refuse it as corrupt.
   ScratchDir dir;
   const std::string path = dir.path("hollow.bt");
-  writeBytes(path, btHeader(3) + btRecord(kBtInner) + btRecord(0) + std::string());
-  EXPECT_TRUE(failsWith(loadMap(path), StatusCode::kDataLoss, path)) << "inner child without children";
-  // ... while a free sibling next to it does not make it valid either.
-  writeBytes(path, btHeader(3) + btRecord(kBtInner) .substr(0, 1) + char(kBtFree) + btRecord(0));
-  EXPECT_TRUE(failsWith(loadMap(path), StatusCode::kDataLoss, path));
+  // Root: child 0 inner (2 nodes so far); child 0's record has no children.
+  writeBytes(path, btHeader(2) + btRecord(kBtInner) + btRecord(0));
+  EXPECT_TRUE(failsWith(loadMap(path), StatusCode::kDataLoss, path, "has none"));
+  // A free sibling (child 4, low bit of the second byte) does not make it valid either.
+  writeBytes(path, btHeader(3) + btRecord(kBtInner).substr(0, 1) + char(kBtFree) + btRecord(0));
+  EXPECT_TRUE(failsWith(loadMap(path), StatusCode::kDataLoss, path, "has none"));
+  // Control: the same tree with a free leaf under the inner child loads.
+  writeBytes(path, btHeader(4) + btRecord(kBtInner).substr(0, 1) + char(kBtFree) + btRecord(kBtFree));
+  EXPECT_TRUE(loadMap(path).ok());
 }
 
 TEST(MapIoMalformed, TrailingGarbage) {
@@ -817,22 +824,9 @@ TEST(MapIoAtomicWrite, OverwritesAnExistingMap) {
 // ---------------------------------------------------------------------------------------------
 // 5. Survey files through loadMap
 
-// The issue's example (tests/map/survey_network_test.cpp kExample) with the roadways shortened
-// from 300 m to 30 m so that every cut that parses can be voxelized quickly.
-constexpr const char* kSurvey = R"(resolution: 0.2                 # voxel edge, metres; frame: x east, y north, z up
-stations:                       # id: [x, y, z of the roadway floor]
-  S1: [0, 0, 0]
-  S2: [30, 0, 3]
-  S3: [30, 8, 4]
-sections:                       # named cross-sections
-  main: {shape: arch, width: 5.0, wall_height: 3.0}        # semicircular arch, rise = width/2
-  gate: {shape: rectangle, width: 4.5, height: 3.5}
-  drift: {shape: trapezoid, bottom_width: 4.0, top_width: 3.2, height: 3.0}
-  haul: {shape: three_centred_arch, width: 5.5, wall_height: 2.8, rise: 1.8}
-roadways:                       # centerlines through stations, each with one section
-  - {name: main, stations: [S1, S2], section: main}
-  - {name: crosscut-1, stations: [S2, S3], section: gate}
-)";
+// The issue's example with the roadways shortened from 300 m to 30 m so that every cut that
+// parses can be voxelized quickly.
+const std::string kSurvey = test::shortIssueSurveyExample();
 
 std::string replaceOnce(std::string s, const std::string& from, const std::string& to) {
   const auto at = s.find(from);

@@ -6,25 +6,13 @@
 #include <cmath>
 
 #include "adit/map/distance_field.hpp"
+#include "support/survey_example.hpp"
 #include "support/synthetic_roadway.hpp"
 
 namespace adit::map {
 namespace {
 
-constexpr const char* kExample = R"(resolution: 0.2                 # voxel edge, metres; frame: x east, y north, z up
-stations:                       # id: [x, y, z of the roadway floor]
-  S1: [0, 0, 0]
-  S2: [300, 0, 3]
-  S3: [300, 80, 4]
-sections:                       # named cross-sections
-  main: {shape: arch, width: 5.0, wall_height: 3.0}        # semicircular arch, rise = width/2
-  gate: {shape: rectangle, width: 4.5, height: 3.5}
-  drift: {shape: trapezoid, bottom_width: 4.0, top_width: 3.2, height: 3.0}
-  haul: {shape: three_centred_arch, width: 5.5, wall_height: 2.8, rise: 1.8}
-roadways:                       # centerlines through stations, each with one section
-  - {name: main, stations: [S1, S2], section: main}
-  - {name: crosscut-1, stations: [S2, S3], section: gate}
-)";
+const std::string kExample = test::kIssueSurveyExample;
 
 TEST(SurveyNetwork, ParsesTheIssueExampleAsWritten) {
   StatusOr<SurveyNetwork> net = parseSurvey(kExample, "example.yaml");

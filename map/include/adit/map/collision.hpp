@@ -24,7 +24,9 @@
 /// Invalid queries (a non-finite or non-rigid pose, a shape that fails RobotShape::validate(), a
 /// NaN max_distance_m or time) never crash: they report collision = true, distance_m = 0,
 /// exact = false and NaN points, so a planner rejects the state. That combination occurs for
-/// invalid input only (a real collision is always exact); validateQuery() gives the reason.
+/// invalid input only (a real collision is always exact); validateQuery() gives the reason. The
+/// same answer is given in the unlikely case that FCL throws (its EPA does on some degenerate
+/// configurations); no exception leaves these functions.
 
 #include <limits>
 #include <memory>
@@ -67,11 +69,13 @@ ShapeDistance obstacleDistance(const RobotShape& robot, const Eigen::Isometry3d&
 
 /// Robot-vs-rock queries for the planners' hot loops.
 ///
-/// Cost: a query far from rock (clearance - boundingRadius() > max_distance_m) is a few field
-/// reads. Otherwise it scans the voxels of the robot's bounding box grown by
-/// min(max_distance_m, clearance at the origin) (a few thousand field reads for a metre-sized
-/// robot at 0.2 m) and usually makes one to a few FCL calls. Keep max_distance_m as small as the
-/// caller needs. Thread-safe: queries are const and keep no state.
+/// Cost: a query far from rock (clearance - boundingRadius() > max_distance_m) is two field
+/// reads. Near rock, distance() runs FCL against the nearest rock voxel of a few points inside
+/// the robot (an upper bound), then scans the rock surface voxels in the robot's bounding box
+/// grown by that bound and branch-and-bounds FCL over them; measured near a wall at 0.2 m, about
+/// 4 us for a sphere and 10-30 us for a box or capsule, with 1-5 FCL calls. inCollision() needs
+/// no upper bound and costs a few us. Thread-safe: queries are const and their scratch memory is
+/// per thread.
 class CollisionChecker {
  public:
   /// Keeps pointers to `map` and `field`, which must outlive the checker (and its copies). The
@@ -100,8 +104,9 @@ class CollisionChecker {
 };
 
 /// Baseline only: FCL's fcl::OcTree distance against the map's octree, kept to measure
-/// CollisionChecker against and to cross-check it. Not for hot paths: a sphere query costs about
-/// 0.1-0.5 ms, one to two orders of magnitude more than CollisionChecker near a wall.
+/// CollisionChecker against and to cross-check it. Not for hot paths: near a wall of a small
+/// roadway map a sphere query costs about 0.1 ms and a capsule 0.4-0.6 ms, 20 times
+/// CollisionChecker, and the octree walk grows with the map.
 ///
 /// It differs from CollisionChecker's rock model: fcl::OcTree sees *occupied* nodes only and
 /// treats unknown space as free. It therefore agrees with the checker only where the rock is
