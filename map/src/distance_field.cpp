@@ -24,8 +24,8 @@ using internal::kBlockSize;
 using internal::kBlockVoxels;
 using internal::keyOf;
 
-// A voxel word: the key of its nearest rock voxel (16 bits per axis) plus two flags. Rock
-// voxels are their own site.
+// A voxel word: for a free voxel, the key of its nearest rock voxel (16 bits per axis) plus two
+// flags; a rock voxel is 0 and is its own site, so new tiles need no more than zero pages.
 constexpr std::uint64_t kFreeBit = std::uint64_t{1} << 48;
 constexpr std::uint64_t kSiteBit = std::uint64_t{1} << 49;
 constexpr std::uint64_t kKeyMask = (std::uint64_t{1} << 48) - 1;
@@ -132,25 +132,26 @@ struct BoxI {
   int lo[3], hi[3];  // inclusive voxel keys
 };
 
-struct LeafBox {
-  int lo[3];  // smallest voxel key
-  int size;   // edge in voxels
-};
-
 // A direct walk of the octree: several times faster than OctoMap's leaf_iterator, and it yields
-// the key box of each leaf without going through coordinates.
-void collectLeaves(const octomap::OcTree& tree, const octomap::OcTreeNode* node, const int lo[3], int size,
-                   std::vector<LeafBox>* free_boxes, std::vector<LeafBox>* occupied_boxes) {
+// the key box of each leaf without going through coordinates. fn(lo, size, occupied).
+template <class Fn>
+void visitLeaves(const octomap::OcTree& tree, const octomap::OcTreeNode* node, int x, int y, int z, int size,
+                 Fn& fn) {
   if (!tree.nodeHasChildren(node)) {
-    (tree.isNodeOccupied(node) ? occupied_boxes : free_boxes)->push_back({{lo[0], lo[1], lo[2]}, size});
+    const int lo[3] = {x, y, z};
+    fn(lo, size, tree.isNodeOccupied(node));
     return;
   }
   const int h = size / 2;
-  for (unsigned i = 0; i < 8; ++i) {
-    if (!tree.nodeChildExists(node, i)) continue;
-    const int child_lo[3] = {lo[0] + int(i & 1u) * h, lo[1] + int((i >> 1) & 1u) * h, lo[2] + int((i >> 2) & 1u) * h};
-    collectLeaves(tree, tree.getNodeChild(node, i), child_lo, h, free_boxes, occupied_boxes);
-  }
+  for (unsigned i = 0; i < 8; ++i)
+    if (tree.nodeChildExists(node, i))
+      visitLeaves(tree, tree.getNodeChild(node, i), x + int(i & 1u) * h, y + int((i >> 1) & 1u) * h,
+                  z + int((i >> 2) & 1u) * h, h, fn);
+}
+
+template <class Fn>
+void visitLeaves(const octomap::OcTree& tree, Fn&& fn) {
+  if (tree.getRoot()) visitLeaves(tree, tree.getRoot(), 0, 0, 0, 1 << tree.getTreeDepth(), fn);
 }
 
 }  // namespace
@@ -172,7 +173,7 @@ struct DistanceField::Impl {
   }
   std::uint64_t word(int x, int y, int z) const {
     const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
-    return b < 0 ? rockWord(x, y, z) : blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))];
+    return b < 0 ? 0 : blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))];
   }
 
   // Allocates (rock-initialised) tiles for the given distinct block coords and rebuilds the
@@ -182,39 +183,34 @@ struct DistanceField::Impl {
     for (const auto& c : coords)
       if (blockIndex(c[0], c[1], c[2]) < 0) fresh.push_back(c);
     if (fresh.empty()) return;
-    int lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = blocks.empty() ? std::numeric_limits<int>::max() : bmin[a];
-      hi[a] = blocks.empty() ? std::numeric_limits<int>::min() : bmin[a] + bdim[a] - 1;
-    }
-    for (const auto& c : fresh)
-      for (int a = 0; a < 3; ++a) { lo[a] = std::min(lo[a], c[a]); hi[a] = std::max(hi[a], c[a]); }
     blocks.reserve(blocks.size() + fresh.size());  // no regrowth copies of 32 KiB tiles
     for (const auto& c : fresh) {
-      Block& b = blocks.emplace_back();
-      for (int z = 0; z < kBlockSize; ++z)
-        for (int y = 0; y < kBlockSize; ++y)
-          for (int x = 0; x < kBlockSize; ++x) {
-            const int kx = (c[0] << kBlockBits) + x, ky = (c[1] << kBlockBits) + y, kz = (c[2] << kBlockBits) + z;
-            b[std::size_t(localIndex(kx, ky, kz))] = rockWord(kx, ky, kz);
-          }
+      blocks.emplace_back();  // value-initialised: all rock
       block_coords.push_back(c);
     }
+    rebuildIndex();
+  }
+
+  // The dense tile index over the bounding box of all tiles (4 bytes per 16^3 voxels).
+  void rebuildIndex() {
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) { lo[a] = std::numeric_limits<int>::max(); hi[a] = std::numeric_limits<int>::min(); }
+    for (const auto& c : block_coords)
+      for (int a = 0; a < 3; ++a) { lo[a] = std::min(lo[a], c[a]); hi[a] = std::max(hi[a], c[a]); }
     for (int a = 0; a < 3; ++a) { bmin[a] = lo[a]; bdim[a] = hi[a] - lo[a] + 1; }
     index.assign(std::size_t(bdim[0]) * std::size_t(bdim[1]) * std::size_t(bdim[2]), -1);
     for (std::size_t i = 0; i < block_coords.size(); ++i) {
       const auto& c = block_coords[i];
       const std::size_t at = (std::size_t(c[2] - bmin[2]) * std::size_t(bdim[1]) + std::size_t(c[1] - bmin[1])) *
                                  std::size_t(bdim[0]) + std::size_t(c[0] - bmin[0]);
-      if (index[at] >= 0) continue;  // duplicate coordinate, keep the first
-      index[at] = std::int32_t(i);
+      if (index[at] < 0) index[at] = std::int32_t(i);
     }
   }
 
   void setFree(int x, int y, int z, bool free) {
     const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
     if (b < 0) return;  // rock stays implicit
-    blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))] = free ? kFreeBit : rockWord(x, y, z);
+    blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))] = free ? kFreeBit : 0;
   }
 
   // Full transform in place, over the allocated tiles only: along each axis, the tiles are
@@ -267,7 +263,7 @@ struct DistanceField::Impl {
                 key[axis] = p;
                 std::uint64_t& w = blk[std::size_t(localIndex(key[0], key[1], key[2]))];
                 if (!isFreeWord(w)) {
-                  solver.add(p, 0.0, w & ~kFreeBit);
+                  solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
                 } else {
                   if (hasSite(w)) solver.add(p, partialF(key, w, axis), w & kKeyMask);
                   queries.emplace_back(p, &w);
@@ -304,7 +300,7 @@ struct DistanceField::Impl {
       for (int y = r.lo[1]; y <= r.hi[1]; ++y)
         for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
           const std::uint64_t w = word(x, y, z);
-          at(x, y, z) = isFreeWord(w) ? kFreeBit : rockWord(x, y, z);
+          at(x, y, z) = isFreeWord(w) ? kFreeBit : 0;
         }
     LineSolver solver;
     std::vector<std::pair<int, std::uint64_t*>> queries;
@@ -319,7 +315,7 @@ struct DistanceField::Impl {
             key[axis] = p;
             std::uint64_t& w = at(key[0], key[1], key[2]);
             if (!isFreeWord(w)) {
-              solver.add(p, 0.0, w);
+              solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
             } else {
               if (hasSite(w)) solver.add(p, partialF(key, w, axis), w & kKeyMask);
               queries.emplace_back(p, &w);
@@ -398,15 +394,9 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
   impl->inv = 1.0 / impl->res;
   const double res = impl->res, inv = impl->inv;
   const octomap::OcTree& tree = map.octree();
-  const unsigned depth = tree.getTreeDepth();
 
-  // Free voxels as key boxes: free leaves, plus (policy kFree) the unknown inside the bounds.
-  std::vector<LeafBox> free_boxes;
-  std::vector<LeafBox> occupied_boxes;
-  if (tree.getRoot()) {
-    const int lo[3] = {0, 0, 0};
-    collectLeaves(tree, tree.getRoot(), lo, 1 << depth, &free_boxes, &occupied_boxes);
-  }
+  // Free voxels: free leaves, plus (policy kFree) the unknown inside the bounds. Two walks of
+  // the octree (tiles first, then voxels) keep memory to the tiles themselves.
   const bool unknown_free = map.unknownPolicy() == UnknownPolicy::kFree && !map.bounds().empty();
   BoxI bounds_keys{};
   if (unknown_free) {
@@ -416,16 +406,40 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
     }
   }
 
-  std::unordered_set<std::uint64_t> seen;
-  std::vector<std::array<int, 3>> coords;
-  std::uint64_t last = ~std::uint64_t{0};  // leaves come in octree order: mostly the same tile
-  auto addBlocks = [&](const int lo[3], const int hi[3]) {
-    for (int bz = lo[2] >> kBlockBits; bz <= hi[2] >> kBlockBits; ++bz)
-      for (int by = lo[1] >> kBlockBits; by <= hi[1] >> kBlockBits; ++by)
-        for (int bx = lo[0] >> kBlockBits; bx <= hi[0] >> kBlockBits; ++bx) {
-          const std::uint64_t key = internal::packBlock(bx, by, bz);
-          if (key != last && seen.insert(key).second) coords.push_back({bx, by, bz});
-          last = key;
+  // One walk of the octree creates the tiles on demand and marks the free voxels; the dense
+  // tile index is built afterwards from the tiles' coordinates.
+  std::unordered_map<std::uint64_t, std::uint32_t> tile_of;
+  std::uint64_t last_key = ~std::uint64_t{0};
+  Block* last_tile = nullptr;
+  // A fill ratio of 1/4 is typical of roadways: reserve address space, not memory.
+  impl->blocks.reserve(std::size_t(std::min<double>(double(max_blocks), 4.0 * double(map.stats().free_voxels) / kBlockVoxels + 64)));
+  bool overflow = false;
+  auto tile = [&](int bx, int by, int bz) -> Block* {
+    const std::uint64_t key = internal::packBlock(bx, by, bz);
+    if (key == last_key) return last_tile;
+    auto [it, inserted] = tile_of.try_emplace(key, std::uint32_t(impl->blocks.size()));
+    if (inserted) {
+      if (impl->blocks.size() >= max_blocks) { overflow = true; tile_of.erase(it); return nullptr; }
+      impl->blocks.emplace_back();  // value-initialised: all rock
+      impl->block_coords.push_back({bx, by, bz});
+    }
+    last_key = key;
+    last_tile = &impl->blocks[it->second];
+    return last_tile;
+  };
+  // Sets a box of voxels free (or rock); a leaf of up to 16 voxels lies in one tile.
+  auto mark = [&](const int lo[3], const int hi[3], bool free) {
+    for (int bz = lo[2] >> kBlockBits; bz <= hi[2] >> kBlockBits && !overflow; ++bz)
+      for (int by = lo[1] >> kBlockBits; by <= hi[1] >> kBlockBits && !overflow; ++by)
+        for (int bx = lo[0] >> kBlockBits; bx <= hi[0] >> kBlockBits && !overflow; ++bx) {
+          Block* blk = tile(bx, by, bz);
+          if (!blk) return;
+          const int x0 = std::max(lo[0], bx << kBlockBits), x1 = std::min(hi[0], (bx << kBlockBits) + kBlockMask);
+          const int y0 = std::max(lo[1], by << kBlockBits), y1 = std::min(hi[1], (by << kBlockBits) + kBlockMask);
+          const int z0 = std::max(lo[2], bz << kBlockBits), z1 = std::min(hi[2], (bz << kBlockBits) + kBlockMask);
+          for (int z = z0; z <= z1; ++z)
+            for (int y = y0; y <= y1; ++y)
+              for (int x = x0; x <= x1; ++x) (*blk)[std::size_t(localIndex(x, y, z))] = free ? kFreeBit : 0;
         }
   };
   if (unknown_free) {
@@ -436,38 +450,38 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
       return outOfRange("distance field: treating unknown space as free needs about " +
                         std::to_string(std::uint64_t(blocks_needed)) + " tiles of 16^3 voxels (limit " +
                         std::to_string(max_blocks) + "); use --unknown rock or a coarser map");
-    addBlocks(bounds_keys.lo, bounds_keys.hi);
-  }
-  for (const LeafBox& b : free_boxes) {
-    const int hi[3] = {b.lo[0] + b.size - 1, b.lo[1] + b.size - 1, b.lo[2] + b.size - 1};
-    const double tiles = std::pow(std::max(1.0, b.size / double(kBlockSize)), 3.0);
-    if (double(coords.size()) + tiles > double(max_blocks))
-      return outOfRange("distance field: the free space needs more than " + std::to_string(max_blocks) +
-                        " tiles of 16^3 voxels (" + std::to_string(max_blocks * 32 / 1024) + " MiB)");
-    addBlocks(b.lo, hi);
-    if (coords.size() > max_blocks)
-      return outOfRange("distance field: the free space needs more than " + std::to_string(max_blocks) +
-                        " tiles of 16^3 voxels (" + std::to_string(max_blocks * 32 / 1024) + " MiB)");
-  }
-  if (coords.empty()) return failedPrecondition("distance field: the map has no free voxel");
-  impl->allocate(coords);
-
-  if (unknown_free) {
-    for (int z = bounds_keys.lo[2]; z <= bounds_keys.hi[2]; ++z)
-      for (int y = bounds_keys.lo[1]; y <= bounds_keys.hi[1]; ++y)
-        for (int x = bounds_keys.lo[0]; x <= bounds_keys.hi[0]; ++x) impl->setFree(x, y, z, true);
-    for (const LeafBox& b : occupied_boxes)
-      for (int z = b.lo[2]; z < b.lo[2] + b.size; ++z)
-        for (int y = b.lo[1]; y < b.lo[1] + b.size; ++y)
-          for (int x = b.lo[0]; x < b.lo[0] + b.size; ++x) impl->setFree(x, y, z, false);
+    mark(bounds_keys.lo, bounds_keys.hi, true);
+    // Occupied leaves inside the bounds only: the tiles there exist already.
+    visitLeaves(tree, [&](const int lo[3], int size, bool occupied) {
+      if (!occupied) return;
+      const int hi[3] = {lo[0] + size - 1, lo[1] + size - 1, lo[2] + size - 1};
+      int clo[3], chi[3];
+      for (int a = 0; a < 3; ++a) {
+        clo[a] = std::max(lo[a], bounds_keys.lo[a]);
+        chi[a] = std::min(hi[a], bounds_keys.hi[a]);
+        if (clo[a] > chi[a]) return;
+      }
+      mark(clo, chi, false);
+    });
   } else {
-    for (const LeafBox& b : free_boxes)
-      for (int z = b.lo[2]; z < b.lo[2] + b.size; ++z)
-        for (int y = b.lo[1]; y < b.lo[1] + b.size; ++y)
-          for (int x = b.lo[0]; x < b.lo[0] + b.size; ++x) impl->setFree(x, y, z, true);
+    visitLeaves(tree, [&](const int lo[3], int size, bool occupied) {
+      if (occupied || overflow) return;
+      if (std::pow(double(size) / kBlockSize, 3.0) > double(max_blocks)) { overflow = true; return; }
+      const int hi[3] = {lo[0] + size - 1, lo[1] + size - 1, lo[2] + size - 1};
+      mark(lo, hi, true);
+    });
   }
+  if (overflow)
+    return outOfRange("distance field: the free space needs more than " + std::to_string(max_blocks) +
+                      " tiles of 16^3 voxels (" + std::to_string(max_blocks * 32 / 1024) + " MiB)");
+  if (impl->blocks.empty()) return failedPrecondition("distance field: the map has no free voxel");
+  impl->rebuildIndex();
+  if (progress) progress("reading free space", 1.0);
+  const auto t1 = std::chrono::steady_clock::now();
   impl->transformAll(progress);
+  const auto t2 = std::chrono::steady_clock::now();
   impl->refreshStats();
+  impl->stats.transform_seconds = std::chrono::duration<double>(t2 - t1).count();
   impl->stats.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return DistanceField(std::move(impl));
 }
@@ -482,7 +496,9 @@ bool DistanceField::isFree(const Vec3& p) const noexcept {
 
 Vec3 DistanceField::nearestRockVoxel(const Vec3& p) const noexcept {
   const double inv = impl_->inv, res = impl_->res;
-  const std::uint64_t w = impl_->word(keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv));
+  const int k[3] = {keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv)};
+  std::uint64_t w = impl_->word(k[0], k[1], k[2]);
+  if (!isFreeWord(w)) w = rockWord(k[0], k[1], k[2]);
   if (!hasSite(w)) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   return {centreOf(siteCoord(w, 0), res), centreOf(siteCoord(w, 1), res), centreOf(siteCoord(w, 2), res)};
 }
@@ -519,7 +535,11 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
   const double ox = (0.5 - internal::kKeyOffset) * res;
   double d2[8];
   for (int c = 0; c < 8; ++c) {
-    const std::uint64_t w = words[c];
+    // A rock corner is its own site.
+    const std::uint64_t w = isFreeWord(words[c])
+                                ? words[c]
+                                : rockWord(base[0] + (c & 1), base[1] + ((c >> 1) & 1), base[2] + (c >> 2));
+    words[c] = w;
     const double ex = std::max(std::abs(p.x() - (double(siteCoord(w, 0)) * res + ox)) - half, 0.0);
     const double ey = std::max(std::abs(p.y() - (double(siteCoord(w, 1)) * res + ox)) - half, 0.0);
     const double ez = std::max(std::abs(p.z() - (double(siteCoord(w, 2)) * res + ox)) - half, 0.0);

@@ -73,6 +73,8 @@ Status RobotShape::validate() const {
           (type == ShapeType::kCylinder && length <= 0.0))
         return invalidArgument("bad dimensions for " + name());
       break;
+    default:
+      return invalidArgument("unknown shape type " + std::to_string(int(type)));
   }
   return {};
 }

@@ -5,8 +5,10 @@
 /// unknown-space policy, and answers distance queries by scanning them all. Tests compare the
 /// distance field and the FCL bridge against it; it is far too slow for anything else.
 ///
-///   BruteForceDistance oracle(map);
-///   EXPECT_NEAR(field.distance(p), oracle.query(p).distance, 0.5 * map.resolution());
+///   StatusOr<BruteForceDistance> oracle = BruteForceDistance::create(map);
+///   EXPECT_NEAR(field.distance(p), oracle->query(p).distance, 0.5 * map.resolution());
+///
+/// It keeps a pointer to `map`, which must outlive it.
 
 #include <vector>
 

@@ -11,6 +11,7 @@
 
 #include <Eigen/Geometry>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -80,6 +81,8 @@ struct RobotShape {
 };
 
 /// An obstacle that moves with constant acceleration (the papers' moving obstacles).
+/// Beware brace-initialisation with `{}` for a vector: it replaces the zero default with Eigen's
+/// uninitialised default constructor. Write Vec3::Zero() instead.
 struct MovingObstacle {
   RobotShape shape = RobotShape::sphere(0.5);
   Vec3 position = Vec3::Zero();      ///< at t = 0 [m]
