@@ -5,8 +5,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "adit/map/distance_field.hpp"
@@ -80,11 +82,15 @@ int runInfo(const MapArgs& a, bool json) {
   if (!loaded.ok()) return report(loaded.status());
   const OccupancyMap& map = *loaded->map;
   const MapStats& s = map.stats();
-  StatusOr<RoadwayLengthEstimate> est = estimateRoadwayLength(map);
-  if (!est.ok()) return report(est.status());
+  // The estimate is a convenience: a map too sparse for it still gets its summary.
+  StatusOr<RoadwayLengthEstimate> est_or = estimateRoadwayLength(map);
+  std::optional<RoadwayLengthEstimate> est;
+  if (est_or.ok()) est = *est_or;
+  else std::fprintf(stderr, "adit: warning: no roadway length estimate: %s\n", est_or.status().message().c_str());
   const double v3 = s.voxelVolume();
   const bool survey = loaded->survey.has_value();
-  const double length = survey ? loaded->survey->totalLength() : est->length_m;
+  const bool has_length = survey || est.has_value();
+  const double length = survey ? loaded->survey->totalLength() : est ? est->length_m : 0.0;
   if (json) {
     nlohmann::ordered_json j;
     j["file"] = a.path;
@@ -98,10 +104,10 @@ int runInfo(const MapArgs& a, bool json) {
     j["volume_m3"] = {{"free", double(s.free_voxels) * v3}, {"occupied", double(s.occupied_voxels) * v3},
                       {"unknown", double(s.unknown_voxels) * v3}};
     j["octree_nodes"] = s.octree_nodes;
-    j["roadway_length_m"] = length;
+    j["roadway_length_m"] = has_length ? nlohmann::ordered_json(length) : nlohmann::ordered_json();
     j["roadway_length_method"] = survey ? "survey centrelines" : "footprint estimate";
-    j["roadway_length_estimate_m"] = est->length_m;
-    j["median_width_m"] = est->median_width_m;
+    j["roadway_length_estimate_m"] = est ? nlohmann::ordered_json(est->length_m) : nlohmann::ordered_json();
+    j["median_width_m"] = est ? nlohmann::ordered_json(est->median_width_m) : nlohmann::ordered_json();
     if (survey) {
       const SurveyNetwork& n = *loaded->survey;
       j["survey"] = {{"name", n.name}, {"stations", n.stations.size()}, {"sections", n.sections.size()},
@@ -126,12 +132,16 @@ int runInfo(const MapArgs& a, bool json) {
   std::printf("occupied     %15s voxels  %12.1f m3\n", fmtCount(s.occupied_voxels).c_str(), double(s.occupied_voxels) * v3);
   std::printf("unknown      %15s voxels  %12.1f m3  (counted as %s)\n", fmtCount(s.unknown_voxels).c_str(),
               double(s.unknown_voxels) * v3, unknownPolicyName(map.unknownPolicy()));
-  if (survey)
+  if (survey && est)
     std::printf("roadways     %.1f m of centreline (footprint estimate %.1f m, median width %.2f m)\n", length,
                 est->length_m, est->median_width_m);
-  else
+  else if (survey)
+    std::printf("roadways     %.1f m of centreline\n", length);
+  else if (est)
     std::printf("roadways     ~%.1f m (estimate from the free-space footprint, median width %.2f m)\n", length,
                 est->median_width_m);
+  else
+    std::printf("roadways     unknown (no estimate for this map)\n");
   std::printf("octree       %s nodes\n", fmtCount(s.octree_nodes).c_str());
   return kExitOk;
 }
@@ -246,7 +256,9 @@ int runSlice(const MapArgs& a, const std::optional<double>& z, double band, doub
   ProgressBar bar(a.quiet);
   StatusOr<Loaded> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
-  o.title = !title.empty() ? title : (loaded->survey && !loaded->survey->name.empty() ? loaded->survey->name : a.path);
+  o.title = !title.empty() ? title
+            : loaded->survey && !loaded->survey->name.empty() ? loaded->survey->name
+                                                               : std::filesystem::path(a.path).filename().string();
   Status s = renderTopView(*loaded->map, o, out);
   if (!s.ok()) return report(s);
   if (!a.quiet) std::fprintf(stderr, "wrote %s\n", out.c_str());

@@ -75,13 +75,8 @@ class LineSolver {
         const std::size_t r = v_[std::size_t(k)];
         s = ((f_[q] + double(pos_[q]) * pos_[q]) - (f_[r] + double(pos_[r]) * pos_[r])) /
             (2.0 * double(pos_[q] - pos_[r]));
-        if (s <= z_[std::size_t(k)] && k > 0) { --k; continue; }
+        if (s <= z_[std::size_t(k)]) { --k; continue; }  // z_[0] = -inf ends this
         break;
-      }
-      if (s <= z_[std::size_t(k)]) {  // k == 0 and the new parabola dominates everywhere
-        v_[0] = q;
-        z_[1] = std::numeric_limits<double>::infinity();
-        continue;
       }
       ++k;
       v_[std::size_t(k)] = q;
@@ -178,25 +173,35 @@ struct DistanceField::Impl {
 
   // Allocates (rock-initialised) tiles for the given distinct block coords and rebuilds the
   // dense index over the union of old and new tiles.
-  void allocate(const std::vector<std::array<int, 3>>& coords) {
+  Status allocate(const std::vector<std::array<int, 3>>& coords) {
     std::vector<std::array<int, 3>> fresh;
     for (const auto& c : coords)
       if (blockIndex(c[0], c[1], c[2]) < 0) fresh.push_back(c);
-    if (fresh.empty()) return;
+    if (fresh.empty()) return {};
     blocks.reserve(blocks.size() + fresh.size());  // no regrowth copies of 32 KiB tiles
     for (const auto& c : fresh) {
       blocks.emplace_back();  // value-initialised: all rock
       block_coords.push_back(c);
     }
-    rebuildIndex();
+    return rebuildIndex();
   }
 
-  // The dense tile index over the bounding box of all tiles (4 bytes per 16^3 voxels).
-  void rebuildIndex() {
+  // The dense tile index over the bounding box of all tiles: 4 bytes per 16^3 voxels of the box
+  // (37 MB for 2 km x 1 km x 150 m at 0.2 m). Refused beyond 2^26 entries (256 MiB), which only
+  // free space scattered over kilometres at a fine resolution reaches.
+  Status rebuildIndex() {
     int lo[3], hi[3];
     for (int a = 0; a < 3; ++a) { lo[a] = std::numeric_limits<int>::max(); hi[a] = std::numeric_limits<int>::min(); }
     for (const auto& c : block_coords)
       for (int a = 0; a < 3; ++a) { lo[a] = std::min(lo[a], c[a]); hi[a] = std::max(hi[a], c[a]); }
+    const double entries = double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
+    if (entries > double(1 << 26)) {
+      std::ostringstream os;
+      os << "distance field: the free space spans " << (hi[0] - lo[0] + 1) << " x " << (hi[1] - lo[1] + 1) << " x "
+         << (hi[2] - lo[2] + 1) << " tiles of " << kBlockSize << "^3 voxels; the tile index would need "
+         << entries * 4 / double(1 << 20) << " MiB (limit 256 MiB): crop the map or use a coarser resolution";
+      return outOfRange(os.str());
+    }
     for (int a = 0; a < 3; ++a) { bmin[a] = lo[a]; bdim[a] = hi[a] - lo[a] + 1; }
     index.assign(std::size_t(bdim[0]) * std::size_t(bdim[1]) * std::size_t(bdim[2]), -1);
     for (std::size_t i = 0; i < block_coords.size(); ++i) {
@@ -205,6 +210,7 @@ struct DistanceField::Impl {
                                  std::size_t(bdim[0]) + std::size_t(c[0] - bmin[0]);
       if (index[at] < 0) index[at] = std::int32_t(i);
     }
+    return {};
   }
 
   void setFree(int x, int y, int z, bool free) {
@@ -248,6 +254,8 @@ struct DistanceField::Impl {
             solver.clear();
             queries.clear();
             auto addRock = [&](int p) {
+              // Keys 0 and 65535 are always rock (see build()), so nothing beyond them is needed.
+              if (p < 0 || p > 65535) return;
               key[axis] = p;
               solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
             };
@@ -349,11 +357,15 @@ struct DistanceField::Impl {
     return worst;
   }
 
-  void refreshStats() {
+  void refreshMemoryStats() {
     stats.blocks = blocks.size();
     stats.index_entries = index.size();
     stats.memory_bytes = blocks.size() * sizeof(Block) + index.size() * sizeof(std::int32_t) +
                          block_coords.size() * sizeof(block_coords[0]);
+  }
+
+  void refreshStats() {
+    refreshMemoryStats();
     std::uint64_t free_count = 0;
     double max_d2 = 0;
     for (std::size_t i = 0; i < blocks.size(); ++i) {
@@ -395,8 +407,7 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
   const double res = impl->res, inv = impl->inv;
   const octomap::OcTree& tree = map.octree();
 
-  // Free voxels: free leaves, plus (policy kFree) the unknown inside the bounds. Two walks of
-  // the octree (tiles first, then voxels) keep memory to the tiles themselves.
+  // Free voxels: free leaves, plus (policy kFree) the unknown inside the bounds.
   const bool unknown_free = map.unknownPolicy() == UnknownPolicy::kFree && !map.bounds().empty();
   BoxI bounds_keys{};
   if (unknown_free) {
@@ -411,8 +422,10 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
   std::unordered_map<std::uint64_t, std::uint32_t> tile_of;
   std::uint64_t last_key = ~std::uint64_t{0};
   Block* last_tile = nullptr;
-  // A fill ratio of 1/4 is typical of roadways: reserve address space, not memory.
-  impl->blocks.reserve(std::size_t(std::min<double>(double(max_blocks), 4.0 * double(map.stats().free_voxels) / kBlockVoxels + 64)));
+  // A fill ratio of 1/4 is typical of roadways; the cap keeps a hostile map from reserving more
+  // than 2 GiB up front (the vector still grows past it when the tiles are really there).
+  impl->blocks.reserve(std::size_t(std::min(
+      {double(max_blocks), 4.0 * double(map.stats().free_voxels) / kBlockVoxels + 64, 65536.0})));
   bool overflow = false;
   auto tile = [&](int bx, int by, int bz) -> Block* {
     const std::uint64_t key = internal::packBlock(bx, by, bz);
@@ -428,7 +441,14 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
     return last_tile;
   };
   // Sets a box of voxels free (or rock); a leaf of up to 16 voxels lies in one tile.
-  auto mark = [&](const int lo[3], const int hi[3], bool free) {
+  auto mark = [&](const int box_lo[3], const int box_hi[3], bool free) {
+    // Keys 0 and 65535 stay rock, so every line of the transform ends in rock inside the key range.
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max(box_lo[a], 1);
+      hi[a] = std::min(box_hi[a], 65534);
+      if (lo[a] > hi[a]) return;
+    }
     for (int bz = lo[2] >> kBlockBits; bz <= hi[2] >> kBlockBits && !overflow; ++bz)
       for (int by = lo[1] >> kBlockBits; by <= hi[1] >> kBlockBits && !overflow; ++by)
         for (int bx = lo[0] >> kBlockBits; bx <= hi[0] >> kBlockBits && !overflow; ++bx) {
@@ -475,7 +495,7 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
     return outOfRange("distance field: the free space needs more than " + std::to_string(max_blocks) +
                       " tiles of 16^3 voxels (" + std::to_string(max_blocks * 32 / 1024) + " MiB)");
   if (impl->blocks.empty()) return failedPrecondition("distance field: the map has no free voxel");
-  impl->rebuildIndex();
+  ADIT_RETURN_IF_ERROR(impl->rebuildIndex());
   if (progress) progress("reading free space", 1.0);
   const auto t1 = std::chrono::steady_clock::now();
   impl->transformAll(progress);
@@ -508,7 +528,7 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
   out.nearest = p;
   const Impl& m = *impl_;
   const double res = m.res, inv = m.inv, half = 0.5 * res;
-  const double lim = 32766.0 * res;
+  const double lim = 32767.0 * res;  // beyond: keys 0 or 65535, rock
   if (!allFinite(p) || std::abs(p.x()) > lim || std::abs(p.y()) > lim || std::abs(p.z()) > lim) return out;
   const int own[3] = {keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv)};
   // The 8 voxels whose centres surround p: their nearest rock voxels contain p's nearest one
@@ -567,27 +587,42 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) {
   if (changed.empty() || !allFinite(changed.min) || !allFinite(changed.max))
     return invalidArgument("distance field update: empty or non-finite window");
   BoxI w;
+  double window_voxels = 1.0;
   for (int a = 0; a < 3; ++a) {
-    w.lo[a] = std::clamp(keyOf(changed.min[a], m.inv), 1, 65534);
-    w.hi[a] = std::clamp(keyOf(changed.max[a], m.inv), 1, 65534);
+    // Clamp in floating point first: a key of a far coordinate does not fit an int.
+    auto key = [&](double c) { return int(std::clamp(std::floor(c * m.inv), -32767.0, 32766.0)) + internal::kKeyOffset; };
+    w.lo[a] = key(changed.min[a]);
+    w.hi[a] = key(changed.max[a]);
+    window_voxels *= double(w.hi[a] - w.lo[a] + 1);
+  }
+  // A window larger than the tiles themselves: rebuilding from the octree is cheaper, and bounded.
+  if (window_voxels > std::max(4.0 * double(m.blocks.size()) * kBlockVoxels, 1e6)) {
+    StatusOr<DistanceField> fresh = build(map);
+    if (!fresh.ok()) return fresh.status();
+    *this = std::move(fresh).value();
+    return {};
   }
   // Re-read the changed voxels; new free space outside the tiles gets tiles.
   std::vector<std::array<int, 3>> coords;
   std::vector<std::array<int, 3>> now_free;
+  std::int64_t free_delta = 0;
   for (int z = w.lo[2]; z <= w.hi[2]; ++z)
     for (int y = w.lo[1]; y <= w.hi[1]; ++y)
       for (int x = w.lo[0]; x <= w.hi[0]; ++x) {
         const Vec3 c(centreOf(x, m.res), centreOf(y, m.res), centreOf(z, m.res));
+        const bool was_free = isFreeWord(m.word(x, y, z));
         if (map.isFree(c)) {
           now_free.push_back({x, y, z});
           coords.push_back({x >> kBlockBits, y >> kBlockBits, z >> kBlockBits});
+          free_delta += was_free ? 0 : 1;
         } else {
           m.setFree(x, y, z, false);
+          free_delta -= was_free ? 1 : 0;
         }
       }
   std::sort(coords.begin(), coords.end());
   coords.erase(std::unique(coords.begin(), coords.end()), coords.end());
-  m.allocate(coords);
+  ADIT_RETURN_IF_ERROR(m.allocate(coords));
   for (const auto& k : now_free) {
     const std::uint64_t old = m.word(k[0], k[1], k[2]);
     if (!isFreeWord(old)) m.setFree(k[0], k[1], k[2], true);
@@ -601,12 +636,16 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) {
   for (;;) {
     BoxI r;
     bool whole = true;
+    bool empty = false;
     for (int a = 0; a < 3; ++a) {
-      const int glo = (m.bmin[a] << kBlockBits) - 1, ghi = ((m.bmin[a] + m.bdim[a]) << kBlockBits);
+      const int glo = std::max(0, (m.bmin[a] << kBlockBits) - 1);
+      const int ghi = std::min(65535, (m.bmin[a] + m.bdim[a]) << kBlockBits);
       r.lo[a] = std::max(write.lo[a] - margin, glo);
       r.hi[a] = std::min(write.hi[a] + margin, ghi);
       whole = whole && r.lo[a] == glo && r.hi[a] == ghi;
+      empty = empty || r.lo[a] > r.hi[a];
     }
+    if (empty) break;  // the window lies beyond every tile: all rock, nothing to recompute
     const double volume = double(r.hi[0] - r.lo[0] + 1) * double(r.hi[1] - r.lo[1] + 1) * double(r.hi[2] - r.lo[2] + 1);
     if (volume > 2e8) {  // the window grew to most of a large map: a full pass is cheaper
       m.transformAll({});
@@ -616,7 +655,11 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) {
     if (worst <= margin || whole) break;
     margin *= 2;
   }
-  m.refreshStats();
+  // Incremental statistics: a full scan would cost as much as the update itself. The largest
+  // clearance only grows here (it stays an upper bound, which is all update() needs of it).
+  m.refreshMemoryStats();
+  m.stats.free_voxels = std::uint64_t(std::int64_t(m.stats.free_voxels) + free_delta);
+  if (std::isfinite(worst)) m.stats.max_distance_m = std::max(m.stats.max_distance_m, worst * m.res);
   return {};
 }
 

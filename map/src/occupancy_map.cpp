@@ -122,6 +122,12 @@ VoxelState OccupancyMap::state(const Vec3& p) const {
 }
 
 bool OccupancyMap::isFree(const Vec3& p) const {
+  // The outermost layer of the key range is rock whatever the tree says, so that every free voxel
+  // has representable rock around it (the distance field relies on it).
+  octomap::OcTreeKey key;
+  if (!allFinite(p) || !tree_->coordToKeyChecked(p.x(), p.y(), p.z(), key)) return false;
+  for (int a = 0; a < 3; ++a)
+    if (key[a] == 0 || key[a] == 65535) return false;
   switch (state(p)) {
     case VoxelState::kFree: return true;
     case VoxelState::kOccupied: return false;
@@ -150,11 +156,27 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
   }
   const float value = state == VoxelState::kOccupied ? tree_->getClampingThresMaxLog()
                                                      : tree_->getClampingThresMinLog();
+  // Counts are kept incrementally: a whole-tree pass per sensed batch would dominate the update.
+  const double res = tree_->getResolution();
   for (const octomap::OcTreeKey& key : keys) {
-    if (state == VoxelState::kUnknown) tree_->deleteNode(key);
-    else tree_->setNodeValue(key, value);
+    const octomap::OcTreeNode* node = tree_->search(key);
+    if (node) (tree_->isNodeOccupied(node) ? stats_.occupied_voxels : stats_.free_voxels) -= 1;
+    if (state == VoxelState::kUnknown) {
+      tree_->deleteNode(key);
+      continue;
+    }
+    tree_->setNodeValue(key, value);
+    (state == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) += 1;
+    const octomap::point3d c = tree_->keyToCoord(key);
+    const Vec3 centre(c.x(), c.y(), c.z());
+    stats_.bounds.extend(centre - Vec3::Constant(0.5 * res));
+    stats_.bounds.extend(centre + Vec3::Constant(0.5 * res));
   }
-  recomputeStats();
+  // Bounds only grow here (a voxel set to unknown leaves them as they were).
+  stats_.octree_nodes = tree_->size();
+  const Vec3 n = (stats_.bounds.size() / res).array().round();
+  const double total = n.x() * n.y() * n.z(), known = double(stats_.free_voxels + stats_.occupied_voxels);
+  stats_.unknown_voxels = total > known ? std::uint64_t(total - known) : 0;
   return {};
 }
 

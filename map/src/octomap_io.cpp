@@ -192,6 +192,15 @@ Status validateFullData(const std::string& bytes, std::size_t offset, std::uint6
   return {};
 }
 
+// Read-only stream buffer over bytes already in memory (a file can be gigabytes).
+class ViewBuf : public std::streambuf {
+ public:
+  ViewBuf(const char* begin, const char* end) {
+    char* b = const_cast<char*>(begin);  // never written: the buffer is only read
+    setg(b, b, const_cast<char*>(end));
+  }
+};
+
 }  // namespace
 
 StatusOr<MapFormat> formatFromPath(const std::string& path) {
@@ -238,7 +247,8 @@ StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string&
   ADIT_RETURN_IF_ERROR(h.binary ? validateBinaryData(bytes, h.data_offset, h.size, name)
                                 : validateFullData(bytes, h.data_offset, h.size, name));
   auto tree = std::make_shared<octomap::OcTree>(h.resolution);
-  std::istringstream data(bytes.substr(h.data_offset));
+  ViewBuf view(bytes.data() + h.data_offset, bytes.data() + bytes.size());  // no copy of the data
+  std::istream data(&view);
   if (h.binary) tree->readBinaryData(data); else tree->readData(data);
   if (tree->size() != h.size)
     return internalError(name + ": OctoMap read " + std::to_string(tree->size()) + " nodes, expected " +

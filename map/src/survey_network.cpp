@@ -272,6 +272,13 @@ Status SurveyNetwork::validate() const {
     if (road.stations.size() < 2) return invalidArgument("roadway '" + road.name + "': needs at least two stations");
     for (const std::string& s : road.stations)
       if (!stations.count(s)) return invalidArgument("roadway '" + road.name + "': unknown station '" + s + "'");
+    for (std::size_t k = 1; k < road.stations.size(); ++k) {
+      // A vertical (or zero-length) segment has no horizontal direction to sweep a section along.
+      const Vec3 d = stations.at(road.stations[k]) - stations.at(road.stations[k - 1]);
+      if (d.head<2>().norm() < 1e-6)
+        return invalidArgument("roadway '" + road.name + "': stations '" + road.stations[k - 1] + "' and '" +
+                               road.stations[k] + "' are vertically aligned or repeated; shafts are not supported");
+    }
   }
   Status extent = checkExtent(bounds(), resolution_m);
   if (!extent.ok()) return Status(extent.code(), extent.message());

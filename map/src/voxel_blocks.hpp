@@ -31,21 +31,21 @@ class BitVoxelSet {
  public:
   using Block = std::array<std::uint16_t, kBlockSize * kBlockSize>;
 
-  void set(int x, int y, int z) { row(x >> kBlockBits, y, z, true) |= std::uint16_t(1u << (x & kBlockMask)); }
+  void set(int x, int y, int z) { row(x >> kBlockBits, y, z) |= std::uint16_t(1u << (x & kBlockMask)); }
   bool test(int x, int y, int z) const {
     const Block* b = find(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
     return b && ((*b)[(y & kBlockMask) + kBlockSize * (z & kBlockMask)] >> (x & kBlockMask)) & 1u;
   }
-  // Row of block column bx at voxel (y, z); creates the block when `create`.
-  std::uint16_t& row(int bx, int y, int z, bool create) {
-    Block& b = block(bx, y >> kBlockBits, z >> kBlockBits, create);
+  // Row of block column bx at voxel (y, z), creating the block if needed.
+  std::uint16_t& row(int bx, int y, int z) {
+    Block& b = block(bx, y >> kBlockBits, z >> kBlockBits);
     return b[(y & kBlockMask) + kBlockSize * (z & kBlockMask)];
   }
   const Block* find(int bx, int by, int bz) const {
     auto it = index_.find(packBlock(bx, by, bz));
     return it == index_.end() ? nullptr : &blocks_[it->second];
   }
-  Block& block(int bx, int by, int bz, bool /*create*/) {
+  Block& block(int bx, int by, int bz) {
     auto [it, inserted] = index_.try_emplace(packBlock(bx, by, bz), std::uint32_t(blocks_.size()));
     if (inserted) {
       blocks_.emplace_back();

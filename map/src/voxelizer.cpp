@@ -105,14 +105,14 @@ BitVoxelSet dilateOnce(const BitVoxelSet& in) {
         if (!bits) continue;
         const int y = (c[1] << kBlockBits) + (r & kBlockMask), z = (c[2] << kBlockBits) + (r >> kBlockBits);
         if (axis == 0) {
-          dst.row(c[0], y, z, true) |= std::uint16_t(bits | (bits << 1) | (bits >> 1));
-          if (bits & 1u) dst.row(c[0] - 1, y, z, true) |= std::uint16_t(1u << kBlockMask);
-          if (bits & (1u << kBlockMask)) dst.row(c[0] + 1, y, z, true) |= 1u;
+          dst.row(c[0], y, z) |= std::uint16_t(bits | (bits << 1) | (bits >> 1));
+          if (bits & 1u) dst.row(c[0] - 1, y, z) |= std::uint16_t(1u << kBlockMask);
+          if (bits & (1u << kBlockMask)) dst.row(c[0] + 1, y, z) |= 1u;
         } else {
-          dst.row(c[0], y, z, true) |= bits;
+          dst.row(c[0], y, z) |= bits;
           for (int d : {-1, 1}) {
-            if (axis == 1) dst.row(c[0], y + d, z, true) |= bits;
-            else dst.row(c[0], y, z + d, true) |= bits;
+            if (axis == 1) dst.row(c[0], y + d, z) |= bits;
+            else dst.row(c[0], y, z + d) |= bits;
           }
         }
       }

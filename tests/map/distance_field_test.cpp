@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Oracle tests: the distance field against brute force over every rock voxel.
 #include <gtest/gtest.h>
+#include <octomap/OcTree.h>
 
 #include <random>
 
@@ -113,6 +114,46 @@ TEST(DistanceField, WindowUpdateMatchesFullRebuild) {
   }
   EXPECT_FALSE(df->isFree({3.5, 0.0, 0.5}));
   EXPECT_TRUE(df->isFree({10.1, 2.6, 1.0}));
+}
+
+// Free space touching the end of OctoMap's key range: rock beyond it cannot be represented, so
+// the outermost key layer counts as rock, and nothing wraps round to the far side of the map.
+TEST(DistanceField, FreeSpaceAtTheEdgeOfTheKeyRangeMatchesBruteForce) {
+  for (const int x0 : {0, 65535 - 19}) {
+    auto tree = std::make_shared<octomap::OcTree>(0.1);
+    for (int x = x0; x < x0 + 20; ++x)
+      for (int y = 100; y < 120; ++y)
+        for (int z = 100; z < 120; ++z)
+          tree->setNodeValue(octomap::OcTreeKey(octomap::key_type(x), octomap::key_type(y), octomap::key_type(z)),
+                             tree->getClampingThresMinLog());
+    StatusOr<OccupancyMap> map = OccupancyMap::create(tree);
+    ASSERT_TRUE(map.ok());
+    StatusOr<DistanceField> df = DistanceField::build(*map);
+    ASSERT_TRUE(df.ok()) << df.status().toString();
+    StatusOr<BruteForceDistance> oracle = BruteForceDistance::create(*map);
+    ASSERT_TRUE(oracle.ok());
+    std::mt19937_64 rng(11);
+    for (int i = 0; i < 500; ++i) {
+      const Vec3 p = test::randomPoint(rng, map->bounds());
+      const DistanceSample a = df->query(p), b = oracle->query(p);
+      ASSERT_EQ(a.in_rock, b.in_rock) << p.transpose();
+      EXPECT_NEAR(a.distance, b.distance, 0.05) << p.transpose();
+    }
+  }
+}
+
+TEST(DistanceField, UpdateOutsideTheTilesOrHugeIsHandled) {
+  OccupancyMap map = test::voxelizeOrFail(test::straightRoadway(CrossSection::rectangle(4, 3)));
+  StatusOr<DistanceField> df = DistanceField::build(map);
+  ASSERT_TRUE(df.ok());
+  const double before = df->distance({5, 0, 1.5});
+  // Far from any tile: all rock there, nothing to do.
+  EXPECT_TRUE(df->update(map, Aabb({500, 500, 500}, {501, 501, 501})).ok());
+  // A window of kilometres: falls back to a rebuild from the octree instead of scanning it.
+  EXPECT_TRUE(df->update(map, Aabb(Vec3::Constant(-2000), Vec3::Constant(2000))).ok());
+  EXPECT_TRUE(df->update(map, Aabb(Vec3::Constant(-1e300), Vec3::Constant(1e300))).ok());
+  EXPECT_DOUBLE_EQ(df->distance({5, 0, 1.5}), before);
+  EXPECT_FALSE(df->update(map, Aabb(Vec3::Constant(NAN), Vec3::Constant(1))).ok());
 }
 
 TEST(DistanceField, RockAndBadInputGiveZeroDistance) {

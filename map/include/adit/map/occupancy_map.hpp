@@ -54,6 +54,8 @@ Status checkExtent(const Aabb& box, double resolution_m);
 /// OK for a finite resolution > 0 (and >= 1 mm, below which float keys stop being meaningful).
 Status checkResolution(double resolution_m);
 
+/// Copies share the octree (it can be hundreds of megabytes): setVoxels() on one copy changes
+/// what every copy sees, though only its own statistics. Keep one owner that mutates the map.
 class OccupancyMap {
  public:
   /// Wraps `tree` (taken over). Refuses an invalid resolution and a map without free space under
@@ -69,7 +71,7 @@ class OccupancyMap {
   /// Raw state of the voxel holding `p`; outside the key range it is kUnknown.
   VoxelState state(const Vec3& p) const;
   /// Free under the unknown-space policy. Outside the known bounds is always rock: adit never
-  /// plans off the map.
+  /// plans off the map; so is the outermost voxel layer of the key range.
   bool isFree(const Vec3& p) const;
   bool isRock(const Vec3& p) const { return !isFree(p); }
 
@@ -82,7 +84,8 @@ class OccupancyMap {
   /// Marks the voxel holding `p` occupied or free (e.g. sensed rubble); call
   /// DistanceField::update() over the changed window afterwards. Refuses points off the key range.
   Status setVoxel(const Vec3& p, VoxelState state) { return setVoxels({p}, state); }
-  /// Batch form: all points are checked first, so a refused batch changes nothing.
+  /// Batch form: all points are checked first, so a refused batch changes nothing. Statistics
+  /// are updated incrementally; the bounds only grow.
   Status setVoxels(const std::vector<Vec3>& points, VoxelState state);
 
   const octomap::OcTree& octree() const { return *tree_; }

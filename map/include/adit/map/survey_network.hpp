@@ -56,7 +56,9 @@ StatusOr<SurveyNetwork> loadSurvey(const std::string& path);
 
 struct VoxelizeOptions {
   UnknownPolicy unknown_policy = UnknownPolicy::kRock;
-  double max_voxels = 3e8;  ///< refuse larger maps (about 24 bytes each in OctoMap)
+  /// Refuse larger maps: OctoMap needs about 45 bytes a voxel while building (before pruning),
+  /// so the default keeps a build under about 7 GB.
+  double max_voxels = 1.5e8;
   ProgressFn progress;      ///< optional
 };
 
