@@ -3,6 +3,7 @@
 #include "adit/map/distance_field.hpp"
 
 #include <octomap/OcTree.h>
+#include <sys/mman.h>
 
 #include <algorithm>
 #include <chrono>
@@ -123,6 +124,20 @@ inline double partialF(const int key[3], std::uint64_t w, int axis) {
   return f;
 }
 
+// Tiles are read at random by queries: 2 MiB pages spare most TLB misses (Linux THP in
+// "madvise" mode; elsewhere the advice is ignored).
+void adviseHugePages(std::vector<Block>& blocks) {
+#ifdef MADV_HUGEPAGE
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  const auto begin = reinterpret_cast<std::uintptr_t>(blocks.data());
+  const std::uintptr_t end = begin + blocks.capacity() * sizeof(Block);
+  const std::uintptr_t lo = (begin + kHuge - 1) & ~(kHuge - 1), hi = end & ~(kHuge - 1);
+  if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
+#else
+  (void)blocks;
+#endif
+}
+
 struct BoxI {
   int lo[3], hi[3];  // inclusive voxel keys
 };
@@ -179,6 +194,7 @@ struct DistanceField::Impl {
       if (blockIndex(c[0], c[1], c[2]) < 0) fresh.push_back(c);
     if (fresh.empty()) return {};
     blocks.reserve(blocks.size() + fresh.size());  // no regrowth copies of 32 KiB tiles
+    adviseHugePages(blocks);
     for (const auto& c : fresh) {
       blocks.emplace_back();  // value-initialised: all rock
       block_coords.push_back(c);
@@ -426,6 +442,7 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
   // than 2 GiB up front (the vector still grows past it when the tiles are really there).
   impl->blocks.reserve(std::size_t(std::min(
       {double(max_blocks), 4.0 * double(map.stats().free_voxels) / kBlockVoxels + 64, 65536.0})));
+  adviseHugePages(impl->blocks);
   bool overflow = false;
   auto tile = [&](int bx, int by, int bz) -> Block* {
     const std::uint64_t key = internal::packBlock(bx, by, bz);
@@ -516,6 +533,9 @@ bool DistanceField::isFree(const Vec3& p) const noexcept {
 
 Vec3 DistanceField::nearestRockVoxel(const Vec3& p) const noexcept {
   const double inv = impl_->inv, res = impl_->res;
+  const double lim = 32767.0 * res;
+  if (!allFinite(p) || std::abs(p.x()) > lim || std::abs(p.y()) > lim || std::abs(p.z()) > lim)
+    return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   const int k[3] = {keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv)};
   std::uint64_t w = impl_->word(k[0], k[1], k[2]);
   if (!isFreeWord(w)) w = rockWord(k[0], k[1], k[2]);
@@ -551,33 +571,40 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
   }
   const int own_corner = (own[0] - base[0]) | ((own[1] - base[1]) << 1) | ((own[2] - base[2]) << 2);
   if (!isFreeWord(words[own_corner])) return out;
-  // Branch-free over the 8 candidates: distance from p to each site voxel's cube.
-  const double ox = (0.5 - internal::kKeyOffset) * res;
-  double d2[8];
+  // Branch-free over the 8 candidates, in voxel units relative to the base corner's centre
+  // (structure of arrays, so the compiler can vectorise): distance from p to each site's cube.
+  double sx[8], sy[8], sz[8], d2[8];
   for (int c = 0; c < 8; ++c) {
-    // A rock corner is its own site.
-    const std::uint64_t w = isFreeWord(words[c])
-                                ? words[c]
-                                : rockWord(base[0] + (c & 1), base[1] + ((c >> 1) & 1), base[2] + (c >> 2));
-    words[c] = w;
-    const double ex = std::max(std::abs(p.x() - (double(siteCoord(w, 0)) * res + ox)) - half, 0.0);
-    const double ey = std::max(std::abs(p.y() - (double(siteCoord(w, 1)) * res + ox)) - half, 0.0);
-    const double ez = std::max(std::abs(p.z() - (double(siteCoord(w, 2)) * res + ox)) - half, 0.0);
-    d2[c] = hasSite(w) ? ex * ex + ey * ey + ez * ez : std::numeric_limits<double>::infinity();
+    const std::uint64_t w = words[c];
+    const bool free = isFreeWord(w);  // a rock corner is its own site
+    sx[c] = free ? double(siteCoord(w, 0) - base[0]) : double(c & 1);
+    sy[c] = free ? double(siteCoord(w, 1) - base[1]) : double((c >> 1) & 1);
+    sz[c] = free ? double(siteCoord(w, 2) - base[2]) : double(c >> 2);
+    d2[c] = free && !hasSite(w) ? std::numeric_limits<double>::infinity() : 0.0;
+  }
+  const double qx = p.x() * inv - double(base[0] - internal::kKeyOffset) - 0.5;
+  const double qy = p.y() * inv - double(base[1] - internal::kKeyOffset) - 0.5;
+  const double qz = p.z() * inv - double(base[2] - internal::kKeyOffset) - 0.5;
+  for (int c = 0; c < 8; ++c) {
+    const double ex = std::max(std::abs(qx - sx[c]) - 0.5, 0.0);
+    const double ey = std::max(std::abs(qy - sy[c]) - 0.5, 0.0);
+    const double ez = std::max(std::abs(qz - sz[c]) - 0.5, 0.0);
+    d2[c] += ex * ex + ey * ey + ez * ez;
   }
   int arg = 0;
   for (int c = 1; c < 8; ++c) arg = d2[c] < d2[arg] ? c : arg;
-  const double best = d2[arg];
+  const double best = d2[arg] * res * res;
   Vec3 best_delta;
+  const double q[3] = {qx, qy, qz}, site[3] = {sx[arg], sy[arg], sz[arg]};
   for (int a = 0; a < 3; ++a) {
-    const double d = p[a] - centreOf(siteCoord(words[arg], a), res);
-    best_delta[a] = std::copysign(std::max(std::abs(d) - half, 0.0), d);
+    const double d = q[a] - site[a];
+    best_delta[a] = std::copysign(std::max(std::abs(d) - 0.5, 0.0), d) * res;
   }
   if (!std::isfinite(best)) return out;  // no rock known (only after a partial update)
   out.in_rock = false;
   out.distance = std::sqrt(best);
   out.nearest = p - best_delta;
-  if (out.distance > 0) out.gradient = best_delta / out.distance;
+  if (out.distance > 0) out.gradient = best_delta * (1.0 / out.distance);
   return out;
 }
 

@@ -17,8 +17,15 @@ constexpr int kBlockSize = 1 << kBlockBits;  // voxels per block edge
 constexpr int kBlockMask = kBlockSize - 1;
 constexpr int kBlockVoxels = kBlockSize * kBlockSize * kBlockSize;
 
-// Same formula as octomap::OcTreeBaseImpl::coordToKey, so voxels agree bit for bit.
-inline int keyOf(double c, double inv_res) { return int(std::floor(inv_res * c)) + kKeyOffset; }
+// floor() for |v| < 2^31 without a libm call (baseline x86-64 has no SSE4.1 round): the
+// distance field's hot path takes six of them per query.
+inline int floorToInt(double v) {
+  const int i = static_cast<int>(v);
+  return i - (static_cast<double>(i) > v);
+}
+// Same value as octomap::OcTreeBaseImpl::coordToKey, so voxels agree bit for bit. Callers keep
+// |c / res| well inside the int range (maps are checked against the key range first).
+inline int keyOf(double c, double inv_res) { return floorToInt(inv_res * c) + kKeyOffset; }
 inline double centreOf(int key, double res) { return (double(key - kKeyOffset) + 0.5) * res; }
 
 inline std::uint64_t packBlock(int bx, int by, int bz) {
