@@ -181,6 +181,10 @@ struct DistanceField::Impl {
       return -1;
     return index[(std::size_t(z) * std::size_t(bdim[1]) + std::size_t(y)) * std::size_t(bdim[0]) + std::size_t(x)];
   }
+  // The 8 words around a tile edge: rare, kept out of line so that query() stays small.
+  [[gnu::noinline, gnu::cold]] void gatherAcrossTiles(const int base[3], std::uint64_t words[8]) const {
+    for (int c = 0; c < 8; ++c) words[c] = word(base[0] + (c & 1), base[1] + ((c >> 1) & 1), base[2] + (c >> 2));
+  }
   std::uint64_t word(int x, int y, int z) const {
     const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
     return b < 0 ? 0 : blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))];
@@ -544,16 +548,19 @@ Vec3 DistanceField::nearestRockVoxel(const Vec3& p) const noexcept {
 }
 
 DistanceSample DistanceField::query(const Vec3& p) const noexcept {
+  // Plain scalars on purpose: this runs in every planner's inner loop (see tests/bench).
   DistanceSample out;
   out.nearest = p;
   const Impl& m = *impl_;
-  const double res = m.res, inv = m.inv, half = 0.5 * res;
-  const double lim = 32767.0 * res;  // beyond: keys 0 or 65535, rock
-  if (!allFinite(p) || std::abs(p.x()) > lim || std::abs(p.y()) > lim || std::abs(p.z()) > lim) return out;
-  const int own[3] = {keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv)};
-  // The 8 voxels whose centres surround p: their nearest rock voxels contain p's nearest one
-  // in all but contrived cases, and the result is an upper bound that is exact at voxel centres.
-  const int base[3] = {keyOf(p.x() - half, inv), keyOf(p.y() - half, inv), keyOf(p.z() - half, inv)};
+  const double px = p.x(), py = p.y(), pz = p.z();
+  const double lim = 32767.0 * m.res;  // beyond: keys 0 or 65535, rock; NaN fails the test too
+  if (!(std::abs(px) <= lim && std::abs(py) <= lim && std::abs(pz) <= lim)) return out;
+  // p in voxel units; the 8 voxels whose centres surround p start at `base`. Their nearest rock
+  // voxels contain p's nearest one in all but contrived cases (tests: within half a voxel).
+  const double ux = px * m.inv, uy = py * m.inv, uz = pz * m.inv;
+  const int base[3] = {internal::floorToInt(ux - 0.5) + internal::kKeyOffset,
+                       internal::floorToInt(uy - 0.5) + internal::kKeyOffset,
+                       internal::floorToInt(uz - 0.5) + internal::kKeyOffset};
   std::uint64_t words[8];
   if ((base[0] & kBlockMask) != kBlockMask && (base[1] & kBlockMask) != kBlockMask &&
       (base[2] & kBlockMask) != kBlockMask) {
@@ -562,49 +569,47 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
     if (b < 0) return out;  // the whole neighbourhood, p's voxel included, is rock
     const std::uint64_t* blk = m.blocks[std::size_t(b)].data() + localIndex(base[0], base[1], base[2]);
     constexpr int kDy = kBlockSize, kDz = kBlockSize * kBlockSize;
-    words[0] = blk[0];       words[1] = blk[1];
-    words[2] = blk[kDy];     words[3] = blk[kDy + 1];
-    words[4] = blk[kDz];     words[5] = blk[kDz + 1];
+    words[0] = blk[0];         words[1] = blk[1];
+    words[2] = blk[kDy];       words[3] = blk[kDy + 1];
+    words[4] = blk[kDz];       words[5] = blk[kDz + 1];
     words[6] = blk[kDz + kDy]; words[7] = blk[kDz + kDy + 1];
   } else {
-    for (int c = 0; c < 8; ++c) words[c] = m.word(base[0] + (c & 1), base[1] + ((c >> 1) & 1), base[2] + (c >> 2));
+    m.gatherAcrossTiles(base, words);
   }
-  const int own_corner = (own[0] - base[0]) | ((own[1] - base[1]) << 1) | ((own[2] - base[2]) << 2);
+  // Coordinates of p relative to the base voxel's centre, in voxels (each in [0, 1)).
+  const double qx = ux - double(base[0] - internal::kKeyOffset) - 0.5;
+  const double qy = uy - double(base[1] - internal::kKeyOffset) - 0.5;
+  const double qz = uz - double(base[2] - internal::kKeyOffset) - 0.5;
+  const int own_corner = (qx >= 0.5 ? 1 : 0) | (qy >= 0.5 ? 2 : 0) | (qz >= 0.5 ? 4 : 0);
   if (!isFreeWord(words[own_corner])) return out;
-  // Branch-free over the 8 candidates, in voxel units relative to the base corner's centre
-  // (structure of arrays, so the compiler can vectorise): distance from p to each site's cube.
-  double sx[8], sy[8], sz[8], d2[8];
+  // Distance from p to each candidate site's cube, branch-free; a rock corner is its own site.
+  double best = std::numeric_limits<double>::infinity();
+  double bx = 0, by = 0, bz = 0;
   for (int c = 0; c < 8; ++c) {
     const std::uint64_t w = words[c];
-    const bool free = isFreeWord(w);  // a rock corner is its own site
-    sx[c] = free ? double(siteCoord(w, 0) - base[0]) : double(c & 1);
-    sy[c] = free ? double(siteCoord(w, 1) - base[1]) : double((c >> 1) & 1);
-    sz[c] = free ? double(siteCoord(w, 2) - base[2]) : double(c >> 2);
-    d2[c] = free && !hasSite(w) ? std::numeric_limits<double>::infinity() : 0.0;
+    const bool free = isFreeWord(w);
+    const double sx = free ? double(siteCoord(w, 0) - base[0]) : double(c & 1);
+    const double sy = free ? double(siteCoord(w, 1) - base[1]) : double((c >> 1) & 1);
+    const double sz = free ? double(siteCoord(w, 2) - base[2]) : double(c >> 2);
+    const double ex = std::max(std::abs(qx - sx) - 0.5, 0.0);
+    const double ey = std::max(std::abs(qy - sy) - 0.5, 0.0);
+    const double ez = std::max(std::abs(qz - sz) - 0.5, 0.0);
+    const double d2 = (free && !hasSite(w)) ? std::numeric_limits<double>::infinity() : ex * ex + ey * ey + ez * ez;
+    const bool better = d2 < best;
+    best = better ? d2 : best;
+    bx = better ? std::copysign(ex, qx - sx) : bx;
+    by = better ? std::copysign(ey, qy - sy) : by;
+    bz = better ? std::copysign(ez, qz - sz) : bz;
   }
-  const double qx = p.x() * inv - double(base[0] - internal::kKeyOffset) - 0.5;
-  const double qy = p.y() * inv - double(base[1] - internal::kKeyOffset) - 0.5;
-  const double qz = p.z() * inv - double(base[2] - internal::kKeyOffset) - 0.5;
-  for (int c = 0; c < 8; ++c) {
-    const double ex = std::max(std::abs(qx - sx[c]) - 0.5, 0.0);
-    const double ey = std::max(std::abs(qy - sy[c]) - 0.5, 0.0);
-    const double ez = std::max(std::abs(qz - sz[c]) - 0.5, 0.0);
-    d2[c] += ex * ex + ey * ey + ez * ez;
-  }
-  int arg = 0;
-  for (int c = 1; c < 8; ++c) arg = d2[c] < d2[arg] ? c : arg;
-  const double best = d2[arg] * res * res;
-  Vec3 best_delta;
-  const double q[3] = {qx, qy, qz}, site[3] = {sx[arg], sy[arg], sz[arg]};
-  for (int a = 0; a < 3; ++a) {
-    const double d = q[a] - site[a];
-    best_delta[a] = std::copysign(std::max(std::abs(d) - 0.5, 0.0), d) * res;
-  }
-  if (!std::isfinite(best)) return out;  // no rock known (only after a partial update)
+  if (!(best < std::numeric_limits<double>::infinity())) return out;  // no rock known
   out.in_rock = false;
-  out.distance = std::sqrt(best);
-  out.nearest = p - best_delta;
-  if (out.distance > 0) out.gradient = best_delta * (1.0 / out.distance);
+  out.distance = std::sqrt(best) * m.res;
+  const double dx = bx * m.res, dy = by * m.res, dz = bz * m.res;
+  out.nearest = Vec3(px - dx, py - dy, pz - dz);
+  if (out.distance > 0) {
+    const double r = 1.0 / out.distance;
+    out.gradient = Vec3(dx * r, dy * r, dz * r);
+  }
   return out;
 }
 
