@@ -170,19 +170,9 @@ class RockOracle {
 
 // ---- fixtures --------------------------------------------------------------------------------
 
-struct Case {
-  const char* name;
-  SurveyNetwork net;
-};
+using Case = test::NamedNetwork;
 
-std::vector<Case> collisionCases() {
-  return {
-      {"straight_rectangle", test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 8.0, 0.2)},
-      {"straight_arch_sloped", test::straightRoadway(CrossSection::arch(4.0, 2.0), 8.0, 0.25, 0.6)},
-      {"bent_trapezoid", test::bentRoadway(CrossSection::trapezoid(4.0, 3.0, 3.0), 0.25)},
-      {"junctions", test::junctionNetwork(0.25)},
-  };
-}
+std::vector<Case> collisionCases() { return test::oracleRoadways(8.0); }
 
 /// A voxelized roadway with its field, checker and oracles, built once per test. Not copyable:
 /// the checker and the oracle point into it.

@@ -12,19 +12,9 @@
 namespace adit::map {
 namespace {
 
-struct Case {
-  const char* name;
-  SurveyNetwork net;
-};
+using Case = test::NamedNetwork;
 
-std::vector<Case> oracleCases() {
-  return {
-      {"straight_rectangle", test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 10.0, 0.2)},
-      {"straight_arch_sloped", test::straightRoadway(CrossSection::arch(4.0, 2.0), 10.0, 0.25, 0.6)},
-      {"bent_trapezoid", test::bentRoadway(CrossSection::trapezoid(4.0, 3.0, 3.0), 0.25)},
-      {"junctions", test::junctionNetwork(0.25)},
-  };
-}
+std::vector<Case> oracleCases() { return test::oracleRoadways(10.0); }
 
 class DistanceFieldOracle : public ::testing::TestWithParam<std::size_t> {};
 

@@ -71,6 +71,15 @@ SurveyNetwork syntheticDistrict(double width_m, double depth_m, double resolutio
   return net;
 }
 
+std::vector<NamedNetwork> oracleRoadways(double straight_length_m) {
+  return {
+      {"straight_rectangle", straightRoadway(CrossSection::rectangle(4.0, 3.0), straight_length_m, 0.2)},
+      {"straight_arch_sloped", straightRoadway(CrossSection::arch(4.0, 2.0), straight_length_m, 0.25, 0.6)},
+      {"bent_trapezoid", bentRoadway(CrossSection::trapezoid(4.0, 3.0, 3.0), 0.25)},
+      {"junctions", junctionNetwork(0.25)},
+  };
+}
+
 map::OccupancyMap voxelizeOrFail(const SurveyNetwork& net) {
   map::StatusOr<map::OccupancyMap> m = map::voxelize(net);
   if (!m.ok()) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <vector>
 
 #include "adit/map/occupancy_map.hpp"
 #include "adit/map/survey_network.hpp"
@@ -23,6 +24,16 @@ map::SurveyNetwork bentRoadway(const map::CrossSection& section, double resoluti
 /// faces at the far edge. Mostly rock: the benchmark for memory-bounded distance fields.
 map::SurveyNetwork syntheticDistrict(double width_m = 2000.0, double depth_m = 1000.0,
                                      double resolution_m = 0.2, double panel_m = 250.0);
+
+/// A generated roadway with a name for parameterised tests.
+struct NamedNetwork {
+  const char* name;
+  map::SurveyNetwork net;
+};
+
+/// The roadways every oracle test runs on: a straight rectangle, a sloped arch (both
+/// `straight_length_m` long), a bent trapezoid and a network of junctions.
+std::vector<NamedNetwork> oracleRoadways(double straight_length_m = 10.0);
 
 /// voxelize() that fails the current test on error.
 map::OccupancyMap voxelizeOrFail(const map::SurveyNetwork& net);
