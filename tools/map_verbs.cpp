@@ -39,35 +39,13 @@ void addMapArgs(CLI::App* cmd, MapArgs* a) {
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
 }
 
-// Loads a map; for a survey also returns the network (its centreline length is exact).
-struct Loaded {
-  std::optional<OccupancyMap> map;
-  std::optional<SurveyNetwork> survey;
-};
-
-StatusOr<Loaded> load(const MapArgs& a, ProgressBar& bar) {
+// Loads a map (for a survey, with its network) and ends the progress line.
+StatusOr<LoadedMap> load(const MapArgs& a, ProgressBar& bar) {
   StatusOr<UnknownPolicy> policy = parseUnknownPolicy(a.unknown);
   if (!policy.ok()) return policy.status();
-  StatusOr<MapFormat> format = formatFromPath(a.path);
-  if (!format.ok()) return format.status();
-  Loaded out;
-  if (*format == MapFormat::kSurveyYaml) {
-    StatusOr<SurveyNetwork> net = loadSurvey(a.path);
-    if (!net.ok()) return net.status();
-    VoxelizeOptions vo;
-    vo.unknown_policy = *policy;
-    vo.progress = bar.callback();
-    StatusOr<OccupancyMap> map = voxelize(*net, vo);
-    if (!map.ok()) return Status(map.status().code(), a.path + ": " + map.status().message());
-    out.survey = std::move(net).value();
-    out.map = std::move(map).value();
-  } else {
-    StatusOr<OccupancyMap> map = loadMap(a.path, {*policy, bar.callback()});
-    if (!map.ok()) return map.status();
-    out.map = std::move(map).value();
-  }
+  StatusOr<LoadedMap> loaded = loadMapAndSurvey(a.path, {*policy, bar.callback()});
   bar.finish();
-  return out;
+  return loaded;
 }
 
 std::string fmtCount(std::uint64_t n) {
@@ -78,9 +56,9 @@ std::string fmtCount(std::uint64_t n) {
 
 int runInfo(const MapArgs& a, bool json) {
   ProgressBar bar(a.quiet);
-  StatusOr<Loaded> loaded = load(a, bar);
+  StatusOr<LoadedMap> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
-  const OccupancyMap& map = *loaded->map;
+  const OccupancyMap& map = loaded->map;
   const MapStats& s = map.stats();
   // The estimate is a convenience: a map too sparse for it still gets its summary.
   StatusOr<RoadwayLengthEstimate> est_or = estimateRoadwayLength(map);
@@ -152,14 +130,14 @@ int runConvert(const MapArgs& a, const std::string& out) {
   if (*target == MapFormat::kSurveyYaml)
     return report(invalidArgument(out + ": can only convert to an OctoMap .bt or .ot file"));
   ProgressBar bar(a.quiet);
-  StatusOr<Loaded> loaded = load(a, bar);
+  StatusOr<LoadedMap> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
   if (!a.quiet) std::fprintf(stderr, "writing %s ...\n", out.c_str());
-  Status w = writeOctomap(*loaded->map, out);
+  Status w = writeOctomap(loaded->map, out);
   if (!w.ok()) return report(w);
   if (!a.quiet)
     std::fprintf(stderr, "wrote %s: %s octree nodes, resolution %.3f m\n", out.c_str(),
-                 fmtCount(loaded->map->stats().octree_nodes).c_str(), loaded->map->resolution());
+                 fmtCount(loaded->map.stats().octree_nodes).c_str(), loaded->map.resolution());
   return kExitOk;
 }
 
@@ -221,9 +199,9 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
   }
   if (pts.empty()) return report(invalidArgument("no points given: use --points FILE.csv or x,y,z arguments"));
   ProgressBar bar(a.quiet);
-  StatusOr<Loaded> loaded = load(a, bar);
+  StatusOr<LoadedMap> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
-  StatusOr<DistanceField> df = DistanceField::build(*loaded->map, bar.callback());
+  StatusOr<DistanceField> df = DistanceField::build(loaded->map, bar.callback());
   bar.finish();
   if (!df.ok()) return report(df.status());
   // All input is validated before the first byte of output.
@@ -233,7 +211,7 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
   for (const Vec3& p : pts) {
     const DistanceSample s = df->query(p);
     std::snprintf(buf, sizeof buf, "%.6g,%.6g,%.6g,%s,%.4f,%.6f,%.6f,%.6f\n", p.x(), p.y(), p.z(),
-                  voxelStateName(loaded->map->state(p)), s.distance, s.gradient.x(), s.gradient.y(), s.gradient.z());
+                  voxelStateName(loaded->map.state(p)), s.distance, s.gradient.x(), s.gradient.y(), s.gradient.z());
     os << buf;
   }
   if (out_path.empty()) {
@@ -254,12 +232,12 @@ int runSlice(const MapArgs& a, const std::optional<double>& z, double band, doub
   if ((z && !std::isfinite(*z)) || !std::isfinite(band) || band < 0 || !std::isfinite(ppm) || ppm < 0)
     return report(invalidArgument("--z, --band and --px-per-m must be finite (band and scale >= 0)"));
   ProgressBar bar(a.quiet);
-  StatusOr<Loaded> loaded = load(a, bar);
+  StatusOr<LoadedMap> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
   o.title = !title.empty() ? title
             : loaded->survey && !loaded->survey->name.empty() ? loaded->survey->name
                                                                : std::filesystem::path(a.path).filename().string();
-  Status s = renderTopView(*loaded->map, o, out);
+  Status s = renderTopView(loaded->map, o, out);
   if (!s.ok()) return report(s);
   if (!a.quiet) std::fprintf(stderr, "wrote %s\n", out.c_str());
   return kExitOk;

@@ -185,6 +185,15 @@ struct DistanceField::Impl {
   [[gnu::noinline, gnu::cold]] void gatherAcrossTiles(const int base[3], std::uint64_t words[8]) const {
     for (int c = 0; c < 8; ++c) words[c] = word(base[0] + (c & 1), base[1] + ((c >> 1) & 1), base[2] + (c >> 2));
   }
+  // Key of the voxel holding p; false for NaN and beyond the key range (rock there).
+  bool voxelKey(const Vec3& p, int k[3]) const {
+    const double lim = 32767.0 * res;  // beyond: keys 0 or 65535
+    for (int a = 0; a < 3; ++a) {
+      if (!(std::abs(p[a]) <= lim)) return false;
+      k[a] = keyOf(p[a], inv);
+    }
+    return true;
+  }
   std::uint64_t word(int x, int y, int z) const {
     const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
     return b < 0 ? 0 : blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))];
@@ -197,13 +206,19 @@ struct DistanceField::Impl {
     for (const auto& c : coords)
       if (blockIndex(c[0], c[1], c[2]) < 0) fresh.push_back(c);
     if (fresh.empty()) return {};
-    blocks.reserve(blocks.size() + fresh.size());  // no regrowth copies of 32 KiB tiles
-    adviseHugePages(blocks);
-    for (const auto& c : fresh) {
-      blocks.emplace_back();  // value-initialised: all rock
-      block_coords.push_back(c);
-    }
+    for (const auto& c : fresh) appendTile(c);
     return rebuildIndex();
+  }
+
+  // A new all-rock tile (value-initialised words are 0). Capacity grows geometrically, and the
+  // new range is advised onto huge pages.
+  Block& appendTile(const std::array<int, 3>& c) {
+    if (blocks.size() == blocks.capacity()) {
+      blocks.reserve(std::max<std::size_t>(64, 2 * blocks.capacity()));
+      adviseHugePages(blocks);
+    }
+    block_coords.push_back(c);
+    return blocks.emplace_back();
   }
 
   // The dense tile index over the bounding box of all tiles: 4 bytes per 16^3 voxels of the box
@@ -454,11 +469,10 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
     auto [it, inserted] = tile_of.try_emplace(key, std::uint32_t(impl->blocks.size()));
     if (inserted) {
       if (impl->blocks.size() >= max_blocks) { overflow = true; tile_of.erase(it); return nullptr; }
-      impl->blocks.emplace_back();  // value-initialised: all rock
-      impl->block_coords.push_back({bx, by, bz});
+      impl->appendTile({bx, by, bz});
     }
     last_key = key;
-    last_tile = &impl->blocks[it->second];
+    last_tile = &impl->blocks[it->second];  // valid until the next appendTile()
     return last_tile;
   };
   // Sets a box of voxels free (or rock); a leaf of up to 16 voxels lies in one tile.
@@ -528,19 +542,14 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
 }
 
 bool DistanceField::isFree(const Vec3& p) const noexcept {
-  if (!allFinite(p)) return false;
-  const double inv = impl_->inv;
-  const double lim = 32767.0 * impl_->res;
-  if (std::abs(p.x()) > lim || std::abs(p.y()) > lim || std::abs(p.z()) > lim) return false;
-  return isFreeWord(impl_->word(keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv)));
+  int k[3];
+  return impl_->voxelKey(p, k) && isFreeWord(impl_->word(k[0], k[1], k[2]));
 }
 
 Vec3 DistanceField::nearestRockVoxel(const Vec3& p) const noexcept {
-  const double inv = impl_->inv, res = impl_->res;
-  const double lim = 32767.0 * res;
-  if (!allFinite(p) || std::abs(p.x()) > lim || std::abs(p.y()) > lim || std::abs(p.z()) > lim)
-    return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-  const int k[3] = {keyOf(p.x(), inv), keyOf(p.y(), inv), keyOf(p.z(), inv)};
+  const double res = impl_->res;
+  int k[3];
+  if (!impl_->voxelKey(p, k)) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   std::uint64_t w = impl_->word(k[0], k[1], k[2]);
   if (!isFreeWord(w)) w = rockWord(k[0], k[1], k[2]);
   if (!hasSite(w)) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
@@ -655,10 +664,7 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) {
   std::sort(coords.begin(), coords.end());
   coords.erase(std::unique(coords.begin(), coords.end()), coords.end());
   ADIT_RETURN_IF_ERROR(m.allocate(coords));
-  for (const auto& k : now_free) {
-    const std::uint64_t old = m.word(k[0], k[1], k[2]);
-    if (!isFreeWord(old)) m.setFree(k[0], k[1], k[2], true);
-  }
+  for (const auto& k : now_free) m.setFree(k[0], k[1], k[2], true);
   // Voxels whose nearest rock may change lie within the largest clearance of the window.
   const int grow = int(std::ceil(m.stats.max_distance_m / m.res)) + 2;
   BoxI write;

@@ -4,10 +4,14 @@
 
 namespace adit::map {
 
-StatusOr<OccupancyMap> loadMap(const std::string& path, const LoadOptions& options) {
+StatusOr<LoadedMap> loadMapAndSurvey(const std::string& path, const LoadOptions& options) {
   StatusOr<MapFormat> format = formatFromPath(path);
   if (!format.ok()) return format.status();
-  if (*format != MapFormat::kSurveyYaml) return loadOctomap(path, options.unknown_policy);
+  if (*format != MapFormat::kSurveyYaml) {
+    StatusOr<OccupancyMap> map = loadOctomap(path, options.unknown_policy);
+    if (!map.ok()) return map.status();
+    return LoadedMap{std::move(map).value(), std::nullopt};
+  }
   StatusOr<SurveyNetwork> net = loadSurvey(path);
   if (!net.ok()) return net.status();
   VoxelizeOptions vo;
@@ -15,7 +19,13 @@ StatusOr<OccupancyMap> loadMap(const std::string& path, const LoadOptions& optio
   vo.progress = options.progress;
   StatusOr<OccupancyMap> map = voxelize(*net, vo);
   if (!map.ok()) return Status(map.status().code(), path + ": " + map.status().message());
-  return map;
+  return LoadedMap{std::move(map).value(), std::move(net).value()};
+}
+
+StatusOr<OccupancyMap> loadMap(const std::string& path, const LoadOptions& options) {
+  StatusOr<LoadedMap> loaded = loadMapAndSurvey(path, options);
+  if (!loaded.ok()) return loaded.status();
+  return std::move(loaded).value().map;
 }
 
 }  // namespace adit::map

@@ -90,26 +90,28 @@ OccupancyMap OccupancyMap::withUnknownPolicy(UnknownPolicy policy) const {
 
 double OccupancyMap::resolution() const { return tree_->getResolution(); }
 
+namespace {
+// Unknown = voxels of the bounding box that are neither free nor occupied.
+void setUnknownFromBounds(MapStats& s) {
+  s.unknown_voxels = 0;
+  if (s.bounds.empty()) return;
+  const Vec3 n = (s.bounds.size() / s.resolution_m).array().round();
+  const double total = n.x() * n.y() * n.z(), known = double(s.free_voxels + s.occupied_voxels);
+  s.unknown_voxels = total > known ? std::uint64_t(total - known) : 0;
+}
+}  // namespace
+
 void OccupancyMap::recomputeStats() {
   MapStats s;
   s.resolution_m = tree_->getResolution();
   s.octree_nodes = tree_->size();
-  const unsigned depth = tree_->getTreeDepth();
-  for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
-    const std::uint64_t voxels = std::uint64_t{1} << (3 * (depth - it.getDepth()));
-    if (tree_->isNodeOccupied(*it)) s.occupied_voxels += voxels; else s.free_voxels += voxels;
-    const double half = 0.5 * it.getSize();
-    const octomap::point3d c = it.getCoordinate();
-    const Vec3 center(c.x(), c.y(), c.z());
-    s.bounds.extend(center - Vec3::Constant(half));
-    s.bounds.extend(center + Vec3::Constant(half));
-  }
-  if (!s.bounds.empty()) {
-    const Vec3 n = (s.bounds.size() / s.resolution_m).array().round();
-    const double total = n.x() * n.y() * n.z();
-    const double known = double(s.free_voxels + s.occupied_voxels);
-    s.unknown_voxels = total > known ? std::uint64_t(total - known) : 0;
-  }
+  forEachLeaf([&](const Vec3& centre, double size, VoxelState state) {
+    const auto edge = std::uint64_t(std::llround(size / s.resolution_m));
+    (state == VoxelState::kOccupied ? s.occupied_voxels : s.free_voxels) += edge * edge * edge;
+    s.bounds.extend(centre - Vec3::Constant(0.5 * size));
+    s.bounds.extend(centre + Vec3::Constant(0.5 * size));
+  });
+  setUnknownFromBounds(s);
   stats_ = s;
 }
 
@@ -174,9 +176,7 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
   }
   // Bounds only grow here (a voxel set to unknown leaves them as they were).
   stats_.octree_nodes = tree_->size();
-  const Vec3 n = (stats_.bounds.size() / res).array().round();
-  const double total = n.x() * n.y() * n.z(), known = double(stats_.free_voxels + stats_.occupied_voxels);
-  stats_.unknown_voxels = total > known ? std::uint64_t(total - known) : 0;
+  setUnknownFromBounds(stats_);
   return {};
 }
 

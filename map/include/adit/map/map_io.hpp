@@ -10,10 +10,12 @@
 ///   Status s = writeOctomap(*map, "district.bt");
 
 #include <functional>
+#include <optional>
 #include <ostream>
 #include <string>
 
 #include "adit/map/occupancy_map.hpp"
+#include "adit/map/survey_network.hpp"
 
 namespace adit::map {
 
@@ -29,6 +31,14 @@ struct LoadOptions {
 
 /// Loads any supported map: a survey roadway network (voxelized), an OctoMap .bt or .ot.
 StatusOr<OccupancyMap> loadMap(const std::string& path, const LoadOptions& options = {});
+
+/// A loaded map and, when it came from a survey, the network itself (its centrelines are exact).
+struct LoadedMap {
+  OccupancyMap map;
+  std::optional<SurveyNetwork> survey;
+};
+/// loadMap() that keeps the survey network.
+StatusOr<LoadedMap> loadMapAndSurvey(const std::string& path, const LoadOptions& options = {});
 
 /// OctoMap binary (.bt) or full (.ot, OcTree only) from a file or from bytes; `name` is used in
 /// messages. Every structural fact is checked: magic line, header fields, node encoding, depth
