@@ -24,6 +24,7 @@ namespace adit::tools {
 
 namespace {
 
+using namespace adit;
 using namespace adit::map;
 
 struct MapArgs {

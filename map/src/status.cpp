@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "adit/map/status.hpp"
+#include "adit/status.hpp"
 
 #include <cstdio>
 
-namespace adit::map {
+namespace adit {
 
 const char* statusCodeName(StatusCode code) {
   switch (code) {
@@ -28,4 +28,4 @@ void demandFailed(const char* condition, const char* file, int line) {
   std::abort();
 }
 
-}  // namespace adit::map
+}  // namespace adit

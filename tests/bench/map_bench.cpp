@@ -16,6 +16,7 @@
 
 namespace {
 
+using namespace adit;
 using namespace adit::map;
 
 struct World {

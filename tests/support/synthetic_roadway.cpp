@@ -81,7 +81,7 @@ std::vector<NamedNetwork> oracleRoadways(double straight_length_m) {
 }
 
 map::OccupancyMap voxelizeOrFail(const SurveyNetwork& net) {
-  map::StatusOr<map::OccupancyMap> m = map::voxelize(net);
+  adit::StatusOr<map::OccupancyMap> m = map::voxelize(net);
   if (!m.ok()) {
     ADD_FAILURE() << m.status().toString();
     std::abort();

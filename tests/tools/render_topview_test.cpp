@@ -21,7 +21,7 @@ namespace adit::tools {
 namespace {
 
 namespace fs = std::filesystem;
-using map::StatusCode;
+using adit::StatusCode;
 
 struct SurfaceDeleter {
   void operator()(cairo_surface_t* s) const { cairo_surface_destroy(s); }
@@ -231,7 +231,7 @@ TEST_F(RenderTopViewTest, AutomaticScaleKeepsThinRoadwaysVisible) {
 
 TEST_F(RenderTopViewTest, UnknownExtensionIsRefusedAndWritesNothing) {
   const std::string path = (dir_ / "top.jpg").string();
-  const map::Status s = renderTopView(junction(), {}, path);
+  const adit::Status s = renderTopView(junction(), {}, path);
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find(path), std::string::npos) << s.message();
   EXPECT_TRUE(fs::is_empty(dir_));
@@ -240,7 +240,7 @@ TEST_F(RenderTopViewTest, UnknownExtensionIsRefusedAndWritesNothing) {
 
 TEST_F(RenderTopViewTest, MissingDirectoryIsAnError) {
   const std::string path = (dir_ / "no_such_dir" / "top.png").string();
-  const map::Status s = renderTopView(junction(), {}, path);
+  const adit::Status s = renderTopView(junction(), {}, path);
   EXPECT_FALSE(s.ok());
   EXPECT_NE(s.message().find("no_such_dir"), std::string::npos) << s.message();
   EXPECT_TRUE(fs::is_empty(dir_));
@@ -263,7 +263,7 @@ TEST_F(RenderTopViewTest, TooLargePictureIsRefused) {
   TopViewOptions o;
   o.pixels_per_m = 2000.0;  // 35000 x 39000 px
   const std::string path = (dir_ / "huge.png").string();
-  const map::Status s = renderTopView(junction(), o, path);
+  const adit::Status s = renderTopView(junction(), o, path);
   EXPECT_EQ(s.code(), StatusCode::kOutOfRange);
   EXPECT_NE(s.message().find("Mpx"), std::string::npos) << s.message();
   EXPECT_TRUE(fs::is_empty(dir_));
@@ -274,7 +274,7 @@ TEST_F(RenderTopViewTest, TooLargePictureIsRefused) {
   TopViewOptions tight;
   tight.max_pixels = 100;
   tight.max_megapixels = 0.01;
-  const map::Status t = renderTopView(m, tight, path);
+  const adit::Status t = renderTopView(m, tight, path);
   EXPECT_EQ(t.code(), StatusCode::kOutOfRange);
   EXPECT_NE(t.message().find("roadway"), std::string::npos) << t.message();
   EXPECT_TRUE(fs::is_empty(dir_));

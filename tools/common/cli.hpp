@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <string>
 
-#include "adit/map/status.hpp"
+#include "adit/status.hpp"
 
 namespace adit::tools {
 
@@ -16,8 +16,8 @@ constexpr int kExitOk = 0;
 constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
 
-inline int exitCodeFor(const adit::map::Status& s) {
-  using adit::map::StatusCode;
+inline int exitCodeFor(const adit::Status& s) {
+  using adit::StatusCode;
   switch (s.code()) {
     case StatusCode::kOk: return kExitOk;
     case StatusCode::kInternal: return kExitFailure;
@@ -26,7 +26,7 @@ inline int exitCodeFor(const adit::map::Status& s) {
 }
 
 /// Prints "adit: <message>" on stderr and returns the exit code for the status.
-inline int report(const adit::map::Status& s) {
+inline int report(const adit::Status& s) {
   std::fprintf(stderr, "adit: error: %s\n", s.message().c_str());
   return exitCodeFor(s);
 }

@@ -25,7 +25,7 @@ namespace {
 
 using map::Aabb;
 using map::OccupancyMap;
-using map::Status;
+using adit::Status;
 using map::Vec3;
 using map::VoxelState;
 
@@ -41,7 +41,7 @@ using SurfacePtr = std::unique_ptr<cairo_surface_t, SurfaceDeleter>;
 using ContextPtr = std::unique_ptr<cairo_t, ContextDeleter>;
 
 Status cairoFailure(const std::string& path, const char* what, cairo_status_t st) {
-  return map::internalError(path + ": Cairo could not " + what + ": " + cairo_status_to_string(st) +
+  return adit::internalError(path + ": Cairo could not " + what + ": " + cairo_status_to_string(st) +
                             "; nothing was written");
 }
 
@@ -323,7 +323,7 @@ Status computeLayout(const OccupancyMap& map, const TopViewOptions& o, cairo_t* 
     os << ", over the cap of " << o.max_megapixels << " Mpx and 32767 px a side";
     os << (raised || o.pixels_per_m > 0 ? "; choose a smaller pixels_per_m explicitly"
                                         : "; lower max_pixels");
-    return map::outOfRange(os.str());
+    return adit::outOfRange(os.str());
   };
   if (mw > 32000 || mh > 32000 || mw * mh > cap_px) return tooLarge(mw, mh);
   L.mw = static_cast<int>(mw);
@@ -716,13 +716,13 @@ cairo_status_t writeToStream(void* closure, const unsigned char* data, unsigned 
 
 Status validate(const OccupancyMap& map, const TopViewOptions& o, const std::string& path) {
   const std::string ext = lowerExtension(path);
-  if (ext.empty()) return map::invalidArgument(path + ": no file extension; use .png or .svg");
+  if (ext.empty()) return adit::invalidArgument(path + ": no file extension; use .png or .svg");
   if (ext != ".png" && ext != ".svg")
-    return map::invalidArgument(path + ": unknown picture format '" + ext + "'; use .png or .svg");
+    return adit::invalidArgument(path + ": unknown picture format '" + ext + "'; use .png or .svg");
   auto bad = [](const char* field, double v, const char* rule) {
     std::ostringstream os;
     os << "top view: " << field << " = " << v << " " << rule;
-    return map::invalidArgument(os.str());
+    return adit::invalidArgument(os.str());
   };
   if (!std::isfinite(o.pixels_per_m) || o.pixels_per_m < 0)
     return bad("pixels_per_m", o.pixels_per_m, "must be finite and >= 0 (0 = automatic)");
@@ -736,13 +736,13 @@ Status validate(const OccupancyMap& map, const TopViewOptions& o, const std::str
     return bad("max_megapixels", o.max_megapixels, "must be finite and > 0");
   const Aabb b = map.bounds();
   if (b.empty() || !map::allFinite(b.min) || !map::allFinite(b.max))
-    return map::failedPrecondition("top view: the map has no known voxel to draw");
+    return adit::failedPrecondition("top view: the map has no known voxel to draw");
   // Fail before the work when the file cannot be placed (writeFileAtomically checks again).
   const std::filesystem::path target(path);
   const std::filesystem::path dir = target.has_parent_path() ? target.parent_path() : std::filesystem::path(".");
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec))
-    return map::notFound(path + ": directory '" + dir.string() + "' does not exist");
+    return adit::notFound(path + ": directory '" + dir.string() + "' does not exist");
   return {};
 }
 

@@ -65,7 +65,7 @@ struct TopViewInfo {
 /// Writes `path` (.png or .svg, case-insensitive). Errors: invalid options, unknown extension,
 /// missing or unwritable directory, picture too large; a failed call leaves no file behind.
 /// `info`, when given, is filled on success.
-adit::map::Status renderTopView(const adit::map::OccupancyMap& map, const TopViewOptions& options,
+adit::Status renderTopView(const adit::map::OccupancyMap& map, const TopViewOptions& options,
                                 const std::string& path, TopViewInfo* info = nullptr);
 
 }  // namespace adit::tools

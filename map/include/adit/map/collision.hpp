@@ -33,7 +33,7 @@
 
 #include "adit/map/distance_field.hpp"
 #include "adit/map/occupancy_map.hpp"
-#include "adit/map/status.hpp"
+#include "adit/status.hpp"
 #include "adit/map/types.hpp"
 
 namespace adit::map {

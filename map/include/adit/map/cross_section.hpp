@@ -11,7 +11,7 @@
 
 #include <string>
 
-#include "adit/map/status.hpp"
+#include "adit/status.hpp"
 
 namespace adit::map {
 

@@ -15,7 +15,7 @@
 #include <functional>
 #include <memory>
 
-#include "adit/map/status.hpp"
+#include "adit/status.hpp"
 #include "adit/map/types.hpp"
 
 namespace octomap {

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "adit/map/status.hpp"
+#include "adit/status.hpp"
 
 namespace adit::map {
 

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 /// @file
-/// Status and StatusOr<T>: the "value or reason" type returned at adit's boundaries (loading a
-/// map, parsing a survey, validating parameters). Expected planning outcomes are *not* errors and
+/// Status and StatusOr<T>: the "value or reason" type returned at every adit boundary (loading a
+/// map, parsing a survey or a scenario, validating parameters, the CLI), in every layer. Expected planning outcomes are *not* errors and
 /// live in result structs; programmer errors abort through ADIT_DEMAND.
 ///
 ///   StatusOr<SurveyNetwork> survey = loadSurvey("maps/district.yaml");
@@ -14,7 +14,7 @@
 #include <string>
 #include <utility>
 
-namespace adit::map {
+namespace adit {
 
 enum class StatusCode {
   kOk = 0,
@@ -59,7 +59,7 @@ inline Status internalError(std::string m) { return {StatusCode::kInternal, std:
 
 /// Always-on invariant check: aborts with file:line. For broken invariants, never for bad input.
 #define ADIT_DEMAND(cond) \
-  ((cond) ? static_cast<void>(0) : ::adit::map::demandFailed(#cond, __FILE__, __LINE__))
+  ((cond) ? static_cast<void>(0) : ::adit::demandFailed(#cond, __FILE__, __LINE__))
 
 template <class T>
 class [[nodiscard]] StatusOr {
@@ -90,8 +90,19 @@ class [[nodiscard]] StatusOr {
 /// Propagates a non-OK status from an expression returning Status.
 #define ADIT_RETURN_IF_ERROR(expr)       \
   do {                                   \
-    ::adit::map::Status adit_s_ = (expr); \
+    ::adit::Status adit_s_ = (expr); \
     if (!adit_s_.ok()) return adit_s_;   \
   } while (0)
 
-}  // namespace adit::map
+/// Evaluates an expression returning StatusOr<T>; on error returns its status, else moves the
+/// value into `lhs` (a declaration or an lvalue):  ADIT_ASSIGN_OR_RETURN(auto map, loadMap(path));
+#define ADIT_ASSIGN_OR_RETURN(lhs, expr) \
+  ADIT_ASSIGN_OR_RETURN_IMPL_(ADIT_STATUS_CONCAT_(adit_sor_, __LINE__), lhs, expr)
+#define ADIT_STATUS_CONCAT_INNER_(a, b) a##b
+#define ADIT_STATUS_CONCAT_(a, b) ADIT_STATUS_CONCAT_INNER_(a, b)
+#define ADIT_ASSIGN_OR_RETURN_IMPL_(tmp, lhs, expr) \
+  auto tmp = (expr);                                 \
+  if (!tmp.ok()) return tmp.status();                \
+  lhs = std::move(tmp).value()
+
+}  // namespace adit
