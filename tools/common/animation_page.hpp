@@ -1,0 +1,59 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// The animated page of a run (`adit simulate --html`, and later the fusion runs): one
+/// self-contained HTML file that works offline (no network, no external asset), showing the
+/// figure's static picture (map top view, expected path, static obstacles: whatever the caller put
+/// in the Figure) with the robot and the moving obstacles animated over it, a time slider,
+/// play/pause, speed, and the robot's status per frame (following, yielding, detouring, stuck,
+/// arrived, ...). The picture is embedded as a PNG (base64); world coordinates are mapped to it
+/// with the TopViewInfo the renderer returns, so the animation lines up with the picture exactly.
+///
+///   Figure fig(options);  fig.setMap(&map);  fig.addLine(expected_path);  ...
+///   AnimationPageInput in;
+///   in.title = "tian2016 straight";  in.robot_radius_m = 0.3;
+///   in.movers = {{"obstacle 1", 0.3, kFigureMoving}};
+///   in.frames.push_back({0.0, start, "following", {mover_at_0}});
+///   Status s = writeAnimationPage(fig, in, "run.html");   // atomic
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "adit/map/types.hpp"
+#include "adit/status.hpp"
+#include "common/figure.hpp"
+
+namespace adit::tools {
+
+/// A moving obstacle shown on the page (its positions are per frame).
+struct PageMover {
+  std::string name;
+  double radius_m = 0.3;
+  std::uint32_t colour = kFigureMoving;
+};
+
+struct PageFrame {
+  double t_s = 0.0;
+  adit::map::Vec3 robot = adit::map::Vec3::Zero();
+  std::string status;                  ///< e.g. "following"; shown beside the clock
+  std::vector<adit::map::Vec3> movers;  ///< one per AnimationPageInput::movers, same order
+};
+
+struct AnimationPageInput {
+  std::string title;
+  double robot_radius_m = 0.3;
+  std::vector<PageMover> movers;
+  std::vector<PageFrame> frames;  ///< time-ordered, at least one
+  /// Lines shown in the page's summary panel, e.g. {"outcome", "arrived"}, {"arrival time", "97.3 s"}.
+  std::vector<std::pair<std::string, std::string>> summary;
+};
+
+/// Renders `background` to PNG in memory and writes the page to `path` atomically. Errors: an
+/// empty or non-monotonic frame list, NaN coordinates, a frame whose mover count differs from
+/// `movers`, whatever Figure::renderPng refuses, an unwritable path. Text is HTML-escaped.
+adit::Status writeAnimationPage(const Figure& background, const AnimationPageInput& input,
+                                const std::string& path);
+
+}  // namespace adit::tools
