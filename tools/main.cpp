@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   int rc = adit::tools::kExitOk;
   adit::tools::registerMapVerbs(app, &rc);
+  adit::tools::registerSimulateVerb(app, &rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

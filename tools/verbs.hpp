@@ -10,4 +10,7 @@ namespace adit::tools {
 /// `adit map info|convert|query|slice`.
 void registerMapVerbs(CLI::App& app, int* rc);
 
+/// `adit simulate SCENARIO.yaml`.
+void registerSimulateVerb(CLI::App& app, int* rc);
+
 }  // namespace adit::tools

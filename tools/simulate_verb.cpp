@@ -1,0 +1,160 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// `adit simulate SCENARIO.yaml`: run a scenario through the local planner and report the run.
+// Thin: load, call adit::local::simulate, write JSON / picture / page.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+#include "adit/local/simulator.hpp"
+#include "adit/map/map_io.hpp"
+#include "common/cli.hpp"
+#include "common/figure.hpp"
+#include "verbs.hpp"
+
+namespace adit::tools {
+
+namespace {
+
+using namespace adit::local;
+using adit::map::Vec3;
+
+struct SimulateArgs {
+  std::string scenario;
+  std::string out;
+  std::string picture;
+  bool quiet = false;
+};
+
+nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
+  nlohmann::ordered_json j;
+  j["scenario"] = sc.name;
+  j["method"] = methodName(sc.params.method);
+  j["outcome"] = outcomeName(r.outcome);
+  if (!r.message.empty()) j["message"] = r.message;
+  j["arrival_time"] = r.arrived() ? nlohmann::ordered_json(r.arrival_time_s) : nlohmann::ordered_json(nullptr);
+  j["arrival_tolerance"] = r.arrival_tolerance_m;
+  j["path_length"] = r.path_length_m;
+  j["min_clearance"] = std::isfinite(r.min_clearance_m) ? nlohmann::ordered_json(r.min_clearance_m)
+                                                        : nlohmann::ordered_json(nullptr);
+  j["collisions"] = r.collisions;
+  j["steps"] = r.steps;
+  j["escapes"] = r.escapes;
+  j["final_goal_distance"] = r.final_goal_distance_m;
+  j["step_time_us"] = {{"p50", r.step_time_p50_us}, {"p99", r.step_time_p99_us}};
+  j["seed"] = sc.seed;
+  auto closest = nlohmann::ordered_json::array();
+  for (const ClosestApproach& c : r.closest)
+    closest.push_back({{"obstacle", c.name},
+                       {"distance", std::isfinite(c.distance_m) ? nlohmann::ordered_json(c.distance_m) : nlohmann::ordered_json(nullptr)},
+                       {"t", c.t_s}});
+  j["closest_approaches"] = closest;
+  auto traj = nlohmann::ordered_json::array();
+  for (const TrajectorySample& s : r.trajectory)
+    traj.push_back({{"t", s.t_s}, {"x", s.position.x()}, {"y", s.position.y()}, {"z", s.position.z()},
+                    {"vx", s.velocity.x()}, {"vy", s.velocity.y()}, {"vz", s.velocity.z()},
+                    {"status", stepStatusName(s.status)}});
+  j["trajectory"] = traj;
+  return j;
+}
+
+// The run drawn on the map (or open space): static obstacles, moving-obstacle tracks, the
+// expected path and the trajectory coloured by time.
+Figure runFigure(const Scenario& sc, const Environment& env, const SimulationResult& r) {
+  TopViewOptions opt;
+  opt.title = sc.name + " (" + methodName(sc.params.method) + "): " + outcomeName(r.outcome);
+  Figure fig(opt);
+  map::Aabb box;
+  for (const TrajectorySample& s : r.trajectory) box.extend(s.position);
+  for (const Vec3& p : sc.expected_path.points) box.extend(p);
+  for (const StaticSphere& s : sc.static_obstacles) box.extend(map::Aabb(s.center, s.center).inflated(s.radius));
+  const double t_end = r.trajectory.empty() ? 0.0 : r.trajectory.back().t_s;
+  for (const NamedObstacle& m : sc.moving_obstacles) {
+    FigureLine track;
+    for (double t = 0.0; t <= t_end + 1e-9; t += std::max(t_end / 200.0, 0.05)) {
+      track.points.push_back(m.obstacle.positionAt(t));
+      box.extend(track.points.back());
+    }
+    track.colour = kFigureMoving;
+    track.width_px = 1.5;
+    track.dashed = true;
+    fig.addLine(track);
+    FigureDisc end;
+    end.center = m.obstacle.positionAt(t_end);
+    end.radius_m = m.obstacle.shape.boundingRadius();
+    end.fill = end.stroke = kFigureMoving;
+    end.label = m.name;
+    fig.addDisc(end);
+  }
+  if (env.map()) fig.setMap(env.map());
+  else fig.setWorldBounds(box.inflated(1.0));
+  for (const StaticSphere& s : sc.static_obstacles) {
+    FigureDisc d;
+    d.center = s.center;
+    d.radius_m = s.radius;
+    fig.addDisc(d);
+  }
+  fig.addLine({sc.expected_path.points, kFigurePath, 2.0, true, {}, "expected path", ""});
+  FigureLine traj{{}, kFigureTrajectory, 2.5, false, {}, "trajectory", "time [s]"};
+  for (const TrajectorySample& s : r.trajectory) {
+    traj.points.push_back(s.position);
+    traj.values.push_back(s.t_s);
+  }
+  if (traj.points.size() >= 2) fig.addLine(traj);
+  fig.addMarker({sc.start, MarkerShape::kCircle, kFigureStart, 9, "start", ""});
+  fig.addMarker({sc.goal, MarkerShape::kSquare, kFigureGoal, 9, "goal", ""});
+  return fig;
+}
+
+int run(const SimulateArgs& a) {
+  // Check the output names before the (possibly long) run.
+  for (const std::string* p : {&a.picture}) {
+    if (p->empty()) continue;
+    const std::string ext = p->size() >= 4 ? p->substr(p->size() - 4) : "";
+    if (ext != ".png" && ext != ".svg" && ext != ".PNG" && ext != ".SVG")
+      return report(invalidArgument(*p + ": --picture must end in .png or .svg"));
+  }
+  StatusOr<Scenario> sc = loadScenario(a.scenario);
+  if (!sc.ok()) return report(sc.status());
+  if (!a.quiet) std::fprintf(stderr, "adit: simulating %s with %s\n", sc->name.c_str(), methodName(sc->params.method));
+  StatusOr<Environment> env = Environment::load(*sc);
+  if (!env.ok()) return report(env.status());
+  StatusOr<SimulationResult> r = simulate(*sc, *env);
+  if (!r.ok()) return report(r.status());
+
+  const std::string json = toJson(*sc, *r).dump(2) + "\n";
+  if (!a.out.empty()) {
+    Status s = map::writeFileAtomically(a.out, [&](std::ostream& os) { return bool(os << json); });
+    if (!s.ok()) return report(s);
+  } else {
+    std::fwrite(json.data(), 1, json.size(), stdout);
+  }
+  if (!a.picture.empty())
+    if (Status s = runFigure(*sc, *env, *r).render(a.picture); !s.ok()) return report(s);
+  if (!a.quiet) {
+    std::fprintf(stderr, "adit: %s: %s", sc->name.c_str(), outcomeName(r->outcome));
+    if (r->arrived()) std::fprintf(stderr, " at t = %.1f s", r->arrival_time_s);
+    std::fprintf(stderr, ", path %.2f m, min clearance %.3f m, %d collisions, %d steps (p50 %.1f us)\n",
+                 r->path_length_m, r->min_clearance_m, r->collisions, r->steps, r->step_time_p50_us);
+  }
+  return r->arrived() ? kExitOk : kExitFailure;
+}
+
+}  // namespace
+
+void registerSimulateVerb(CLI::App& app, int* rc) {
+  auto args = std::make_shared<SimulateArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "simulate",
+      "Run a scenario (YAML) through the local planner. JSON on stdout or --out; exit 0 arrived, "
+      "1 collision/stuck/timeout, 2 bad scenario");
+  cmd->add_option("SCENARIO", args->scenario, "Scenario file (.yaml)")->required();
+  cmd->add_option("--out", args->out, "Write the JSON here instead of stdout (atomically)");
+  cmd->add_option("--picture", args->picture, "Top view of the run (.png or .svg)");
+  cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
+  cmd->callback([args, rc] { *rc = run(*args); });
+}
+
+}  // namespace adit::tools
