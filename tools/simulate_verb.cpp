@@ -71,18 +71,20 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
   for (const Vec3& p : sc.expected_path.points) box.extend(p);
   for (const StaticSphere& s : sc.static_obstacles) box.extend(map::Aabb(s.center, s.center).inflated(s.radius));
   const double t_end = r.trajectory.empty() ? 0.0 : r.trajectory.back().t_s;
+  // Tracks only near the run: accelerating obstacles can leave for kilometres.
+  const map::Aabb near = box.inflated(3.0);
   for (const NamedObstacle& m : sc.moving_obstacles) {
     FigureLine track;
-    for (double t = 0.0; t <= t_end + 1e-9; t += std::max(t_end / 200.0, 0.05)) {
-      track.points.push_back(m.obstacle.positionAt(t));
-      box.extend(track.points.back());
-    }
+    for (double t = 0.0; t <= t_end + 1e-9; t += std::max(t_end / 200.0, 0.05))
+      if (near.contains(m.obstacle.positionAt(t))) track.points.push_back(m.obstacle.positionAt(t));
+    for (const Vec3& p : track.points) box.extend(p);
+    if (track.points.size() < 2) continue;
     track.colour = kFigureMoving;
     track.width_px = 1.5;
     track.dashed = true;
-    fig.addLine(track);
     FigureDisc end;
-    end.center = m.obstacle.positionAt(t_end);
+    end.center = track.points.back();  // last position near the run
+    fig.addLine(std::move(track));
     end.radius_m = m.obstacle.shape.boundingRadius();
     end.fill = end.stroke = kFigureMoving;
     end.label = m.name;
