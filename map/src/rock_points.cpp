@@ -29,6 +29,7 @@ RockPointsResult rockSurfacePoints(const DistanceField& field, const Vec3& centr
   // The field's distance is an upper bound within half a voxel; one voxel of margin keeps the
   // skipped ball inside the free space.
   const double clear = std::max(0.0, field.distance(centre) - res);
+  if (clear > radius) return r;  // everything within the radius is free
   auto isRock = [&](double x, double y, double z) { return !field.isFree(Vec3(x, y, z)); };
   for (std::int64_t k = lo[2]; k <= hi[2]; ++k) {
     const double cz = (double(k) + 0.5) * res;
