@@ -40,6 +40,7 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
   j["min_clearance"] = std::isfinite(r.min_clearance_m) ? nlohmann::ordered_json(r.min_clearance_m)
                                                         : nlohmann::ordered_json(nullptr);
   j["collisions"] = r.collisions;
+  if (r.collisions > 0) j["first_collision"] = {{"t", r.first_collision_t_s}, {"with", r.first_collision_with}};
   j["steps"] = r.steps;
   j["escapes"] = r.escapes;
   j["final_goal_distance"] = r.final_goal_distance_m;

@@ -149,7 +149,7 @@ void LocalPlanner::addRockPoints(const Vec3& q, const Vec3& v, const Vec3& a, do
   for (std::size_t b = 0; b < bin_distance_.size(); ++b) {
     if (!std::isfinite(bin_distance_[b]) || obstacles_.size() >= kMaxObstacles) continue;
     const Proximity p = pointProximity(q, bin_point_[b], rr);
-    obstacles_.push_back({p.rho, p.grad, p.pivot_distance, v, a, bin_point_[b], false});
+    obstacles_.push_back({p.rho, p.grad, p.pivot_distance, v, a, bin_point_[b], false, false});
   }
 }
 
@@ -190,7 +190,7 @@ void LocalPlanner::gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, 
         const Vec3 sep = d.point_on_robot - d.point_on_obstacle;
         Vec3 g = sep.norm() > 1e-9 ? Vec3(sep.normalized()) : world_.field->query(q).gradient;
         if (g.norm() < 0.5) g = Vec3::UnitZ();
-        keep({d.distance_m, g, sep.norm(), v, a, d.point_on_obstacle, false});
+        keep({d.distance_m, g, sep.norm(), v, a, d.point_on_obstacle, false, false});
       }
     } else if (all_points) {
       addRockPoints(q, v, a, range + rr);
@@ -198,29 +198,66 @@ void LocalPlanner::gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, 
       const map::DistanceSample s = world_.field->query(q);
       if (!s.in_rock) {
         const Proximity p = pointProximity(q, s.nearest, rr);
-        keep({p.rho, p.grad, p.pivot_distance, v, a, s.nearest, false});
+        keep({p.rho, p.grad, p.pivot_distance, v, a, s.nearest, false, false});
       }
     }
   }
   for (const StaticSphere& s : world_.static_obstacles) {
     const Proximity p = sphereProximity(q, s.center, s.radius, rr);
-    keep({p.rho, p.grad, p.pivot_distance, v, a, s.center - p.grad * s.radius, false});
+    keep({p.rho, p.grad, p.pivot_distance, v, a, s.center - p.grad * s.radius, false, false});
   }
+  const double horizon = params_.method == Method::kClassic ? 0.0 : params_.monitor.prediction_horizon_s;
   for (std::size_t i = 0; i < moving_count; ++i) {
     const map::MovingObstacle& m = moving[i];
+    // Where the obstacle will be relative to the robot at their closest approach within the
+    // horizon (constant acceleration for the obstacle, constant velocity for the robot): the
+    // robot is repelled from that encounter, not only from where the obstacle is now.
+    Vec3 centre = m.position;
+    const Vec3 d0 = q - m.position, w = v - m.velocity;
+    const bool closing = -d0.dot(w) > kClosingSpeed * d0.norm();
+    if (horizon > 0.0) {
+      const double w2 = w.squaredNorm();
+      const double t_star = w2 > 1e-12 ? std::clamp(-d0.dot(w) / w2, 0.0, horizon) : 0.0;
+      const Vec3 d_star = (q + v * t_star) - m.positionAt(t_star);
+      // A later encounter is less pressing: by then the robot can move 1/2 a_max t^2 aside.
+      const double dist = std::min(d0.norm(), d_star.norm() + 0.5 * params_.robot.a_max_mps2 * t_star * t_star);
+      if (dist < d0.norm()) centre = q - unitOr(d_star, unitOr(d0, Vec3::UnitX())) * dist;
+    }
     Proximity p;
     Vec3 point;
     if (m.shape.type == map::ShapeType::kSphere) {
-      p = sphereProximity(q, m.position, m.shape.radius, rr);
-      point = m.position - p.grad * m.shape.radius;
-    } else if (nearestOnShape(m.shape, m.position, q, &point)) {
+      p = sphereProximity(q, centre, m.shape.radius, rr);
+      point = centre - p.grad * m.shape.radius;
+    } else if (nearestOnShape(m.shape, centre, q, &point)) {
       p = pointProximity(q, point, rr);
     } else {
-      p = sphereProximity(q, m.position, m.shape.boundingRadius(), rr);  // inside: push out
-      point = m.position;
+      p = sphereProximity(q, centre, m.shape.boundingRadius(), rr);  // inside: push out
+      point = centre;
     }
-    keep({p.rho, p.grad, p.pivot_distance, v - m.velocity, a - m.acceleration, point, true});
+    keep({p.rho, p.grad, p.pivot_distance, v - m.velocity, a - m.acceleration, point, true, closing});
   }
+}
+
+double LocalPlanner::encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target,
+                                     const map::MovingObstacle* moving, std::size_t moving_count) const {
+  constexpr double kSample = 0.1;   // s
+  constexpr double kMargin = 0.05;  // m kept free beyond the bounding spheres
+  const double a_max = params_.robot.a_max_mps2, rr = params_.robot.radius_m;
+  const int n = std::max(1, int(std::ceil(params_.monitor.safety_horizon_s / kSample)));
+  Vec3 pos = q, vel = v;
+  double margin = std::numeric_limits<double>::infinity();
+  for (int k = 1; k <= n; ++k) {
+    vel += clampNorm(v_target - vel, a_max * kSample);
+    pos += vel * kSample;
+    const double t = double(k) * kSample;
+    for (std::size_t i = 0; i < moving_count; ++i) {
+      const map::MovingObstacle& m = moving[i];
+      margin = std::min(margin, (pos - m.positionAt(t)).norm() - m.shape.boundingRadius() - rr - kMargin);
+    }
+    for (const StaticSphere& s : world_.static_obstacles)
+      margin = std::min(margin, (pos - s.center).norm() - s.radius - rr - kMargin);
+  }
+  return margin;
 }
 
 StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& path, const map::MovingObstacle* moving,
@@ -308,7 +345,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   bool moving_closing = false;
   for (const ObstacleData& o : obstacles_) {
     if (!nearest || o.rho < nearest->rho) nearest = &o;
-    if (o.moving && o.v_rel.dot(-o.grad) > kClosingSpeed) moving_closing = true;
+    moving_closing = moving_closing || o.closing;
   }
   if (nearest) cmd.clearance_m = nearest->rho;
 
@@ -350,66 +387,64 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   }
   cmd.escapes = escapes_;
 
-  // The field of the selected model.
+  // The field of the selected model: attraction, then each obstacle's repulsion (a potential
+  // term plus, for CVFF and UUV, forces the papers define without one).
   TermValue total;
-  Vec3 extra = Vec3::Zero();  // forces without a potential
+  Vec3 extra = Vec3::Zero();
   switch (P.method) {
-    case Method::kClassic: {
-      total += classicAttraction(q, sub_goal, P.classic.xi);
-      for (const ObstacleData& o : obstacles_)
-        total += classicRepulsion({o.rho, o.grad, o.pivot}, P.classic.eta, P.classic.rho0_m);
+    case Method::kClassic: total += classicAttraction(q, sub_goal, P.classic.xi); break;
+    case Method::kTian2016: total += tianAttraction(q, v, a, sub_goal, seg_a, seg_b, P.tian2016); break;
+    case Method::kWang2014: total += classicAttraction(q, sub_goal, P.wang2014.k_att); break;
+    case Method::kVff:
+    case Method::kCvff:
+      total += cvffAttraction(q, sub_goal, P.vff.K_p);
+      if (P.vff.compound) extra += cvffVelocityAttraction(v, P.vff.K_v, v_max);
       break;
-    }
-    case Method::kTian2016: {
-      total += tianAttraction(q, v, a, sub_goal, seg_a, seg_b, P.tian2016);
-      for (const ObstacleData& o : obstacles_)
-        total += tianRepulsion({o.rho, o.grad, o.pivot}, o.v_rel, o.a_rel, P.tian2016);
-      break;
-    }
-    case Method::kWang2014: {
-      const Wang2014Params& w = P.wang2014;
-      const double half = w.view_half_angle_deg * kPi / 180.0;
-      const double rho0 = shrinkingInfluenceRange((q - sub_goal).norm(), w.sensing_radius_m);
-      total += classicAttraction(q, sub_goal, w.k_att);
-      for (const ObstacleData& o : obstacles_) {
-        if (!inFieldOfView(q, heading, o.point, w.view_range_m, half)) continue;
+    case Method::kUuv: total += boundedAttraction(q, sub_goal, P.uuv.k_att, P.uuv.conic_distance_m); break;
+  }
+  const double half_view = P.wang2014.view_half_angle_deg * kPi / 180.0;
+  const double wang_rho0 = shrinkingInfluenceRange((q - sub_goal).norm(), P.wang2014.sensing_radius_m);
+  auto repulsion = [&](const ObstacleData& o, Vec3* no_potential) -> TermValue {
+    const Proximity prox{o.rho, o.grad, o.pivot};
+    switch (P.method) {
+      case Method::kClassic: return classicRepulsion(prox, P.classic.eta, P.classic.rho0_m);
+      case Method::kTian2016: return tianRepulsion(prox, o.v_rel, o.a_rel, P.tian2016);
+      case Method::kWang2014: {
+        const Wang2014Params& w = P.wang2014;
+        if (!inFieldOfView(q, heading, o.point, w.view_range_m, half_view)) return {};
         double delta = 1.0;
         if (o.moving) {
           const double v_ro = o.v_rel.dot(-o.grad);
           delta = v_ro > kClosingSpeed ? w.approach_factor : v_ro < -kClosingSpeed ? w.recede_factor : 1.0;
         }
-        const double f = fuzzyRepulsionGain(o.rho, bearing(heading, o.point - q), w.view_range_m, half);
-        total += goalAwareRepulsion({o.rho, o.grad, o.pivot}, q, sub_goal, w.K_2 * delta * f, rho0, w.n);
+        const double f = fuzzyRepulsionGain(o.rho, bearing(heading, o.point - q), w.view_range_m, half_view);
+        return goalAwareRepulsion(prox, q, sub_goal, w.K_2 * delta * f, wang_rho0, w.n);
       }
-      break;
-    }
-    case Method::kVff:
-    case Method::kCvff: {
-      const VffParams& g = P.vff;
-      total += cvffAttraction(q, sub_goal, g.K_p);
-      for (const ObstacleData& o : obstacles_) {
-        total += vffRepulsion({o.rho, o.grad, o.pivot}, g.M_p, g.p0_m);
-        if (g.compound) extra += cvffVelocityRepulsion({o.rho, o.grad, o.pivot}, o.v_rel, g.M_v, g.p0_m);
-      }
-      if (g.compound) extra += cvffVelocityAttraction(v, g.K_v, v_max);
-      break;
-    }
-    case Method::kUuv: {
-      const UuvParams& u = P.uuv;
-      total += boundedAttraction(q, sub_goal, u.k_att, u.conic_distance_m);
-      for (const ObstacleData& o : obstacles_) {
-        const TermValue rep = goalAwareRepulsion({o.rho, o.grad, o.pivot}, q, sub_goal, u.k_rep, u.rho0_m, 2.0);
-        total += rep;
+      case Method::kVff:
+      case Method::kCvff:
+        if (P.vff.compound) *no_potential += cvffVelocityRepulsion(prox, o.v_rel, P.vff.M_v, P.vff.p0_m);
+        return vffRepulsion(prox, P.vff.M_p, P.vff.p0_m);
+      case Method::kUuv: {
+        const TermValue rep = goalAwareRepulsion(prox, q, sub_goal, P.uuv.k_rep, P.uuv.rho0_m, 2.0);
         const Vec3 b = o.point - q;
         if (rep.dq.norm() > 0.0 && b.dot(heading) > 0.0) {
           // Turn the velocity toward the free side: -d, d = (a x b) x a.
           Vec3 side = rotationSide(heading, b);
           if (side.norm() <= 0.0) side = freeSideAxis(heading, b).cross(heading).cross(heading);
-          extra -= u.rotation_gain * rep.dq.norm() * unitOr(side, Vec3::Zero());
+          *no_potential -= P.uuv.rotation_gain * rep.dq.norm() * unitOr(side, Vec3::Zero());
         }
+        return rep;
       }
-      break;
     }
+    return {};
+  };
+  Vec3 moving_force = Vec3::Zero();  // kept apart: escapes still give way to moving obstacles
+  for (const ObstacleData& o : obstacles_) {
+    Vec3 no_potential = Vec3::Zero();
+    const TermValue rep = repulsion(o, &no_potential);
+    total += rep;
+    extra += no_potential;
+    if (o.moving) moving_force += rep.force() + no_potential;
   }
   cmd.potential = total.u;
   Vec3 force = total.force() + extra;
@@ -422,12 +457,15 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   if (escaping_) {
     // Virtual sub-goal on the chosen side: circulate about the escape axis round the nearest
     // obstacle, holding about half a metre from its surface.
-    const Vec3 g = nearest ? nearest->grad : Vec3(-to_goal);
-    const double rho = nearest ? nearest->rho : 1.0;
+    const ObstacleData* wall = nullptr;  // the static obstacle being followed
+    for (const ObstacleData& o : obstacles_)
+      if (!o.moving && (!wall || o.rho < wall->rho)) wall = &o;
+    const Vec3 g = wall ? wall->grad : Vec3(-to_goal);
+    const double rho = wall ? wall->rho : 1.0;
     Vec3 tangent = unitOr(escape_axis_.cross(g), to_goal);
     const Vec3 dir = unitOr(tangent + std::clamp(0.5 - rho, -1.0, 1.0) * g, tangent);
     steer_to = q + P.monitor.virtual_goal_offset_m * dir;
-    v_des = 0.6 * v_max * dir;
+    v_des = 0.6 * v_max * dir + v_max * moving_force / P.monitor.full_speed_force;
   } else {
     const double fn = force.norm();
     const double speed = v_max * std::min(1.0, fn / P.monitor.full_speed_force);
@@ -435,6 +473,31 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   }
   const double stop_speed = std::sqrt(2.0 * a_max * 0.8 * goal_distance);
   v_des = clampNorm(v_des, std::min(v_max, stop_speed));
+  bool safety_override = false;
+  if (moving_count > 0 && P.monitor.safety_horizon_s > 0.0) {
+    // Last line of defence against moving obstacles: the field's velocity must not lead into one
+    // within the horizon (the robot turning toward it at a_max and holding it, the obstacles under
+    // constant acceleration). Otherwise the first clear of: brake, either side, back off; if none
+    // is clear, the one that keeps the most room.
+    const double score_des = encounterMargin(q, v, v_des, moving, moving_count);
+    if (score_des < 0.0) {
+      const Vec3 up = std::abs(heading.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
+      const Vec3 left = up.cross(heading).normalized();
+      const Vec3 candidates[4] = {Vec3::Zero(), 0.6 * v_max * left, -0.6 * v_max * left, -0.5 * v_max * heading};
+      Vec3 best = v_des;
+      double best_score = score_des;
+      for (const Vec3& c : candidates) {
+        const double sc = encounterMargin(q, v, c, moving, moving_count);
+        if (sc > best_score + 1e-9) {
+          best = c;
+          best_score = sc;
+        }
+        if (sc >= 0.0) break;
+      }
+      safety_override = best != v_des;
+      v_des = best;
+    }
+  }
   Vec3 acc = clampNorm((v_des - v) / dt, a_max);
   Vec3 v_cmd = v + acc * dt;
   if (v_cmd.norm() > v_max) {
@@ -448,7 +511,8 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   cmd.sub_goal = steer_to;
 
   const double along = v_cmd.dot(to_goal);
-  if (escaping_) cmd.status = StepStatus::kDetouring;
+  if (safety_override) cmd.status = StepStatus::kYielding;
+  else if (escaping_) cmd.status = StepStatus::kDetouring;
   else if (moving_closing && along < 0.5 * v_max) cmd.status = StepStatus::kYielding;
   else if (nearest && v_cmd.norm() > 1e-3 && along < std::cos(30.0 * kPi / 180.0) * v_cmd.norm())
     cmd.status = StepStatus::kDetouring;

@@ -105,6 +105,9 @@ Status MonitorParams::validate() const {
       .positive("escape_time_s", escape_time_s).positive("virtual_goal_offset_m", virtual_goal_offset_m)
       .positive("arrival_tolerance_m", arrival_tolerance_m).positive("subgoal_switch_m", subgoal_switch_m)
       .positive("full_speed_force", full_speed_force)
+      .rule("prediction_horizon_s", prediction_horizon_s, prediction_horizon_s >= 0 && prediction_horizon_s <= 60,
+            "in [0, 60]")
+      .rule("safety_horizon_s", safety_horizon_s, safety_horizon_s >= 0 && safety_horizon_s <= 10, "in [0, 10]")
       .status();
 }
 

@@ -191,14 +191,23 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) 
     for (int s = 1; s <= subs; ++s) {
       const double tau = dt * double(s) / double(subs);
       const Vec3 p = p0 + v0 * tau + 0.5 * acc * tau * tau;
+      // Nearest thing to the robot at this instant, and what it is.
       double d = referee.rockDistance(p);
-      for (std::size_t i = 0; i < sc.static_obstacles.size(); ++i) d = std::min(d, referee.staticDistance(p, i));
+      std::string what = "rock";
+      for (std::size_t i = 0; i < sc.static_obstacles.size(); ++i) {
+        const double ds = referee.staticDistance(p, i);
+        if (ds < d) { d = ds; what = "static obstacle " + std::to_string(i + 1); }
+      }
       for (std::size_t i = 0; i < nm; ++i) {
         const double dm = referee.movingDistance(p, i, t + tau);
         if (dm < res.closest[i].distance_m) res.closest[i] = {res.closest[i].name, dm, t + tau};
-        d = std::min(d, dm);
+        if (dm < d) { d = dm; what = sc.moving_obstacles[i].name; }
       }
       res.min_clearance_m = std::min(res.min_clearance_m, d);
+      if (d <= 0.0 && !hit && res.collisions == 0) {
+        res.first_collision_t_s = t + tau;
+        res.first_collision_with = what;
+      }
       hit = hit || d <= 0.0;
     }
     if (hit) ++res.collisions;
@@ -217,7 +226,8 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) 
   if (res.collisions > 0) {
     res.outcome = Outcome::kCollision;
     std::ostringstream os;
-    os << "the robot overlapped an obstacle or rock in " << res.collisions << " periods";
+    os << "the robot overlapped " << res.first_collision_with << " at t = " << res.first_collision_t_s << " s ("
+       << res.collisions << " periods in contact)";
     res.message = os.str();
   } else if (last == StepStatus::kArrived && within) {
     res.outcome = Outcome::kArrived;

@@ -129,8 +129,7 @@ TEST(Scenarios, DistrictRoadwayWithOncomingMachine) {
 }
 
 // Crossing traffic in open space: a 20 m straight path, 4-8 movers crossing it about when the
-// robot gets there, 1-3 static discs. rho0 = 3 m instead of the paper's 2: movers at up to
-// 0.6 m/s need the reaction to start before the robot's braking distance (1 m) is used up.
+// robot gets there, 1-3 static discs; the tian2016 preset as it is.
 Scenario crossingTraffic(std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   auto U = [&](double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); };
@@ -143,7 +142,6 @@ Scenario crossingTraffic(std::uint64_t seed) {
   s.expected_path.points = {s.start, s.goal};
   s.params = LocalParams::preset(Method::kTian2016);
   s.params.robot = {0.3, 1.0, 0.5};
-  s.params.tian2016.rho0_m = 3.0;
   s.dt_s = 0.1;
   s.t_max_s = 120;
   const int n_static = int(U(1, 4)), n_moving = int(U(4, 9));
@@ -161,10 +159,10 @@ Scenario crossingTraffic(std::uint64_t seed) {
   return s;
 }
 
-// Tolerances: >= 90 % arrive; an arrival never collides or stops short (the referee's verdict);
-// the rest end stuck, timeout or (a known limitation, bounded here) in a collision.
+// Tolerances (issue 7): >= 90 % arrive; an arrival never collides or stops short (the referee's
+// verdict); the rest end honestly stuck or timed out, never in a collision.
 TEST(Scenarios, RandomCrossingTraffic) {
-  constexpr int kSeeds = 100;
+  constexpr int kSeeds = 200;
   int counts[4] = {0, 0, 0, 0};
   for (std::uint64_t seed = 0; seed < kSeeds; ++seed) {
     const Scenario s = crossingTraffic(seed);
@@ -181,8 +179,8 @@ TEST(Scenarios, RandomCrossingTraffic) {
   }
   std::printf("    %d seeds: %d arrived, %d collision, %d stuck, %d timeout\n", kSeeds, counts[0], counts[1],
               counts[2], counts[3]);
-  EXPECT_GE(counts[0], kSeeds * 9 / 10);
-  EXPECT_LE(counts[1], kSeeds / 20);
+  EXPECT_GE(counts[int(Outcome::kArrived)], kSeeds * 9 / 10);
+  EXPECT_EQ(counts[int(Outcome::kCollision)], 0);
 }
 
 TEST(Scenarios, SameSeedSameTrajectory) {

@@ -114,6 +114,10 @@ class LocalPlanner {
   void gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, const map::MovingObstacle* moving,
                        std::size_t moving_count);
   void addRockPoints(const Vec3& q, const Vec3& v, const Vec3& a, double radius);
+  // Smallest clearance (negative: overlap) to moving obstacles and static spheres over the safety
+  // horizon if the robot steers its velocity to v_target.
+  double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving,
+                         std::size_t moving_count) const;
 
   LocalParams params_;
   World world_;
@@ -139,6 +143,7 @@ class LocalPlanner {
     Vec3 v_rel, a_rel;
     Vec3 point;   // nearest point on the obstacle
     bool moving;
+    bool closing;  // moving and getting nearer now (true geometry, not the prediction)
   };
   std::vector<ObstacleData> obstacles_;
   std::vector<Vec3> rock_points_;

@@ -139,6 +139,12 @@ struct MonitorParams {
   double arrival_tolerance_m = 0.5;    ///< arrived when the centre is within this of the goal
   double subgoal_switch_m = 1.0;       ///< advance to the next break point within this distance
   double full_speed_force = 1.0;       ///< |F| at or above which the robot commands v_max
+  /// Moving obstacles repel from their closest approach within this horizon (constant
+  /// acceleration); 0 = from where they are now. The classic baseline never predicts.
+  double prediction_horizon_s = 2.0;
+  /// Safety check of each command against moving obstacles over this horizon (0 = off): a command
+  /// that leads into one is replaced by braking or a side step (status kYielding).
+  double safety_horizon_s = 2.0;
   Status validate() const;
   /// One field list for YAML overrides, dumps and docs.
   template <class V>
@@ -147,6 +153,7 @@ struct MonitorParams {
     v("max_escapes", max_escapes); v("escape_time_s", escape_time_s);
     v("virtual_goal_offset_m", virtual_goal_offset_m); v("arrival_tolerance_m", arrival_tolerance_m);
     v("subgoal_switch_m", subgoal_switch_m); v("full_speed_force", full_speed_force);
+    v("prediction_horizon_s", prediction_horizon_s); v("safety_horizon_s", safety_horizon_s);
   }
 };
 

@@ -80,6 +80,8 @@ struct SimulationResult {
   /// Smallest surface-to-surface distance to rock or any obstacle over the run (sub-sampled).
   double min_clearance_m = std::numeric_limits<double>::infinity();
   int collisions = 0;  ///< periods during which the robot overlapped something
+  double first_collision_t_s = std::numeric_limits<double>::quiet_NaN();  ///< NaN without collision
+  std::string first_collision_with;  ///< "rock", "static obstacle 2", or the moving obstacle's name
   int steps = 0;       ///< step() calls
   int escapes = 0;     ///< escape manoeuvres started
   double step_time_p50_us = 0.0;
