@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // OctoMap .bt/.ot reading with full validation, and atomic writing.
-#include <fcntl.h>
 #include <octomap/OcTree.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -13,7 +11,6 @@
 #include <fstream>
 #include <iomanip>
 #include <locale>
-#include <random>
 #include <sstream>
 #include <vector>
 
@@ -262,52 +259,6 @@ StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy
   StatusOr<std::string> bytes = readFile(path);
   if (!bytes.ok()) return bytes.status();
   return parseOctomap(*bytes, path, policy);
-}
-
-Status writeFileAtomically(const std::string& path, const std::function<bool(std::ostream&)>& write) {
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return notFound(path + ": directory '" + dir.string() + "' does not exist");
-  if (fs::is_directory(target, ec)) return invalidArgument(path + ": is a directory");
-  std::random_device rd;
-  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + "_" +
-                              std::to_string(rd() % 1000000));
-  bool ok = false;
-  std::string why;
-  try {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return invalidArgument(path + ": cannot create a file in '" + dir.string() + "': " + std::strerror(errno));
-    const bool wrote = write(out);
-    out.flush();
-    const bool stream_ok = out.good();
-    out.close();
-    ok = wrote && stream_ok && !out.fail();
-    if (!wrote) why = "the writer reported a failure";
-    else if (!ok) why = "write failed (disk full or I/O error?)";
-  } catch (const std::exception& e) {
-    ok = false;
-    why = std::string("the writer threw: ") + e.what();
-  } catch (...) {
-    ok = false;
-    why = "the writer threw an exception";
-  }
-  if (ok) {
-    // Make the data durable before the rename makes it visible, so a crash cannot leave an empty
-    // file under the target's name.
-    const int fd = ::open(tmp.c_str(), O_RDONLY);
-    if (fd < 0 || ::fsync(fd) != 0) { ok = false; why = std::string("fsync failed: ") + std::strerror(errno); }
-    if (fd >= 0) ::close(fd);
-  }
-  if (ok) {
-    fs::rename(tmp, target, ec);
-    if (ec) { ok = false; why = "rename failed: " + ec.message(); }
-  }
-  if (!ok) {
-    fs::remove(tmp, ec);
-    return internalError(path + ": " + why + "; nothing was written");
-  }
-  return {};
 }
 
 namespace {

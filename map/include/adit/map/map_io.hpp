@@ -3,8 +3,8 @@
 /// @file
 /// Reading and writing maps. Readers validate a whole file before anything is built from it
 /// (OctoMap's own readers trust their input: a truncated .bt makes them read garbage), and
-/// writers go through a temporary file renamed into place, so a failed write never leaves a
-/// half file behind.
+/// writers go through a temporary file renamed into place, so a failed or interrupted write
+/// never leaves a half file behind (see writeFileAtomically for devices, FIFOs and symlinks).
 ///
 ///   StatusOr<OccupancyMap> map = loadMap("maps/district.yaml");   // survey, .bt or .ot
 ///   Status s = writeOctomap(*map, "district.bt");
@@ -52,7 +52,13 @@ Status writeOctomap(const OccupancyMap& map, const std::string& path);
 
 /// Calls `write` on a stream to a temporary file beside `path`, then renames it over `path`.
 /// If `write` returns false or throws, or the stream fails, the temporary file is removed and
-/// `path` is untouched.
+/// `path` is untouched. Writers never destroy what is not theirs:
+/// - a symbolic link is followed (through chains and to a dangling target) and its target is
+///   replaced, never the link itself; a replaced regular file keeps its permission bits;
+/// - a character device (/dev/null, a terminal) or a FIFO is written through in place, without a
+///   temporary file (such a write cannot be atomic); block devices and sockets are refused;
+/// - SIGINT, SIGTERM or SIGHUP during the write remove the temporary file, then the signal's
+///   previous disposition runs (the process still dies of it unless the application handles it).
 Status writeFileAtomically(const std::string& path, const std::function<bool(std::ostream&)>& write);
 
 /// Whole file into memory, with a clear error if it is missing, a directory or too large.
