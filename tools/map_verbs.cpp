@@ -16,6 +16,7 @@
 #include "adit/map/map_summary.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
+#include "common/points_csv.hpp"
 #include "common/progress.hpp"
 #include "common/render_topview.hpp"
 #include "verbs.hpp"
@@ -142,49 +143,6 @@ int runConvert(const MapArgs& a, const std::string& out) {
   return kExitOk;
 }
 
-// "x,y,z" with finite numbers; `where` names the source in errors.
-StatusOr<Vec3> parsePoint(const std::string& text, const std::string& where) {
-  std::string t = text;
-  for (char& c : t)
-    if (c == ',' || c == ';' || c == '\t') c = ' ';
-  std::istringstream is(t);
-  Vec3 p;
-  std::string tok;
-  for (int i = 0; i < 3; ++i) {
-    if (!(is >> tok)) return invalidArgument(where + ": expected x,y,z, got '" + text + "'");
-    char* end = nullptr;
-    p[i] = std::strtod(tok.c_str(), &end);
-    if (end == tok.c_str() || *end != '\0') return invalidArgument(where + ": '" + tok + "' is not a number");
-    if (!std::isfinite(p[i])) return invalidArgument(where + ": coordinate '" + tok + "' is not finite");
-  }
-  if (is >> tok) return invalidArgument(where + ": expected three values, got more in '" + text + "'");
-  return p;
-}
-
-StatusOr<std::vector<Vec3>> readPointsCsv(const std::string& path) {
-  StatusOr<std::string> text = readFile(path, std::size_t{1} << 30);
-  if (!text.ok()) return text.status();
-  std::vector<Vec3> pts;
-  std::istringstream in(*text);
-  std::string line;
-  int lineno = 0;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const auto first = line.find_first_not_of(" \t");
-    if (first == std::string::npos || line[first] == '#') continue;
-    // A header row such as "x,y,z" is allowed on the first data line.
-    if (pts.empty() && (std::isalpha(static_cast<unsigned char>(line[first])) && line.substr(first, 3) != "nan" &&
-                        line.substr(first, 3) != "inf"))
-      continue;
-    StatusOr<Vec3> p = parsePoint(line, path + ":" + std::to_string(lineno));
-    if (!p.ok()) return p.status();
-    pts.push_back(*p);
-  }
-  if (pts.empty()) return invalidArgument(path + ": no points (expected lines of x,y,z)");
-  return pts;
-}
-
 int runQuery(const MapArgs& a, const std::string& points_file, const std::vector<std::string>& points,
              const std::string& out_path) {
   std::vector<Vec3> pts;
@@ -205,22 +163,21 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
   StatusOr<DistanceField> df = DistanceField::build(loaded->map, bar.callback());
   bar.finish();
   if (!df.ok()) return report(df.status());
-  // All input is validated before the first byte of output.
-  std::ostringstream os;
-  os << "x,y,z,state,distance,gx,gy,gz\n";
-  char buf[256];
-  for (const Vec3& p : pts) {
-    const DistanceSample s = df->query(p);
-    std::snprintf(buf, sizeof buf, "%.6g,%.6g,%.6g,%s,%.4f,%.6f,%.6f,%.6f\n", p.x(), p.y(), p.z(),
-                  voxelStateName(loaded->map.state(p)), s.distance, s.gradient.x(), s.gradient.y(), s.gradient.z());
-    os << buf;
-  }
-  if (out_path.empty()) {
-    std::cout << os.str();
-    std::cout.flush();
-    return std::cout ? kExitOk : kExitFailure;
-  }
-  Status w = writeFileAtomically(out_path, [&](std::ostream& f) { return bool(f << os.str()); });
+  // All input is validated before the first byte of output; rows are streamed (no copy of the
+  // whole table in memory). Coordinates echo the input exactly so rows join back to it.
+  auto writeRows = [&](std::ostream& os) {
+    os << "x,y,z,state,distance,gx,gy,gz\n";
+    char buf[160];
+    for (const Vec3& p : pts) {
+      const DistanceSample s = df->query(p);
+      std::snprintf(buf, sizeof buf, ",%s,%.4f,%.6f,%.6f,%.6f\n", voxelStateName(loaded->map.state(p)), s.distance,
+                    s.gradient.x(), s.gradient.y(), s.gradient.z());
+      os << roundTripNumber(p.x()) << ',' << roundTripNumber(p.y()) << ',' << roundTripNumber(p.z()) << buf;
+    }
+    return bool(os);
+  };
+  if (out_path.empty()) return writeRows(std::cout) ? kExitOk : kExitFailure;
+  Status w = writeFileAtomically(out_path, writeRows);
   return w.ok() ? kExitOk : report(w);
 }
 

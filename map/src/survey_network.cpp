@@ -2,6 +2,7 @@
 // Survey YAML parsing and validation. yaml-cpp stays in this file.
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -307,7 +308,14 @@ Aabb SurveyNetwork::bounds() const {
   Aabb box;
   for (const SurveyRoadway& road : roadways) {
     const CrossSection& s = sections.at(road.section);
-    const double grow = 0.5 * s.maxWidth() + rock_shell_m + resolution_m;
+    // Sections are swept square to the centreline, so an inclined roadway's roof leans back
+    // horizontally by height * sin(slope).
+    double max_sin = 0;
+    for (std::size_t k = 1; k < road.stations.size(); ++k) {
+      const Vec3 d = stations.at(road.stations[k]) - stations.at(road.stations[k - 1]);
+      max_sin = std::max(max_sin, std::abs(d.z()) / d.norm());
+    }
+    const double grow = std::max(0.5 * s.maxWidth(), s.height() * max_sin) + rock_shell_m + resolution_m;
     for (const std::string& id : road.stations) {
       const Vec3& p = stations.at(id);
       box.extend(Vec3(p.x() - grow, p.y() - grow, p.z() - rock_shell_m - resolution_m));
