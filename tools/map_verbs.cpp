@@ -14,6 +14,7 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/map_summary.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
 #include "common/points_csv.hpp"
@@ -32,6 +33,8 @@ struct MapArgs {
   std::string path;
   std::string unknown = "rock";
   bool quiet = false;
+  std::string max_memory = "2G";
+  std::string crop;
 };
 
 void addMapArgs(CLI::App* cmd, MapArgs* a) {
@@ -39,13 +42,35 @@ void addMapArgs(CLI::App* cmd, MapArgs* a) {
   cmd->add_option("--unknown", a->unknown, "Unknown space counts as: rock (default, surveyed mines) or free")
       ->check(CLI::IsMember({"rock", "free"}));
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
+  cmd->add_option("--max-memory", a->max_memory,
+                  "Refuse work estimated to need more memory than this (e.g. 512M, 8G; default 2G)");
+  cmd->add_option("--crop", a->crop,
+                  "Only the part of the map inside xmin,ymin,zmin,xmax,ymax,zmax (metres); a survey is cut "
+                  "before it is voxelized");
+}
+
+// --max-memory as a budget (also used by the verbs for what they build after loading).
+StatusOr<MemoryBudget> budgetOf(const MapArgs& a) {
+  StatusOr<std::uint64_t> bytes = parseByteSize(a.max_memory);
+  if (!bytes.ok()) return invalidArgument("--max-memory: " + bytes.status().message());
+  return MemoryBudget{*bytes};
 }
 
 // Loads a map (for a survey, with its network) and ends the progress line.
 StatusOr<LoadedMap> load(const MapArgs& a, ProgressBar& bar) {
   StatusOr<UnknownPolicy> policy = parseUnknownPolicy(a.unknown);
   if (!policy.ok()) return policy.status();
-  StatusOr<LoadedMap> loaded = loadMapAndSurvey(a.path, {*policy, bar.callback()});
+  LoadOptions options;
+  options.unknown_policy = *policy;
+  options.progress = bar.callback();
+  ADIT_ASSIGN_OR_RETURN(const MemoryBudget budget, budgetOf(a));
+  options.max_memory_bytes = budget.max_bytes;
+  if (!a.crop.empty()) {
+    StatusOr<Aabb> box = parseBox(a.crop);
+    if (!box.ok()) return invalidArgument("--crop: " + box.status().message());
+    options.crop = *box;
+  }
+  StatusOr<LoadedMap> loaded = loadMapAndSurvey(a.path, options);
   bar.finish();
   return loaded;
 }
@@ -62,8 +87,10 @@ int runInfo(const MapArgs& a, bool json) {
   if (!loaded.ok()) return report(loaded.status());
   const OccupancyMap& map = loaded->map;
   const MapStats& s = map.stats();
-  // The estimate is a convenience: a map too sparse for it still gets its summary.
-  StatusOr<RoadwayLengthEstimate> est_or = estimateRoadwayLength(map);
+  // The estimate is a convenience: a map too sparse (or too large for --max-memory) for it still
+  // gets its summary.
+  const double max_cells = double(budgetOf(a)->max_bytes) / 5.0;  // 5 bytes per top-view cell
+  StatusOr<RoadwayLengthEstimate> est_or = estimateRoadwayLength(map, max_cells);
   std::optional<RoadwayLengthEstimate> est;
   if (est_or.ok()) est = *est_or;
   else std::fprintf(stderr, "adit: warning: no roadway length estimate: %s\n", est_or.status().message().c_str());
@@ -160,7 +187,17 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
   ProgressBar bar(a.quiet);
   StatusOr<LoadedMap> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
-  StatusOr<DistanceField> df = DistanceField::build(loaded->map, bar.callback());
+  // Counted without allocating a tile: `--unknown free` on a large box used to take minutes and
+  // tens of GB before failing.
+  const MemoryBudget budget = *budgetOf(a);
+  const DistanceFieldEstimate need = estimateDistanceField(loaded->map);
+  Status fits = budget.check(need.bytes, "the distance field (" + std::to_string(need.tiles) + " tiles of 16^3 voxels)",
+                             "use --crop xmin,ymin,zmin,xmax,ymax,zmax around the points" +
+                                 std::string(loaded->map.unknownPolicy() == UnknownPolicy::kFree ? ", --unknown rock" : "") +
+                                 " or raise --max-memory");
+  if (!fits.ok()) return report(fits);
+  const auto max_tiles = std::uint64_t(double(budget.max_bytes) / distanceFieldBytesPerTile()) + 1;
+  StatusOr<DistanceField> df = DistanceField::build(loaded->map, bar.callback(), max_tiles);
   bar.finish();
   if (!df.ok()) return report(df.status());
   // All input is validated before the first byte of output; rows are streamed (no copy of the

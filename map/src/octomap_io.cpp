@@ -232,7 +232,8 @@ StatusOr<std::string> readFile(const std::string& path, std::size_t max_bytes) {
   return bytes;
 }
 
-StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string& name, UnknownPolicy policy) {
+StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string& name, UnknownPolicy policy,
+                                    std::uint64_t max_memory_bytes) {
   StatusOr<Header> header = parseHeader(bytes, name);
   if (!header.ok()) return header.status();
   const Header& h = *header;
@@ -243,6 +244,10 @@ StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string&
                     std::to_string((bytes.size() - h.data_offset) / min_bytes_per_node));
   ADIT_RETURN_IF_ERROR(h.binary ? validateBinaryData(bytes, h.data_offset, h.size, name)
                                 : validateFullData(bytes, h.data_offset, h.size, name));
+  // The node count is now known to be true: check what the tree will cost before building it.
+  ADIT_RETURN_IF_ERROR(MemoryBudget{max_memory_bytes}.check(
+      estimateOctreeBytes(double(h.size)), name + ": the octree (" + std::to_string(h.size) + " nodes)",
+      "raise --max-memory (a crop is applied only after loading)"));
   auto tree = std::make_shared<octomap::OcTree>(h.resolution);
   ViewBuf view(bytes.data() + h.data_offset, bytes.data() + bytes.size());  // no copy of the data
   std::istream data(&view);
@@ -255,10 +260,10 @@ StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string&
   return map;
 }
 
-StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy) {
-  StatusOr<std::string> bytes = readFile(path);
+StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy, std::uint64_t max_memory_bytes) {
+  StatusOr<std::string> bytes = readFile(path, std::min<std::uint64_t>(std::uint64_t{1} << 32, max_memory_bytes));
   if (!bytes.ok()) return bytes.status();
-  return parseOctomap(*bytes, path, policy);
+  return parseOctomap(*bytes, path, policy, max_memory_bytes);
 }
 
 namespace {

@@ -4,10 +4,16 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <string>
+#include <vector>
 
+#include "adit/map/distance_field.hpp"
+#include "adit/map/map_io.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
+#include "support/survey_example.hpp"
 
 namespace adit::map {
 namespace {
@@ -90,6 +96,164 @@ TEST(VoxelCentres, FacesLieOnTheGrid) {
     }
   });
   EXPECT_GT(layer, 0u);
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// Size estimates and crops
+
+const std::string kDistrictBt = std::string(ADIT_MAPS_DIR) + "/district.bt";
+
+bool mentions(const Status& s, const std::string& what) { return s.message().find(what) != std::string::npos; }
+
+TEST(ByteSize, ParsesUnitsAndRefusesNonsense) {
+  EXPECT_EQ(*parseByteSize("4G"), std::uint64_t{4} << 30);
+  EXPECT_EQ(*parseByteSize("512M"), std::uint64_t{512} << 20);
+  EXPECT_EQ(*parseByteSize("1.5GiB"), std::uint64_t{3} << 29);
+  EXPECT_EQ(*parseByteSize("800k"), 800u * 1024u);
+  EXPECT_EQ(*parseByteSize("123"), 123u);
+  for (const char* bad : {"", "G", "-1G", "0", "4X", "nan", "1e30T"}) {
+    const StatusOr<std::uint64_t> r = parseByteSize(bad);
+    EXPECT_FALSE(r.ok()) << bad;
+  }
+  EXPECT_EQ(formatBytes(3.0 * (1 << 30)), "3.0 GiB");
+  EXPECT_EQ(formatBytes(100), "100 B");
+}
+
+TEST(Box, ParsesSixFiniteValues) {
+  const StatusOr<Aabb> b = parseBox("0,-1,2.5,10,1,3");
+  ASSERT_TRUE(b.ok());
+  EXPECT_EQ(b->min, Vec3(0, -1, 2.5));
+  EXPECT_EQ(b->max, Vec3(10, 1, 3));
+  for (const char* bad : {"1,2,3,4,5", "1,2,3,4,5,6,7", "0,0,0,nan,1,1", "0,0,0,1,x,1", "5,0,0,1,1,1"})
+    EXPECT_FALSE(parseBox(bad).ok()) << bad;
+}
+
+// The estimate counts exactly the tiles the build allocates, under both policies, without
+// building anything.
+TEST(DistanceFieldEstimate, CountsTheTilesTheBuildAllocates) {
+  for (double deg : {0.0, 35.0}) {
+    for (UnknownPolicy policy : {UnknownPolicy::kRock, UnknownPolicy::kFree}) {
+      VoxelizeOptions vo;
+      vo.unknown_policy = policy;
+      StatusOr<OccupancyMap> map = voxelize(inclinedRoadway(deg, 12.0, 0.1), vo);
+      ASSERT_TRUE(map.ok());
+      const DistanceFieldEstimate e = estimateDistanceField(*map);
+      StatusOr<DistanceField> df = DistanceField::build(*map);
+      ASSERT_TRUE(df.ok());
+      if (policy == UnknownPolicy::kRock) {
+        EXPECT_EQ(e.tiles, df->stats().blocks) << deg;
+      }
+      // Under kFree the box is filled; the estimate rounds each axis up by one tile.
+      EXPECT_GE(e.tiles, df->stats().blocks) << deg;
+      EXPECT_LE(double(e.tiles), 1.6 * double(df->stats().blocks)) << deg;
+      EXPECT_GE(e.bytes, 0.9 * double(df->stats().memory_bytes)) << deg;
+      EXPECT_LE(e.bytes, 2.0 * double(df->stats().memory_bytes)) << deg;
+    }
+  }
+}
+
+// The issue's case: `--unknown free` on the bundled district made the field fill a 611 x 451 x 40 m
+// box (19 GB). The estimate names it from the octree alone.
+TEST(DistanceFieldEstimate, BundledDistrictUnderUnknownFreeIsRefusedByTheDefaultBudget) {
+  LoadOptions o;
+  o.unknown_policy = UnknownPolicy::kFree;
+  StatusOr<OccupancyMap> map = loadMap(kDistrictBt, o);
+  ASSERT_TRUE(map.ok()) << map.status().toString();
+  const DistanceFieldEstimate e = estimateDistanceField(*map);
+  EXPECT_GT(e.bytes, 8.0 * (1 << 30));
+  const Status s = MemoryBudget{}.check(e.bytes, "the distance field", "use --crop");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.code(), StatusCode::kOutOfRange);
+  EXPECT_TRUE(mentions(s, "GiB")) << s.message();
+  EXPECT_TRUE(mentions(s, "--crop")) << s.message();
+  // Under the default policy the same map fits easily.
+  StatusOr<OccupancyMap> rock = loadMap(kDistrictBt);
+  ASSERT_TRUE(rock.ok());
+  EXPECT_LT(estimateDistanceField(*rock).bytes, 0.5 * (1 << 30));
+}
+
+TEST(Crop, KeepsExactlyTheVoxelsInTheBox) {
+  StatusOr<OccupancyMap> map = voxelize(inclinedRoadway(20.0, 16.0, 0.2));
+  ASSERT_TRUE(map.ok());
+  const Aabb box(Vec3(3, -1, -1), Vec3(9, 3, 6));
+  StatusOr<OccupancyMap> part = cropMap(*map, box);
+  ASSERT_TRUE(part.ok()) << part.status().toString();
+  EXPECT_EQ(part->resolution(), map->resolution());
+  std::size_t compared = 0;
+  for (double x = -1.1; x < 18; x += 0.2)
+    for (double y = -4.1; y < 4; y += 0.2)
+      for (double z = -1.1; z < 9; z += 0.2) {
+        const Vec3 p(x, y, z);
+        if (box.contains(p)) {
+          EXPECT_EQ(part->state(p), map->state(p)) << p.transpose();
+          ++compared;
+        } else if (!box.inflated(0.2).contains(p)) {
+          EXPECT_EQ(part->state(p), VoxelState::kUnknown) << p.transpose();
+        }
+      }
+  EXPECT_GT(compared, 1000u);
+  EXPECT_FALSE(cropMap(*map, Aabb(Vec3(100, 100, 100), Vec3(101, 101, 101))).ok());
+  EXPECT_FALSE(cropMap(*map, Aabb(Vec3(1, 1, 1), Vec3(0, 0, 0))).ok());
+}
+
+// A survey cut to a box voxelizes, inside the box, exactly as the whole network does.
+TEST(Crop, SurveyCutBeforeVoxelizingMatchesTheWholeNetworkInTheBox) {
+  StatusOr<SurveyNetwork> net = parseSurvey(test::shortIssueSurveyExample(), "short.yaml");
+  ASSERT_TRUE(net.ok());
+  StatusOr<OccupancyMap> whole = voxelize(*net);
+  ASSERT_TRUE(whole.ok());
+  for (const Aabb& box : {Aabb(Vec3(10, -3, -1), Vec3(16, 3, 5)),    // the middle of the main roadway
+                          Aabb(Vec3(26, -3, 0), Vec3(33, 4, 7))}) {  // around the junction S2
+    StatusOr<SurveyNetwork> cut = cropNetwork(*net, box);
+    ASSERT_TRUE(cut.ok()) << cut.status().toString();
+    EXPECT_LT(cut->estimatedVoxels(), net->estimatedVoxels());
+    StatusOr<OccupancyMap> part = voxelize(*cut);
+    ASSERT_TRUE(part.ok()) << part.status().toString();
+    std::size_t compared = 0;
+    for (double x = box.min.x(); x <= box.max.x(); x += 0.2)
+      for (double y = box.min.y(); y <= box.max.y(); y += 0.2)
+        for (double z = box.min.z(); z <= box.max.z(); z += 0.2, ++compared)
+          ASSERT_EQ(part->state(Vec3(x, y, z)), whole->state(Vec3(x, y, z))) << x << " " << y << " " << z;
+    EXPECT_GT(compared, 1000u);
+  }
+  EXPECT_FALSE(cropNetwork(*net, Aabb(Vec3(500, 500, 0), Vec3(501, 501, 1))).ok());
+}
+
+TEST(MemoryBudgetOfReaders, EveryReaderRefusesBeforeBuilding) {
+  // Survey parse: the YAML's token count.
+  const std::string yaml = test::shortIssueSurveyExample();
+  EXPECT_GT(estimateSurveyParseBytes(yaml), double(yaml.size()));
+  const std::string path = ::testing::TempDir() + "/budget_short.yaml";
+  {
+    FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fwrite(yaml.data(), 1, yaml.size(), f);
+    std::fclose(f);
+  }
+  StatusOr<SurveyNetwork> tiny = loadSurvey(path, 4096);
+  ASSERT_FALSE(tiny.ok());
+  EXPECT_TRUE(mentions(tiny.status(), "parsing the survey")) << tiny.status().message();
+  // Voxelizing: the network's voxel estimate, with the crop as the way out.
+  LoadOptions o;
+  o.max_memory_bytes = std::uint64_t(estimateSurveyParseBytes(yaml)) + 1024;
+  StatusOr<OccupancyMap> map = loadMap(path, o);
+  ASSERT_FALSE(map.ok());
+  EXPECT_TRUE(mentions(map.status(), "voxelizing the survey network")) << map.status().message();
+  EXPECT_TRUE(mentions(map.status(), "--crop")) << map.status().message();
+  o.max_memory_bytes = 1u << 30;
+  o.crop = Aabb(Vec3(10, -3, -1), Vec3(16, 3, 5));
+  map = loadMap(path, o);
+  ASSERT_TRUE(map.ok()) << map.status().toString();
+  EXPECT_TRUE(map->isFree(Vec3(13, 0, 2.5)));  // floor at 1.3 m there
+  EXPECT_FALSE(map->isFree(Vec3(20, 0, 3.2)));  // free in the whole network, outside the crop
+  std::remove(path.c_str());
+
+  // OctoMap: the node count, known true once the node stream is validated.
+  StatusOr<OccupancyMap> bt = loadOctomap(kDistrictBt, UnknownPolicy::kRock, 1u << 20);
+  ASSERT_FALSE(bt.ok());
+  EXPECT_EQ(bt.status().code(), StatusCode::kOutOfRange);
+  EXPECT_TRUE(mentions(bt.status(), "nodes)")) << bt.status().message();
 }
 
 }  // namespace

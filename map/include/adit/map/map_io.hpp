@@ -15,6 +15,7 @@
 #include <string>
 
 #include "adit/map/occupancy_map.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 
 namespace adit::map {
@@ -27,6 +28,11 @@ StatusOr<MapFormat> formatFromPath(const std::string& path);
 struct LoadOptions {
   UnknownPolicy unknown_policy = UnknownPolicy::kRock;
   ProgressFn progress;  ///< optional
+  /// Every step (file, parse, voxels, octree, crop) is estimated first and refused above this.
+  std::uint64_t max_memory_bytes = kDefaultMaxMemoryBytes;
+  /// Keep only the voxels whose centre lies in this box; a survey is cut to the roadway
+  /// segments that reach into it before it is voxelized, so a part of a huge network fits.
+  std::optional<Aabb> crop;
 };
 
 /// Loads any supported map: a survey roadway network (voxelized), an OctoMap .bt or .ot.
@@ -43,9 +49,13 @@ StatusOr<LoadedMap> loadMapAndSurvey(const std::string& path, const LoadOptions&
 /// OctoMap binary (.bt) or full (.ot, OcTree only) from a file or from bytes; `name` is used in
 /// messages. Every structural fact is checked: magic line, header fields, node encoding, depth
 /// <= 16, node count equal to the header's, no trailing bytes, finite log-odds.
-StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy = UnknownPolicy::kRock);
+StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy = UnknownPolicy::kRock,
+                                   std::uint64_t max_memory_bytes = kDefaultMaxMemoryBytes);
+/// The header's node count is checked (after the node stream is validated against it) against
+/// `max_memory_bytes` before the tree is built.
 StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string& name,
-                                    UnknownPolicy policy = UnknownPolicy::kRock);
+                                    UnknownPolicy policy = UnknownPolicy::kRock,
+                                    std::uint64_t max_memory_bytes = kDefaultMaxMemoryBytes);
 
 /// Writes .bt or .ot (by extension) atomically.
 Status writeOctomap(const OccupancyMap& map, const std::string& path);
