@@ -179,7 +179,9 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
     pts.push_back(*p);
   }
   if (!points_file.empty()) {
-    StatusOr<std::vector<Vec3>> more = readPointsCsv(points_file);
+    StatusOr<MemoryBudget> budget = budgetOf(a);
+    if (!budget.ok()) return report(budget.status());
+    StatusOr<std::vector<Vec3>> more = readPointsCsv(points_file, budget->max_bytes);
     if (!more.ok()) return report(more.status());
     pts.insert(pts.end(), more->begin(), more->end());
   }

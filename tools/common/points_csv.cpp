@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "common/points_csv.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cctype>
 #include <cmath>
@@ -8,6 +9,7 @@
 #include <sstream>
 
 #include "adit/map/map_io.hpp"
+#include "adit/map/size_estimate.hpp"
 
 namespace adit::tools {
 
@@ -58,9 +60,13 @@ StatusOr<std::vector<Vec3>> parsePointsCsv(const std::string& text, const std::s
   return pts;
 }
 
-StatusOr<std::vector<Vec3>> readPointsCsv(const std::string& path) {
-  StatusOr<std::string> text = map::readFile(path, std::size_t{1} << 30);
+StatusOr<std::vector<Vec3>> readPointsCsv(const std::string& path, std::uint64_t max_memory_bytes) {
+  StatusOr<std::string> text = map::readFile(path, std::min<std::uint64_t>(std::uint64_t{1} << 30, max_memory_bytes));
   if (!text.ok()) return text.status();
+  const auto lines = double(std::count(text->begin(), text->end(), '\n') + 1);
+  ADIT_RETURN_IF_ERROR(map::MemoryBudget{max_memory_bytes}.check(
+      double(text->size()) + lines * double(sizeof(Vec3)), path + ": reading " + std::to_string(std::uint64_t(lines)) + " lines of points",
+      "split the file or raise --max-memory"));
   return parsePointsCsv(*text, path);
 }
 

@@ -5,6 +5,7 @@
 /// line (a header row, # comments, blank lines, CRLF and a UTF-8 byte-order mark allowed). Every
 /// error names the source and line. Kept apart from the verb so the fuzzer can drive the parser.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -19,8 +20,9 @@ StatusOr<map::Vec3> parsePoint(const std::string& text, const std::string& where
 /// A whole points CSV already in memory; `name` (the path) prefixes errors as "name:line: ...".
 StatusOr<std::vector<map::Vec3>> parsePointsCsv(const std::string& text, const std::string& name);
 
-/// readFile (at most 1 GiB) + parsePointsCsv.
-StatusOr<std::vector<map::Vec3>> readPointsCsv(const std::string& path);
+/// readFile + parsePointsCsv, refused first (with the estimate) when the text and its points
+/// would need more than `max_memory_bytes`.
+StatusOr<std::vector<map::Vec3>> readPointsCsv(const std::string& path, std::uint64_t max_memory_bytes);
 
 /// Shortest text that reads back to exactly `v` ("1234.5678", "5", "0.1"): query output rows can
 /// be joined back to their input.
