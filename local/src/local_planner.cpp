@@ -112,6 +112,7 @@ StatusOr<LocalPlanner> LocalPlanner::create(const LocalParams& params, World wor
 
 LocalPlanner::LocalPlanner(const LocalParams& params, World world) : params_(params), world_(std::move(world)) {
   obstacles_.reserve(kMaxObstacles);
+  reachable_.reserve(kMaxObstacles);
   rock_points_.resize(world_.field ? kRockBuffer : 0);
 }
 
@@ -239,7 +240,7 @@ void LocalPlanner::gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, 
 }
 
 double LocalPlanner::encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target,
-                                     const map::MovingObstacle* moving, std::size_t moving_count) const {
+                                     const map::MovingObstacle* moving) const {
   constexpr double kSample = 0.1;   // s
   constexpr double kMargin = 0.05;  // m kept free beyond the bounding spheres
   const double a_max = params_.robot.a_max_mps2, rr = params_.robot.radius_m;
@@ -250,7 +251,7 @@ double LocalPlanner::encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v
     vel += clampNorm(v_target - vel, a_max * kSample);
     pos += vel * kSample;
     const double t = double(k) * kSample;
-    for (std::size_t i = 0; i < moving_count; ++i) {
+    for (std::size_t i : reachable_) {
       const map::MovingObstacle& m = moving[i];
       margin = std::min(margin, (pos - m.positionAt(t)).norm() - m.shape.boundingRadius() - rr - kMargin);
     }
@@ -474,12 +475,28 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   const double stop_speed = std::sqrt(2.0 * a_max * 0.8 * goal_distance);
   v_des = clampNorm(v_des, std::min(v_max, stop_speed));
   bool safety_override = false;
-  if (moving_count > 0 && P.monitor.safety_horizon_s > 0.0) {
+  // Only obstacles that can reach the robot within the safety horizon take part in the check.
+  reachable_.clear();
+  if (P.monitor.safety_horizon_s > 0.0) {
+    const double T = P.monitor.safety_horizon_s;
+    const double robot_reach = std::max(v.norm(), v_max) * T + 0.5 * a_max * T * T;
+    for (std::size_t i = 0; i < moving_count && reachable_.size() < reachable_.capacity(); ++i) {
+      const map::MovingObstacle& m = moving[i];
+      const double reach = robot_reach + m.velocity.norm() * T + 0.5 * m.acceleration.norm() * T * T;
+      if ((q - m.position).norm() - m.shape.boundingRadius() - P.robot.radius_m <= reach + 0.1) reachable_.push_back(i);
+    }
+    // More than the buffer holds: check them all rather than miss one.
+    if (reachable_.size() == reachable_.capacity() && moving_count > reachable_.size()) {
+      reachable_.clear();
+      for (std::size_t i = 0; i < std::min(moving_count, reachable_.capacity()); ++i) reachable_.push_back(i);
+    }
+  }
+  if (!reachable_.empty() && P.monitor.safety_horizon_s > 0.0) {
     // Last line of defence against moving obstacles: the field's velocity must not lead into one
     // within the horizon (the robot turning toward it at a_max and holding it, the obstacles under
     // constant acceleration). Otherwise the first clear of: brake, either side, back off; if none
     // is clear, the one that keeps the most room.
-    const double score_des = encounterMargin(q, v, v_des, moving, moving_count);
+    const double score_des = encounterMargin(q, v, v_des, moving);
     if (score_des < 0.0) {
       const Vec3 up = std::abs(heading.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
       const Vec3 left = up.cross(heading).normalized();
@@ -487,7 +504,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
       Vec3 best = v_des;
       double best_score = score_des;
       for (const Vec3& c : candidates) {
-        const double sc = encounterMargin(q, v, c, moving, moving_count);
+        const double sc = encounterMargin(q, v, c, moving);
         if (sc > best_score + 1e-9) {
           best = c;
           best_score = sc;

@@ -116,8 +116,8 @@ class LocalPlanner {
   void addRockPoints(const Vec3& q, const Vec3& v, const Vec3& a, double radius);
   // Smallest clearance (negative: overlap) to moving obstacles and static spheres over the safety
   // horizon if the robot steers its velocity to v_target.
-  double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving,
-                         std::size_t moving_count) const;
+  // Only the obstacles listed in reachable_ count.
+  double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving) const;
 
   LocalParams params_;
   World world_;
@@ -147,6 +147,7 @@ class LocalPlanner {
   };
   std::vector<ObstacleData> obstacles_;
   std::vector<Vec3> rock_points_;
+  std::vector<std::size_t> reachable_;  // moving obstacles that can reach the robot within the safety horizon
   static constexpr int kAzimuthBins = 24, kElevationBins = 7;
   std::array<double, kAzimuthBins * kElevationBins> bin_distance_{};
   std::array<Vec3, kAzimuthBins * kElevationBins> bin_point_{};
