@@ -7,6 +7,9 @@
 #include <random>
 
 #include "adit/local/local_planner.hpp"
+#include "adit/map/collision.hpp"
+#include "adit/map/distance_field.hpp"
+#include "support/synthetic_roadway.hpp"
 
 namespace adit::local {
 namespace {
@@ -140,6 +143,32 @@ TEST(LocalPlanner, CreateRefusesBadParamsAndObstacles) {
   World box;
   box.shape = map::RobotShape::box(Vec3(1, 1, 1));
   EXPECT_FALSE(LocalPlanner::create(LocalParams::preset(Method::kUuv), box).ok());  // needs a checker
+}
+
+// A box-shaped robot near a roadway wall: the rock distance comes from the exact CollisionChecker
+// (the box's corner is nearer the wall than its centre suggests), and the command pushes it away.
+TEST(LocalPlanner, NonSphericalRobotUsesTheCollisionChecker) {
+  const map::OccupancyMap m =
+      test::voxelizeOrFail(test::straightRoadway(map::CrossSection::rectangle(4.0, 3.0), 12.0));
+  StatusOr<map::DistanceField> f = map::DistanceField::build(m);
+  ASSERT_TRUE(f.ok());
+  StatusOr<map::CollisionChecker> checker = map::CollisionChecker::create(m, *f);
+  ASSERT_TRUE(checker.ok());
+  World sphere_world;
+  sphere_world.field = &*f;
+  World box_world = sphere_world;
+  box_world.checker = &*checker;
+  box_world.shape = map::RobotShape::box(Vec3(1.6, 1.6, 0.6));  // half-diagonal 1.13 m
+  LocalPlanner sphere = make(Method::kTian2016, sphere_world), box = make(Method::kTian2016, box_world);
+  RobotState s;
+  s.position = Vec3(6, 1.0, 1.5);  // 1 m from the wall at y = 2
+  s.velocity = Vec3(0.3, 0, 0);
+  const map::Polyline path = line(Vec3(1, 1.0, 1.5), Vec3(11, 1.0, 1.5));
+  const StepCommand cs = sphere.step(s, path, {}, 0.1), cb = box.step(s, path, {}, 0.1);
+  ASSERT_NE(cb.status, StepStatus::kRefused) << cb.message;
+  EXPECT_NEAR(cb.clearance_m, 2.0 - 1.0 - 0.8, 0.05);  // the box's side is 0.8 m from its centre
+  EXPECT_LT(cb.clearance_m, cs.clearance_m);
+  EXPECT_LT(cb.velocity.y(), 0.0);  // pushed away from the wall
 }
 
 }  // namespace
