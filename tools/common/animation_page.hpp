@@ -16,6 +16,7 @@
 ///   in.frames.push_back({0.0, start, "following", {mover_at_0}});
 ///   Status s = writeAnimationPage(fig, in, "run.html");   // atomic
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -50,10 +51,36 @@ struct AnimationPageInput {
   std::vector<std::pair<std::string, std::string>> summary;
 };
 
+/// What was written, for callers that report it (a long run's page should stay small).
+struct AnimationPageInfo {
+  std::size_t page_bytes = 0;        ///< the whole HTML file
+  std::size_t background_bytes = 0;  ///< the embedded PNG (before base64)
+  std::size_t frame_data_bytes = 0;  ///< the encoded frames (JSON text)
+  std::size_t frames = 0;
+};
+
 /// Renders `background` to PNG in memory and writes the page to `path` atomically. Errors: an
 /// empty or non-monotonic frame list, NaN coordinates, a frame whose mover count differs from
 /// `movers`, whatever Figure::renderPng refuses, an unwritable path. Text is HTML-escaped.
+/// `info`, when given, is filled on success.
 adit::Status writeAnimationPage(const Figure& background, const AnimationPageInput& input,
-                                const std::string& path);
+                                const std::string& path, AnimationPageInfo* info = nullptr);
+
+/// The checks writeAnimationPage makes on `input` (frames, times, coordinates, radii, counts).
+adit::Status validateAnimationPageInput(const AnimationPageInput& input);
+
+/// The page's text for an already rendered background: `png` is the picture and `view` maps world
+/// x-y to its pixels (columnOf/rowOf). writeAnimationPage is renderPng followed by this; exposed
+/// so that a caller holding a picture (and the tests) can build a page without a Figure.
+/// Positions are stored rounded to 1 mm and times to 1 ms, as per-series differences.
+adit::StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& png,
+                                              const TopViewInfo& view,
+                                              const AnimationPageInput& input,
+                                              AnimationPageInfo* info = nullptr);
+
+/// animationPageHtml written to `path` atomically.
+adit::Status writeAnimationPageHtml(const std::vector<unsigned char>& png, const TopViewInfo& view,
+                                    const AnimationPageInput& input, const std::string& path,
+                                    AnimationPageInfo* info = nullptr);
 
 }  // namespace adit::tools
