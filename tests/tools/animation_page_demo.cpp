@@ -65,7 +65,7 @@ int writeDemo(const std::string& out, std::size_t frames, std::size_t movers) {
     }
     min_gap = std::min(min_gap, nearest);
     const bool arrived = (pos - path.back()).norm() < 0.05;
-    const bool yielding = !arrived && nearest < 1.0;
+    const bool yielding = !arrived && nearest < 2.0;
     const double target = arrived ? 0.0 : (yielding ? 0.25 : 1.0);
     speed += std::clamp(target - speed, -0.5 * dt, 0.5 * dt);  // a_max 0.5 m/s^2
     f.robot = pos;

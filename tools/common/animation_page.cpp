@@ -188,9 +188,9 @@ json frameData(const TopViewInfo& view, const AnimationPageInput& in,
   }
   json d;
   d["version"] = 1;
-  d["view"] = {{"w", view.width_px},         {"h", view.height_px},   {"left", view.map_left_px},
-               {"top", view.map_top_px},     {"ppm", view.pixels_per_m}, {"xmin", view.x_min_m},
-               {"ymax", view.y_max_m}};
+  d["view"] = {{"w", view.width_px},          {"h", view.height_px},          {"left", view.map_left_px},
+               {"top", view.map_top_px},      {"mw", view.map_width_px},      {"mh", view.map_height_px},
+               {"ppm", view.pixels_per_m},    {"xmin", view.x_min_m},         {"ymax", view.y_max_m}};
   d["trail_s"] = kTrailSeconds;
   d["t"] = t.toJson();
   d["robot"] = {{"r", in.robot_radius_m}, {"x", rx.toJson()}, {"y", ry.toJson()}, {"z", rz.toJson()}};
@@ -230,11 +230,11 @@ header { padding:12px 20px; background:#1d2430; color:#fff; display:flex; align-
 header h1 { margin:0; font-size:18px; font-weight:600; }
 header .sub { color:#b8c2d0; font-size:13px; }
 main { display:flex; gap:16px; padding:16px 20px; align-items:flex-start; flex-wrap:wrap; }
-.stage { flex:1 1 640px; min-width:320px; background:var(--panel); border:1px solid var(--line); border-radius:8px; padding:10px; }
-.figure { position:relative; width:100%; margin:0 auto; line-height:0; }
-.figure img, .figure canvas { width:100%; height:auto; display:block; }
-.figure canvas { position:absolute; left:0; top:0; height:100%; }
-.controls { display:flex; align-items:center; gap:12px; padding:10px 2px 2px; }
+.stage { flex:1 1 640px; min-width:320px; background:var(--panel); border:1px solid var(--line); border-radius:8px; padding:10px; text-align:center; }
+.figure { position:relative; display:inline-block; max-width:100%; line-height:0; vertical-align:top; }
+.figure img { display:block; max-width:100%; max-height:calc(100vh - 150px); min-height:240px; width:auto; height:auto; }
+.figure canvas { position:absolute; left:0; top:0; width:100%; height:100%; }
+.controls { display:flex; align-items:center; gap:12px; padding:10px 2px 2px; text-align:left; }
 .controls input[type=range] { flex:1; accent-color:var(--accent); }
 button { font:inherit; min-width:88px; padding:5px 12px; border:1px solid #1f6fb8; border-radius:6px; background:var(--accent); color:#fff; cursor:pointer; }
 button:hover { background:#1f6fb8; }
@@ -252,6 +252,7 @@ td.num { text-align:right; font-family:ui-monospace,"DejaVu Sans Mono",monospace
 .legend li { list-style:none; display:flex; align-items:center; gap:8px; margin:3px 0; }
 .legend ul { margin:0; padding:0; }
 .sw { flex:none; display:inline-block; width:14px; height:14px; border-radius:50%; border:2px solid rgba(0,0,0,.35); }
+.sw.num { width:18px; height:18px; font:700 10px/14px system-ui,sans-serif; color:#3d2352; text-align:center; }
 .sw.line { width:22px; height:0; border-radius:0; border:0; border-top:3px solid; }
 .sw.fade { width:22px; height:4px; border-radius:2px; border:0; }
 .legend .statuses { display:flex; flex-wrap:wrap; gap:4px; margin-top:6px; }
@@ -302,10 +303,9 @@ const char* kMainScript = R"JS(
   var T = undelta(D.t, 1000), n = T.length;
   var RX = undelta(D.robot.x, 1000), RY = undelta(D.robot.y, 1000), RZ = undelta(D.robot.z, 1000);
   var RC = cols(RX), RR = rows(RY);
-  var robotPx = Math.max(D.robot.r * V.ppm, 3);
   var movers = D.movers.map(function (m) {
     var x = undelta(m.x, 1000), y = undelta(m.y, 1000);
-    return { c: cols(x), r: rows(y), px: Math.max(m.r * V.ppm, 2.5), colour: m.c };
+    return { c: cols(x), r: rows(y), radius: m.r * V.ppm, colour: m.c };
   });
   var S = new Uint16Array(n), runs = D.status.runs;
   for (var k = 0; k < runs.length; k += 2) {
@@ -335,39 +335,70 @@ const char* kMainScript = R"JS(
     ctx.lineWidth = width; ctx.strokeStyle = stroke; ctx.stroke();
   }
 
-  // The movers' whole tracks, past and future, drawn once.
-  tracks.lineCap = 'round'; tracks.lineJoin = 'round';
-  tracks.setLineDash([6, 5]);
-  tracks.lineWidth = 1.5;
-  movers.forEach(function (m) { tracks.strokeStyle = rgba(m.colour, 0.55); polyline(tracks, m.c, m.r, 0, n - 1); });
+  // Line widths, text and the smallest disc are given in screen pixels: the picture is often
+  // shown smaller than its size (a 2000-pixel map in a 900-pixel column), so the canvas pixels
+  // per screen pixel (K) scale them. World sizes (the discs' radii) scale with the picture.
+  var K = 1;
+  function measure() {
+    var shown = live.canvas.clientWidth;
+    K = shown > 0 ? Math.max(V.w / shown, 0.5) : 1;
+  }
+  // Everything moving stays inside the map area, off the picture's axes, legend and title.
+  function clipToMap(ctx) {
+    ctx.beginPath();
+    if (V.mw > 0 && V.mh > 0) ctx.rect(V.left, V.top, V.mw, V.mh); else ctx.rect(0, 0, V.w, V.h);
+    ctx.clip();
+  }
+  // The movers' whole tracks, past and future: drawn once per size.
+  function drawTracks() {
+    tracks.setTransform(1, 0, 0, 1, 0, 0);
+    tracks.clearRect(0, 0, V.w, V.h);
+    tracks.save();
+    clipToMap(tracks);
+    tracks.lineCap = 'round'; tracks.lineJoin = 'round';
+    tracks.setLineDash([6 * K, 5 * K]);
+    tracks.lineWidth = 1.5 * K;
+    movers.forEach(function (m) { tracks.strokeStyle = rgba(m.colour, 0.75); polyline(tracks, m.c, m.r, 0, n - 1); });
+    tracks.restore();
+  }
 
   var TRAIL = D.trail_s, ROBOT_TRAIL = '#2E86DE';
   function draw(f) {
     live.clearRect(0, 0, V.w, V.h);
+    live.save();
+    clipToMap(live);
     live.lineCap = 'round'; live.lineJoin = 'round';
     movers.forEach(function (m) {
-      live.lineWidth = 2.5; live.strokeStyle = rgba(m.colour, 0.9);
+      live.lineWidth = 2 * K; live.strokeStyle = rgba(m.colour, 0.95);
       polyline(live, m.c, m.r, 0, f);
-      disc(live, m.c[f], m.r[f], m.px, rgba(m.colour, 0.6), m.colour, 2);
+      disc(live, m.c[f], m.r[f], Math.max(m.radius, 3 * K), rgba(m.colour, 0.6), m.colour, 1.5 * K);
+    });
+    // Numbers beside the obstacles, as in the legend.
+    live.font = '700 ' + (12 * K) + 'px system-ui, sans-serif';
+    live.textBaseline = 'middle'; live.lineWidth = 3 * K; live.strokeStyle = 'rgba(255,255,255,0.9)';
+    movers.forEach(function (m, k) {
+      var r = Math.max(m.radius, 3 * K), x = m.c[f] + 0.75 * r + 3 * K, y = m.r[f] - 0.75 * r - 4 * K;
+      live.strokeText(String(k + 1), x, y); live.fillStyle = '#3d2352'; live.fillText(String(k + 1), x, y);
     });
     // The driven path so far, faint; the last TRAIL seconds on top, fading with age.
-    live.lineWidth = 1.5; live.strokeStyle = rgba(ROBOT_TRAIL, 0.35);
+    live.lineWidth = 1.5 * K; live.strokeStyle = rgba(ROBOT_TRAIL, 0.45);
     polyline(live, RC, RR, 0, f);
-    live.lineWidth = 3.5;
+    live.lineWidth = 3.5 * K;
     for (var i = f; i > 0 && T[f] - T[i - 1] <= TRAIL; --i) {
       live.strokeStyle = rgba(ROBOT_TRAIL, 1 - (T[f] - T[i - 1]) / TRAIL);
       live.beginPath(); live.moveTo(RC[i - 1], RR[i - 1]); live.lineTo(RC[i], RR[i]); live.stroke();
     }
-    var colour = D.status.colours[S[f]];
-    disc(live, RC[f], RR[f], robotPx + 1.5, '#ffffff', '#ffffff', 0);
-    disc(live, RC[f], RR[f], robotPx, colour, '#1d2430', 1.5);
+    var colour = D.status.colours[S[f]], r = Math.max(D.robot.r * V.ppm, 4 * K);
+    disc(live, RC[f], RR[f], r + 1.5 * K, '#ffffff', '#ffffff', 0);
+    disc(live, RC[f], RR[f], r, colour, '#1d2430', 1.5 * K);
     var a = f > 0 ? f - 1 : f, b = f > 0 ? f : Math.min(f + 1, n - 1);
     var dx = RC[b] - RC[a], dy = RR[b] - RR[a], len = Math.hypot(dx, dy);
     if (len > 1e-9) {  // heading tick, from the centre to the rim
-      live.lineWidth = 2; live.strokeStyle = '#ffffff';
+      live.lineWidth = 2 * K; live.strokeStyle = '#ffffff';
       live.beginPath(); live.moveTo(RC[f], RR[f]);
-      live.lineTo(RC[f] + dx / len * robotPx, RR[f] + dy / len * robotPx); live.stroke();
+      live.lineTo(RC[f] + dx / len * r, RR[f] + dy / len * r); live.stroke();
     }
+    live.restore();
   }
 
   function fmt(v, d) { return (Math.abs(v) < 0.5 * Math.pow(10, -d) ? 0 : v).toFixed(d); }
@@ -446,6 +477,14 @@ const char* kMainScript = R"JS(
     e.preventDefault(); setPlaying(false); simT = T[f]; show(f);
   });
 
+  measure();
+  drawTracks();
+  window.addEventListener('resize', function () {
+    var before = K;
+    measure();
+    if (K !== before) { drawTracks(); if (frame >= 0) draw(frame); }
+  });
+
   // Default speed: the smallest offered that plays the run in about half a minute.
   var duration = T[n - 1] - T[0], options = Array.prototype.slice.call(speedSel.options);
   var pick = options.find(function (o) { return Number(o.value) >= 1 && duration / Number(o.value) <= 30; });
@@ -477,9 +516,11 @@ void appendLegend(std::string& html, const AnimationPageInput& in,
   html += "<li><span class=\"sw fade\" style=\"background:linear-gradient(90deg,rgba(46,134,222,0),#2E86DE)\"></span>"
           "trail, last " + fixed(kTrailSeconds, 0) + " s</li>\n";
   html += "<li><span class=\"sw line\" style=\"border-color:rgba(46,134,222,.4)\"></span>driven path</li>\n";
-  for (const PageMover& m : in.movers) {
+  for (std::size_t k = 0; k < in.movers.size(); ++k) {
+    const PageMover& m = in.movers[k];
     const std::string c = cssColour(m.colour);
-    html += "<li><span class=\"sw\" style=\"background:" + c + "99;border-color:" + c + "\"></span>" +
+    html += "<li><span class=\"sw num\" style=\"background:" + c + "99;border-color:" + c + "\">" +
+            std::to_string(k + 1) + "</span>" +
             htmlEscape(m.name.empty() ? std::string("moving obstacle") : m.name) + ", r = " +
             fixed(m.radius_m, 2) + " m</li>\n";
   }

@@ -15,6 +15,20 @@
 ///   in.movers = {{"obstacle 1", 0.3, kFigureMoving}};
 ///   in.frames.push_back({0.0, start, "following", {mover_at_0}});
 ///   Status s = writeAnimationPage(fig, in, "run.html");   // atomic
+///
+/// The page: the picture with the moving obstacles (discs of their world radii, numbered, their
+/// whole tracks dashed and the part driven so far solid) and the robot (a disc of its radius
+/// coloured by its status, a heading tick, the driven path and a trail of the last 8 s fading
+/// out); beside it a clock, the status, the robot's x/y/z and speed, a legend and the summary.
+/// It plays on opening at a speed that shows the run in about half a minute; `run.html#t=42.5`
+/// opens it paused at 42.5 s (for stills). Keys: space, arrows, Home/End.
+/// What a test can read in the DOM (attributes of <html>): data-ready="1" once started,
+/// data-frame / data-time / data-status of the frame shown, data-playing, and data-errors, the
+/// number of script errors and blocked fetches (their text is in #errors). A
+/// Content-Security-Policy forbids every network fetch. Size: about 3.6 bytes per stored number,
+/// e.g. 218 kB of frame data for 3000 frames with 10 moving obstacles.
+/// Screenshot (README): `cmake -DPAGE=run.html -DSCREENSHOT=shot.png [-DAT=seconds]
+/// -P tests/tools/browser_page.cmake` (Debian's chromium).
 
 #include <cstddef>
 #include <cstdint>
