@@ -7,8 +7,9 @@
 #
 # -DPAGE=<html>            the page (required)
 # -DSCREENSHOT=<png>       also write a screenshot there (1280 x 900)
-# -DAT=<seconds>           screenshot paused at this run time (the page's #t=...); default: played
-#                          for BUDGET_MS from the start
+# -DAT=<seconds>           also open the page at this run time (its #t=...), check that it is
+#                          paused there, and take the screenshot there; default: the screenshot
+#                          after BUDGET_MS of play from the start
 # -DCHECK_PNG=<exe>        animation_page_demo, to refuse a blank screenshot
 # -DCHECK_COLOUR=<RRGGBB>  with CHECK_PNG: a colour the screenshot must show (at least 20 pixels)
 # -DCHROMIUM=<exe>         default /usr/bin/chromium
@@ -74,7 +75,20 @@ if(clock STREQUAL "" OR clock MATCHES "t = 0\\.0 s")
 endif()
 message("advanced to frame ${frame}, ${clock}")
 
-# 2. The screenshot.
+# 2. Opened at a time (#t=AT): paused there.
+if(DEFINED AT)
+  run_chromium(at "file://${PAGE}#t=${AT}" dom --dump-dom)
+  string(REGEX MATCH "<html[^>]*>" root "${dom}")
+  message("root element opened at ${AT} s: ${root}")
+  string(REGEX MATCH "data-time=\"([0-9.]+)\"" _ "${root}")
+  set(time "${CMAKE_MATCH_1}")
+  if(NOT root MATCHES "data-errors=\"0\"" OR NOT root MATCHES "data-playing=\"0\"" OR time STREQUAL ""
+     OR time GREATER AT)
+    message(FATAL_ERROR "opened at ${AT} s, the page should show the last frame at or before it, paused")
+  endif()
+endif()
+
+# 3. The screenshot.
 if(DEFINED SCREENSHOT)
   get_filename_component(SCREENSHOT "${SCREENSHOT}" ABSOLUTE)
   file(REMOVE "${SCREENSHOT}")

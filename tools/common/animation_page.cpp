@@ -302,10 +302,11 @@ const char* kMainScript = R"JS(
 
   var T = undelta(D.t, 1000), n = T.length;
   var RX = undelta(D.robot.x, 1000), RY = undelta(D.robot.y, 1000), RZ = undelta(D.robot.z, 1000);
-  var RC = cols(RX), RR = rows(RY);
+  var RC = cols(RX), RR = rows(RY), RKEEP = decimate(RC, RR);
   var movers = D.movers.map(function (m) {
     var x = undelta(m.x, 1000), y = undelta(m.y, 1000);
-    return { c: cols(x), r: rows(y), radius: m.r * V.ppm, colour: m.c };
+    var c = cols(x), r = rows(y);
+    return { c: c, r: r, keep: decimate(c, r), radius: m.r * V.ppm, colour: m.c };
   });
   var S = new Uint16Array(n), runs = D.status.runs;
   for (var k = 0; k < runs.length; k += 2) {
@@ -321,13 +322,24 @@ const char* kMainScript = R"JS(
     var v = parseInt(hex.slice(1), 16);
     return 'rgba(' + (v >> 16 & 255) + ',' + (v >> 8 & 255) + ',' + (v & 255) + ',' + a + ')';
   }
-  function polyline(ctx, c, r, from, to) {
-    if (to <= from) return;
+  // Paths are drawn through the points at least a picture pixel apart (a 30000-frame run would
+  // otherwise stroke 30000 segments per obstacle per redraw).
+  function decimate(c, r) {
+    var keep = [0], lc = c[0], lr = r[0];
+    for (var i = 1; i < c.length; ++i) {
+      if (Math.abs(c[i] - lc) + Math.abs(r[i] - lr) >= 1) { keep.push(i); lc = c[i]; lr = r[i]; }
+    }
+    return keep;
+  }
+  // From the first point through the kept points up to frame f, ending at (x, y).
+  function pathTo(ctx, c, r, keep, f, x, y) {
     ctx.beginPath();
-    ctx.moveTo(c[from], r[from]);
-    for (var i = from + 1; i <= to; ++i) ctx.lineTo(c[i], r[i]);
+    ctx.moveTo(c[0], r[0]);
+    for (var j = 1; j < keep.length && keep[j] <= f; ++j) ctx.lineTo(c[keep[j]], r[keep[j]]);
+    ctx.lineTo(x, y);
     ctx.stroke();
   }
+  function lerp(a, f, u) { return u > 0 ? a[f] + u * (a[f + 1] - a[f]) : a[f]; }
   function disc(ctx, x, y, radius, fill, stroke, width) {
     ctx.beginPath();
     ctx.arc(x, y, radius, 0, 2 * Math.PI);
@@ -358,49 +370,65 @@ const char* kMainScript = R"JS(
     tracks.lineCap = 'round'; tracks.lineJoin = 'round';
     tracks.setLineDash([6 * K, 5 * K]);
     tracks.lineWidth = 1.5 * K;
-    movers.forEach(function (m) { tracks.strokeStyle = rgba(m.colour, 0.75); polyline(tracks, m.c, m.r, 0, n - 1); });
+    movers.forEach(function (m) {
+      tracks.strokeStyle = rgba(m.colour, 0.75);
+      pathTo(tracks, m.c, m.r, m.keep, n - 1, m.c[n - 1], m.r[n - 1]);
+    });
     tracks.restore();
   }
 
-  var TRAIL = D.trail_s, ROBOT_TRAIL = '#2E86DE';
-  function draw(f) {
+  var TRAIL = D.trail_s, ROBOT_TRAIL = '#2E86DE', FADE_STEPS = 12;
+  // Frame f, a fraction u of the way to frame f + 1 (playback moves smoothly between frames).
+  function draw(f, u) {
     live.clearRect(0, 0, V.w, V.h);
     live.save();
     clipToMap(live);
     live.lineCap = 'round'; live.lineJoin = 'round';
-    movers.forEach(function (m) {
-      live.lineWidth = 2 * K; live.strokeStyle = rgba(m.colour, 0.95);
-      polyline(live, m.c, m.r, 0, f);
-      disc(live, m.c[f], m.r[f], Math.max(m.radius, 3 * K), rgba(m.colour, 0.6), m.colour, 1.5 * K);
-    });
-    // Numbers beside the obstacles, as in the legend.
-    live.font = '700 ' + (12 * K) + 'px system-ui, sans-serif';
-    live.textBaseline = 'middle'; live.lineWidth = 3 * K; live.strokeStyle = 'rgba(255,255,255,0.9)';
     movers.forEach(function (m, k) {
-      var r = Math.max(m.radius, 3 * K), x = m.c[f] + 0.75 * r + 3 * K, y = m.r[f] - 0.75 * r - 4 * K;
-      live.strokeText(String(k + 1), x, y); live.fillStyle = '#3d2352'; live.fillText(String(k + 1), x, y);
+      var x = lerp(m.c, f, u), y = lerp(m.r, f, u), r = Math.max(m.radius, 3 * K);
+      live.lineWidth = 2 * K; live.strokeStyle = rgba(m.colour, 0.95);
+      pathTo(live, m.c, m.r, m.keep, f, x, y);
+      disc(live, x, y, r, rgba(m.colour, 0.6), m.colour, 1.5 * K);
+      // Its number, as in the legend.
+      live.font = '700 ' + (12 * K) + 'px system-ui, sans-serif';
+      live.textBaseline = 'middle'; live.lineWidth = 3 * K; live.strokeStyle = 'rgba(255,255,255,0.9)';
+      var lx = x + 0.75 * r + 3 * K, ly = y - 0.75 * r - 4 * K;
+      live.strokeText(String(k + 1), lx, ly); live.fillStyle = '#3d2352'; live.fillText(String(k + 1), lx, ly);
     });
-    // The driven path so far, faint; the last TRAIL seconds on top, fading with age.
+    var cx = lerp(RC, f, u), cy = lerp(RR, f, u), now = lerp(T, f, u);
+    // The driven path so far, faint; the last TRAIL seconds on top, fading with age in steps
+    // (one stroke per step, not per segment).
     live.lineWidth = 1.5 * K; live.strokeStyle = rgba(ROBOT_TRAIL, 0.45);
-    polyline(live, RC, RR, 0, f);
+    pathTo(live, RC, RR, RKEEP, f, cx, cy);
     live.lineWidth = 3.5 * K;
-    for (var i = f; i > 0 && T[f] - T[i - 1] <= TRAIL; --i) {
-      live.strokeStyle = rgba(ROBOT_TRAIL, 1 - (T[f] - T[i - 1]) / TRAIL);
-      live.beginPath(); live.moveTo(RC[i - 1], RR[i - 1]); live.lineTo(RC[i], RR[i]); live.stroke();
+    var step = 0, px = cx, py = cy;
+    live.beginPath(); live.moveTo(px, py);
+    for (var i = f; i >= 0 && now - T[i] <= TRAIL; --i) {
+      var s = Math.min(FADE_STEPS - 1, Math.floor((now - T[i]) / TRAIL * FADE_STEPS));
+      if (s !== step) {
+        live.strokeStyle = rgba(ROBOT_TRAIL, 1 - (step + 0.5) / FADE_STEPS); live.stroke();
+        live.beginPath(); live.moveTo(px, py); step = s;
+      }
+      live.lineTo(RC[i], RR[i]); px = RC[i]; py = RR[i];
     }
+    live.strokeStyle = rgba(ROBOT_TRAIL, 1 - (step + 0.5) / FADE_STEPS); live.stroke();
+
     var colour = D.status.colours[S[f]], r = Math.max(D.robot.r * V.ppm, 4 * K);
-    disc(live, RC[f], RR[f], r + 1.5 * K, '#ffffff', '#ffffff', 0);
-    disc(live, RC[f], RR[f], r, colour, '#1d2430', 1.5 * K);
-    var a = f > 0 ? f - 1 : f, b = f > 0 ? f : Math.min(f + 1, n - 1);
+    disc(live, cx, cy, r + 1.5 * K, '#ffffff', '#ffffff', 0);
+    disc(live, cx, cy, r, colour, '#1d2430', 1.5 * K);
+    if (r < 6 * K) {  // a robot of a few pixels on a large map: a ring to find it by
+      live.beginPath(); live.arc(cx, cy, r + 5 * K, 0, 2 * Math.PI);
+      live.lineWidth = 2 * K; live.strokeStyle = colour; live.stroke();
+    }
+    var a = u > 0 || f === 0 ? f : f - 1, b = Math.min(a + 1, n - 1);
     var dx = RC[b] - RC[a], dy = RR[b] - RR[a], len = Math.hypot(dx, dy);
     if (len > 1e-9) {  // heading tick, from the centre to the rim
       live.lineWidth = 2 * K; live.strokeStyle = '#ffffff';
-      live.beginPath(); live.moveTo(RC[f], RR[f]);
-      live.lineTo(RC[f] + dx / len * r, RR[f] + dy / len * r); live.stroke();
+      live.beginPath(); live.moveTo(cx, cy);
+      live.lineTo(cx + dx / len * r, cy + dy / len * r); live.stroke();
     }
     live.restore();
   }
-
   function fmt(v, d) { return (Math.abs(v) < 0.5 * Math.pow(10, -d) ? 0 : v).toFixed(d); }
   function speedAt(f) {
     var a = f > 0 ? f - 1 : f, b = f > 0 ? f : Math.min(f + 1, n - 1), dt = T[b] - T[a];
@@ -408,9 +436,12 @@ const char* kMainScript = R"JS(
     return Math.hypot(RX[b] - RX[a], RY[b] - RY[a], RZ[b] - RZ[a]) / dt;
   }
   var frame = -1, simT = T[0];
-  function show(f) {
+  function show(f) {  // frame f exactly: picture and panel
+    showPanel(f);
+    draw(f, 0);
+  }
+  function showPanel(f) {
     frame = f;
-    draw(f);
     $('clock').textContent = 't = ' + fmt(T[f], 1) + ' s';
     $('clock-of').textContent = 'of ' + fmt(T[n - 1], 1) + ' s \u00b7 frame ' + (f + 1) + ' / ' + n;
     var badge = $('status'), name = D.status.names[S[f]];
@@ -446,12 +477,12 @@ const char* kMainScript = R"JS(
     lastWall = now;
     if (simT >= T[n - 1]) { simT = T[n - 1]; show(n - 1); setPlaying(false); return; }
     var f = frameAt(simT);
-    if (f !== frame) show(f);
+    if (f !== frame) showPanel(f);
+    draw(f, T[f + 1] > T[f] ? (simT - T[f]) / (T[f + 1] - T[f]) : 0);
     schedule();
   }
-  // A timer, not requestAnimationFrame: positions change only from one recorded frame to the
-  // next, so 50 redraws a second are plenty, and a pending animation frame stalls a headless
-  // browser's virtual clock (the browser test runs the page that way).
+  // A timer, not requestAnimationFrame: a pending animation frame stalls a headless browser's
+  // virtual clock (the browser test runs the page that way); 50 redraws a second are smooth.
   function schedule() {
     if (pending) return;
     pending = true;
@@ -482,7 +513,7 @@ const char* kMainScript = R"JS(
   window.addEventListener('resize', function () {
     var before = K;
     measure();
-    if (K !== before) { drawTracks(); if (frame >= 0) draw(frame); }
+    if (K !== before) { drawTracks(); if (frame >= 0) draw(frame, 0); }
   });
 
   // Default speed: the smallest offered that plays the run in about half a minute.
