@@ -235,7 +235,9 @@ main { display:flex; gap:16px; padding:16px 20px; align-items:flex-start; flex-w
 .figure img { display:block; max-width:100%; max-height:calc(100vh - 150px); min-height:240px; width:auto; height:auto; }
 .figure canvas { position:absolute; left:0; top:0; width:100%; height:100%; }
 .controls { display:flex; align-items:center; gap:12px; padding:10px 2px 2px; text-align:left; }
-.controls input[type=range] { flex:1; accent-color:var(--accent); }
+.controls .track { flex:1; display:flex; flex-direction:column; gap:2px; }
+.controls input[type=range] { width:100%; margin:0; accent-color:var(--accent); }
+#timeline { height:6px; width:calc(100% - 16px); margin:0 8px; border-radius:3px; image-rendering:pixelated; }
 button { font:inherit; min-width:88px; padding:5px 12px; border:1px solid #1f6fb8; border-radius:6px; background:var(--accent); color:#fff; cursor:pointer; }
 button:hover { background:#1f6fb8; }
 select { font:inherit; padding:3px 4px; border:1px solid var(--line); border-radius:5px; background:#fff; }
@@ -450,6 +452,15 @@ const char* kMainScript = R"JS(
     $('rx').textContent = fmt(RX[f], 2); $('ry').textContent = fmt(RY[f], 2); $('rz').textContent = fmt(RZ[f], 2);
     var v = speedAt(f);
     $('rv').textContent = v === null ? '\u2014' : fmt(v, 2);
+    if (movers.length > 0) {
+      var best = -1, gap = Infinity;
+      movers.forEach(function (m, k) {
+        var g = Math.hypot(RC[f] - m.c[f], RR[f] - m.r[f]) / V.ppm - D.robot.r - D.movers[k].r;
+        if (g < gap) { gap = g; best = k; }
+      });
+      $('near').textContent = fmt(gap, 2) + ' (' + (best + 1) + ')';
+      $('near').style.color = gap < 0 ? '#C0392B' : '';
+    }
     slider.value = String(f);
     root.setAttribute('data-frame', String(f));
     root.setAttribute('data-time', T[f].toFixed(3));
@@ -508,6 +519,16 @@ const char* kMainScript = R"JS(
     e.preventDefault(); setPlaying(false); simT = T[f]; show(f);
   });
 
+  // The status over the whole run, under the slider.
+  (function () {
+    var tl = $('timeline').getContext('2d'), w = tl.canvas.width, span = T[n - 1] - T[0];
+    for (var i = 0; i < n; ++i) {
+      var x0 = span > 0 ? (T[i] - T[0]) / span * w : 0;
+      var x1 = i + 1 < n ? (span > 0 ? (T[i + 1] - T[0]) / span * w : w) : w;
+      tl.fillStyle = D.status.colours[S[i]];
+      tl.fillRect(Math.floor(x0), 0, Math.max(1, Math.ceil(x1) - Math.floor(x0)), 1);
+    }
+  })();
   measure();
   drawTracks();
   window.addEventListener('resize', function () {
@@ -643,8 +664,9 @@ StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& png, c
     html += "\">\n<canvas id=\"tracks\" width=\"" + w + "\" height=\"" + h + "\"></canvas>\n"
             "<canvas id=\"live\" width=\"" + w + "\" height=\"" + h + "\"></canvas>\n</div>\n"
             "<div class=\"controls\">\n<button id=\"play\" type=\"button\">\xE2\x96\xB6 Play</button>\n"
-            "<input id=\"slider\" type=\"range\" min=\"0\" max=\"" + std::to_string(in.frames.size() - 1) +
-            "\" step=\"1\" value=\"0\" aria-label=\"frame\">\n"
+            "<div class=\"track\"><input id=\"slider\" type=\"range\" min=\"0\" max=\"" +
+            std::to_string(in.frames.size() - 1) + "\" step=\"1\" value=\"0\" aria-label=\"frame\">\n"
+            "<canvas id=\"timeline\" width=\"1000\" height=\"1\" title=\"status over time\"></canvas></div>\n"
             "<label>speed <select id=\"speed\">";
     for (const char* s : {"0.25", "0.5", "1", "2", "5", "10", "20", "50", "100"}) {
       html += std::string("<option value=\"") + s + "\">" + s + "\xC3\x97</option>";
@@ -656,7 +678,14 @@ StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& png, c
             "<tr><td>x [m]</td><td class=\"num\" id=\"rx\"></td></tr>"
             "<tr><td>y [m]</td><td class=\"num\" id=\"ry\"></td></tr>"
             "<tr><td>z [m]</td><td class=\"num\" id=\"rz\"></td></tr>"
-            "<tr><td>speed [m/s]</td><td class=\"num\" id=\"rv\"></td></tr></table></div>\n";
+            "<tr><td>speed [m/s]</td><td class=\"num\" id=\"rv\"></td></tr>" +
+            (in.movers.empty() ? std::string()
+                               : "<tr><td>gap to obstacle [m]</td><td class=\"num\" id=\"near\"></td></tr>") +
+            "</table>" +
+            (in.movers.empty() ? std::string()
+                               : "<div class=\"note\">gap: between the robot's disc and the nearest moving obstacle's "
+                                 "(its number in brackets), in plan; red when they overlap</div>") +
+            "</div>\n";
     appendLegend(html, in, statuses);
     if (!in.summary.empty()) {
       html += "<div class=\"panel\"><h2>Summary</h2><table>\n";
