@@ -291,6 +291,16 @@ TEST_F(AnimationPageTest, HostileTextIsEscapedEverywhere) {
   EXPECT_EQ(frameData(*html)["status"]["names"][1], evil);
 }
 
+// Text from a scenario file may be any bytes; a broken UTF-8 sequence must not fail the page.
+TEST_F(AnimationPageTest, InvalidUtf8IsReplacedNotFatal) {
+  AnimationPageInput in = sampleRun(4, 1);
+  in.frames[1].status = "stuck\xff\xfe";
+  in.movers[0].name = "cart \xc3";
+  const auto html = animationPageHtml(png_, view_, in);
+  ASSERT_TRUE(html.ok()) << html.status().toString();
+  EXPECT_EQ(frameData(*html)["status"]["names"][1], "stuck\xEF\xBF\xBD\xEF\xBF\xBD");  // U+FFFD twice
+}
+
 TEST_F(AnimationPageTest, BadInputIsRefusedAndLeavesNoFile) {
   struct Case {
     const char* what;

@@ -6,7 +6,7 @@
 #   cmake -DPAGE=run.html -DSCREENSHOT=docs/simulate.png [-DAT=42.5] -P tests/tools/browser_page.cmake
 #
 # -DPAGE=<html>            the page (required)
-# -DSCREENSHOT=<png>       also write a screenshot there (1280 x 900)
+# -DSCREENSHOT=<png>       also write a screenshot there
 # -DAT=<seconds>           also open the page at this run time (its #t=...), check that it is
 #                          paused there, and take the screenshot there; default: the screenshot
 #                          after BUDGET_MS of play from the start
@@ -14,6 +14,7 @@
 # -DCHECK_COLOUR=<RRGGBB>  with CHECK_PNG: a colour the screenshot must show (at least 20 pixels)
 # -DCHROMIUM=<exe>         default /usr/bin/chromium
 # -DBUDGET_MS=<ms>         virtual time the page runs for (default 4000)
+# -DWINDOW=<w,h>           browser window size (default 1280,900)
 # -DWORK=<dir>             scratch folder for the browser profiles (default: beside the page)
 if(NOT DEFINED PAGE)
   message(FATAL_ERROR "usage: cmake -DPAGE=run.html [-DSCREENSHOT=out.png] -P browser_page.cmake")
@@ -28,6 +29,9 @@ endif()
 if(NOT DEFINED BUDGET_MS)
   set(BUDGET_MS 4000)
 endif()
+if(NOT DEFINED WINDOW)
+  set(WINDOW 1280,900)
+endif()
 if(NOT DEFINED WORK)
   get_filename_component(WORK "${PAGE}" DIRECTORY)
 endif()
@@ -37,7 +41,7 @@ endif()
 set(FLAGS --headless --no-sandbox --disable-gpu --disable-quic --no-first-run --no-default-browser-check
           --disable-background-networking --disable-component-update --disable-sync
           --disable-default-apps --disable-extensions --mute-audio --hide-scrollbars
-          --window-size=1280,900 --virtual-time-budget=${BUDGET_MS})
+          --window-size=${WINDOW} --virtual-time-budget=${BUDGET_MS})
 
 function(run_chromium profile url out_var)
   set(dir "${WORK}/chromium-${profile}")

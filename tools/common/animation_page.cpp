@@ -242,6 +242,9 @@ button { font:inherit; min-width:88px; padding:5px 12px; border:1px solid #1f6fb
 button:hover { background:#1f6fb8; }
 select { font:inherit; padding:3px 4px; border:1px solid var(--line); border-radius:5px; background:#fff; }
 aside { flex:0 1 300px; min-width:260px; display:flex; flex-direction:column; gap:12px; }
+@media (max-width: 980px) {
+  aside { flex:1 1 100%; display:grid; grid-template-columns:repeat(auto-fill, minmax(260px, 1fr)); align-items:start; }
+}
 .panel { background:var(--panel); border:1px solid var(--line); border-radius:8px; padding:10px 12px; }
 .panel h2 { margin:0 0 6px; font-size:12px; text-transform:uppercase; letter-spacing:.06em; color:var(--muted); }
 #clock { font:600 28px/1.1 ui-monospace,"DejaVu Sans Mono",monospace; font-variant-numeric:tabular-nums; }
