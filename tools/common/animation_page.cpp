@@ -557,6 +557,44 @@ const char* kMainScript = R"JS(
 })();
 )JS";
 
+void appendStage(std::string& html, const std::vector<unsigned char>& png, const TopViewInfo& view,
+                 std::size_t frames) {
+  const std::string w = std::to_string(view.width_px), h = std::to_string(view.height_px);
+  html += "<section class=\"stage\">\n<div class=\"figure\" style=\"max-width:" + w + "px\">\n"
+          "<img id=\"bg\" alt=\"top view of the run\" width=\"" + w + "\" height=\"" + h +
+          "\" src=\"data:image/png;base64,";
+  html += base64(png);
+  html += "\">\n<canvas id=\"tracks\" width=\"" + w + "\" height=\"" + h + "\"></canvas>\n"
+          "<canvas id=\"live\" width=\"" + w + "\" height=\"" + h + "\"></canvas>\n</div>\n"
+          "<div class=\"controls\">\n<button id=\"play\" type=\"button\">\xE2\x96\xB6 Play</button>\n"
+          "<div class=\"track\"><input id=\"slider\" type=\"range\" min=\"0\" max=\"" +
+          std::to_string(frames - 1) + "\" step=\"1\" value=\"0\" aria-label=\"frame\">\n"
+          "<canvas id=\"timeline\" width=\"1000\" height=\"1\" title=\"status over time\"></canvas></div>\n"
+          "<label>speed <select id=\"speed\">";
+  for (const char* s : {"0.25", "0.5", "1", "2", "5", "10", "20", "50", "100"}) {
+    html += std::string("<option value=\"") + s + "\">" + s + "\xC3\x97</option>";
+  }
+  html += "</select></label>\n</div>\n</section>\n";
+}
+
+void appendClockAndRobot(std::string& html, const AnimationPageInput& in) {
+  html += "<div class=\"panel\"><h2>Clock</h2><div id=\"clock\">t = " + fixed(in.frames.front().t_s, 1) +
+          " s</div><div id=\"clock-of\"></div><span id=\"status\" class=\"badge\"></span></div>\n"
+          "<div class=\"panel\"><h2>Robot</h2><table>"
+          "<tr><td>x [m]</td><td class=\"num\" id=\"rx\"></td></tr>"
+          "<tr><td>y [m]</td><td class=\"num\" id=\"ry\"></td></tr>"
+          "<tr><td>z [m]</td><td class=\"num\" id=\"rz\"></td></tr>"
+          "<tr><td>speed [m/s]</td><td class=\"num\" id=\"rv\"></td></tr>";
+  if (!in.movers.empty()) {
+    html += "<tr><td>gap to obstacle [m]</td><td class=\"num\" id=\"near\"></td></tr></table>"
+            "<div class=\"note\">gap: between the robot's disc and the nearest moving obstacle's (its number "
+            "in brackets), in plan; red when they overlap</div>";
+  } else {
+    html += "</table>";
+  }
+  html += "</div>\n";
+}
+
 void appendSummaryRows(std::string& html, const AnimationPageInput& in) {
   for (const auto& [key, value] : in.summary) {
     html += "<tr><td>" + htmlEscape(key) + "</td><td>" + htmlEscape(value) + "</td></tr>\n";
@@ -642,8 +680,6 @@ StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& png, c
         scriptSafe(frameData(view, in, &statuses).dump(-1, ' ', false, json::error_handler_t::replace));
     const std::string title = htmlEscape(in.title.empty() ? std::string("adit run") : in.title);
     const double duration_s = in.frames.back().t_s - in.frames.front().t_s;
-    const std::string w = std::to_string(view.width_px), h = std::to_string(view.height_px);
-
     std::string html;
     html.reserve(data.size() + png.size() * 4 / 3 + 32768);
     html += "<!DOCTYPE html>\n<html lang=\"en\" data-errors=\"0\" data-frame=\"-1\" data-ready=\"0\">\n<head>\n"
@@ -659,36 +695,10 @@ StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& png, c
     html += "</script>\n</head>\n<body>\n<header><h1>" + title + "</h1><span class=\"sub\">" +
             std::to_string(in.frames.size()) + " frames \xC2\xB7 " + fixed(duration_s, 1) + " s \xC2\xB7 " +
             std::to_string(in.movers.size()) + " moving obstacle" + (in.movers.size() == 1 ? "" : "s") +
-            "</span></header>\n<main>\n<section class=\"stage\">\n"
-            "<div class=\"figure\" style=\"max-width:" + w + "px\">\n"
-            "<img id=\"bg\" alt=\"top view of the run\" width=\"" + w + "\" height=\"" + h +
-            "\" src=\"data:image/png;base64,";
-    html += base64(png);
-    html += "\">\n<canvas id=\"tracks\" width=\"" + w + "\" height=\"" + h + "\"></canvas>\n"
-            "<canvas id=\"live\" width=\"" + w + "\" height=\"" + h + "\"></canvas>\n</div>\n"
-            "<div class=\"controls\">\n<button id=\"play\" type=\"button\">\xE2\x96\xB6 Play</button>\n"
-            "<div class=\"track\"><input id=\"slider\" type=\"range\" min=\"0\" max=\"" +
-            std::to_string(in.frames.size() - 1) + "\" step=\"1\" value=\"0\" aria-label=\"frame\">\n"
-            "<canvas id=\"timeline\" width=\"1000\" height=\"1\" title=\"status over time\"></canvas></div>\n"
-            "<label>speed <select id=\"speed\">";
-    for (const char* s : {"0.25", "0.5", "1", "2", "5", "10", "20", "50", "100"}) {
-      html += std::string("<option value=\"") + s + "\">" + s + "\xC3\x97</option>";
-    }
-    html += "</select></label>\n</div>\n</section>\n<aside>\n"
-            "<div class=\"panel\"><h2>Clock</h2><div id=\"clock\">t = " + fixed(in.frames.front().t_s, 1) +
-            " s</div><div id=\"clock-of\"></div><span id=\"status\" class=\"badge\"></span></div>\n"
-            "<div class=\"panel\"><h2>Robot</h2><table>"
-            "<tr><td>x [m]</td><td class=\"num\" id=\"rx\"></td></tr>"
-            "<tr><td>y [m]</td><td class=\"num\" id=\"ry\"></td></tr>"
-            "<tr><td>z [m]</td><td class=\"num\" id=\"rz\"></td></tr>"
-            "<tr><td>speed [m/s]</td><td class=\"num\" id=\"rv\"></td></tr>" +
-            (in.movers.empty() ? std::string()
-                               : "<tr><td>gap to obstacle [m]</td><td class=\"num\" id=\"near\"></td></tr>") +
-            "</table>" +
-            (in.movers.empty() ? std::string()
-                               : "<div class=\"note\">gap: between the robot's disc and the nearest moving obstacle's "
-                                 "(its number in brackets), in plan; red when they overlap</div>") +
-            "</div>\n";
+            "</span></header>\n<main>\n";
+    appendStage(html, png, view, in.frames.size());
+    html += "<aside>\n";
+    appendClockAndRobot(html, in);
     appendLegend(html, in, statuses);
     if (!in.summary.empty()) {
       html += "<div class=\"panel\"><h2>Summary</h2><table>\n";
