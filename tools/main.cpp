@@ -8,7 +8,9 @@
 #include "common/cli.hpp"
 #include "verbs.hpp"
 
-int main(int argc, char** argv) {
+namespace {
+
+int run(int argc, char** argv) {
   CLI::App app{"adit: path planning for underground mine roadways.\n"
                "Results go to stdout, logs and progress to stderr.\n"
                "Exit codes: 0 success, 1 failure, 2 bad input."};
@@ -27,3 +29,7 @@ int main(int argc, char** argv) {
   }
   return rc;
 }
+
+}  // namespace
+
+int main(int argc, char** argv) { return adit::tools::finishStdout(run(argc, argv)); }

@@ -14,8 +14,10 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/map_summary.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
+#include "common/points_csv.hpp"
 #include "common/progress.hpp"
 #include "common/render_topview.hpp"
 #include "verbs.hpp"
@@ -31,6 +33,8 @@ struct MapArgs {
   std::string path;
   std::string unknown = "rock";
   bool quiet = false;
+  std::string max_memory = "2G";
+  std::string crop;
 };
 
 void addMapArgs(CLI::App* cmd, MapArgs* a) {
@@ -38,13 +42,35 @@ void addMapArgs(CLI::App* cmd, MapArgs* a) {
   cmd->add_option("--unknown", a->unknown, "Unknown space counts as: rock (default, surveyed mines) or free")
       ->check(CLI::IsMember({"rock", "free"}));
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
+  cmd->add_option("--max-memory", a->max_memory,
+                  "Refuse work estimated to need more memory than this (e.g. 512M, 8G; default 2G)");
+  cmd->add_option("--crop", a->crop,
+                  "Only the part of the map inside xmin,ymin,zmin,xmax,ymax,zmax (metres); a survey is cut "
+                  "before it is voxelized");
+}
+
+// --max-memory as a budget (also used by the verbs for what they build after loading).
+StatusOr<MemoryBudget> budgetOf(const MapArgs& a) {
+  StatusOr<std::uint64_t> bytes = parseByteSize(a.max_memory);
+  if (!bytes.ok()) return invalidArgument("--max-memory: " + bytes.status().message());
+  return MemoryBudget{*bytes};
 }
 
 // Loads a map (for a survey, with its network) and ends the progress line.
 StatusOr<LoadedMap> load(const MapArgs& a, ProgressBar& bar) {
   StatusOr<UnknownPolicy> policy = parseUnknownPolicy(a.unknown);
   if (!policy.ok()) return policy.status();
-  StatusOr<LoadedMap> loaded = loadMapAndSurvey(a.path, {*policy, bar.callback()});
+  LoadOptions options;
+  options.unknown_policy = *policy;
+  options.progress = bar.callback();
+  ADIT_ASSIGN_OR_RETURN(const MemoryBudget budget, budgetOf(a));
+  options.max_memory_bytes = budget.max_bytes;
+  if (!a.crop.empty()) {
+    StatusOr<Aabb> box = parseBox(a.crop);
+    if (!box.ok()) return invalidArgument("--crop: " + box.status().message());
+    options.crop = *box;
+  }
+  StatusOr<LoadedMap> loaded = loadMapAndSurvey(a.path, options);
   bar.finish();
   return loaded;
 }
@@ -61,8 +87,10 @@ int runInfo(const MapArgs& a, bool json) {
   if (!loaded.ok()) return report(loaded.status());
   const OccupancyMap& map = loaded->map;
   const MapStats& s = map.stats();
-  // The estimate is a convenience: a map too sparse for it still gets its summary.
-  StatusOr<RoadwayLengthEstimate> est_or = estimateRoadwayLength(map);
+  // The estimate is a convenience: a map too sparse (or too large for --max-memory) for it still
+  // gets its summary.
+  const double max_cells = double(budgetOf(a)->max_bytes) / 5.0;  // 5 bytes per top-view cell
+  StatusOr<RoadwayLengthEstimate> est_or = estimateRoadwayLength(map, max_cells);
   std::optional<RoadwayLengthEstimate> est;
   if (est_or.ok()) est = *est_or;
   else std::fprintf(stderr, "adit: warning: no roadway length estimate: %s\n", est_or.status().message().c_str());
@@ -142,49 +170,6 @@ int runConvert(const MapArgs& a, const std::string& out) {
   return kExitOk;
 }
 
-// "x,y,z" with finite numbers; `where` names the source in errors.
-StatusOr<Vec3> parsePoint(const std::string& text, const std::string& where) {
-  std::string t = text;
-  for (char& c : t)
-    if (c == ',' || c == ';' || c == '\t') c = ' ';
-  std::istringstream is(t);
-  Vec3 p;
-  std::string tok;
-  for (int i = 0; i < 3; ++i) {
-    if (!(is >> tok)) return invalidArgument(where + ": expected x,y,z, got '" + text + "'");
-    char* end = nullptr;
-    p[i] = std::strtod(tok.c_str(), &end);
-    if (end == tok.c_str() || *end != '\0') return invalidArgument(where + ": '" + tok + "' is not a number");
-    if (!std::isfinite(p[i])) return invalidArgument(where + ": coordinate '" + tok + "' is not finite");
-  }
-  if (is >> tok) return invalidArgument(where + ": expected three values, got more in '" + text + "'");
-  return p;
-}
-
-StatusOr<std::vector<Vec3>> readPointsCsv(const std::string& path) {
-  StatusOr<std::string> text = readFile(path, std::size_t{1} << 30);
-  if (!text.ok()) return text.status();
-  std::vector<Vec3> pts;
-  std::istringstream in(*text);
-  std::string line;
-  int lineno = 0;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const auto first = line.find_first_not_of(" \t");
-    if (first == std::string::npos || line[first] == '#') continue;
-    // A header row such as "x,y,z" is allowed on the first data line.
-    if (pts.empty() && (std::isalpha(static_cast<unsigned char>(line[first])) && line.substr(first, 3) != "nan" &&
-                        line.substr(first, 3) != "inf"))
-      continue;
-    StatusOr<Vec3> p = parsePoint(line, path + ":" + std::to_string(lineno));
-    if (!p.ok()) return p.status();
-    pts.push_back(*p);
-  }
-  if (pts.empty()) return invalidArgument(path + ": no points (expected lines of x,y,z)");
-  return pts;
-}
-
 int runQuery(const MapArgs& a, const std::string& points_file, const std::vector<std::string>& points,
              const std::string& out_path) {
   std::vector<Vec3> pts;
@@ -194,7 +179,9 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
     pts.push_back(*p);
   }
   if (!points_file.empty()) {
-    StatusOr<std::vector<Vec3>> more = readPointsCsv(points_file);
+    StatusOr<MemoryBudget> budget = budgetOf(a);
+    if (!budget.ok()) return report(budget.status());
+    StatusOr<std::vector<Vec3>> more = readPointsCsv(points_file, budget->max_bytes);
     if (!more.ok()) return report(more.status());
     pts.insert(pts.end(), more->begin(), more->end());
   }
@@ -202,25 +189,34 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
   ProgressBar bar(a.quiet);
   StatusOr<LoadedMap> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
-  StatusOr<DistanceField> df = DistanceField::build(loaded->map, bar.callback());
+  // Counted without allocating a tile: `--unknown free` on a large box used to take minutes and
+  // tens of GB before failing.
+  const MemoryBudget budget = *budgetOf(a);
+  const DistanceFieldEstimate need = estimateDistanceField(loaded->map);
+  Status fits = budget.check(need.bytes, "the distance field (" + std::to_string(need.tiles) + " tiles of 16^3 voxels)",
+                             "use --crop xmin,ymin,zmin,xmax,ymax,zmax around the points" +
+                                 std::string(loaded->map.unknownPolicy() == UnknownPolicy::kFree ? ", --unknown rock" : "") +
+                                 " or raise --max-memory");
+  if (!fits.ok()) return report(fits);
+  const auto max_tiles = std::uint64_t(double(budget.max_bytes) / distanceFieldBytesPerTile()) + 1;
+  StatusOr<DistanceField> df = DistanceField::build(loaded->map, bar.callback(), max_tiles);
   bar.finish();
   if (!df.ok()) return report(df.status());
-  // All input is validated before the first byte of output.
-  std::ostringstream os;
-  os << "x,y,z,state,distance,gx,gy,gz\n";
-  char buf[256];
-  for (const Vec3& p : pts) {
-    const DistanceSample s = df->query(p);
-    std::snprintf(buf, sizeof buf, "%.6g,%.6g,%.6g,%s,%.4f,%.6f,%.6f,%.6f\n", p.x(), p.y(), p.z(),
-                  voxelStateName(loaded->map.state(p)), s.distance, s.gradient.x(), s.gradient.y(), s.gradient.z());
-    os << buf;
-  }
-  if (out_path.empty()) {
-    std::cout << os.str();
-    std::cout.flush();
-    return std::cout ? kExitOk : kExitFailure;
-  }
-  Status w = writeFileAtomically(out_path, [&](std::ostream& f) { return bool(f << os.str()); });
+  // All input is validated before the first byte of output; rows are streamed (no copy of the
+  // whole table in memory). Coordinates echo the input exactly so rows join back to it.
+  auto writeRows = [&](std::ostream& os) {
+    os << "x,y,z,state,distance,gx,gy,gz\n";
+    char buf[160];
+    for (const Vec3& p : pts) {
+      const DistanceSample s = df->query(p);
+      std::snprintf(buf, sizeof buf, ",%s,%.4f,%.6f,%.6f,%.6f\n", voxelStateName(loaded->map.state(p)), s.distance,
+                    s.gradient.x(), s.gradient.y(), s.gradient.z());
+      os << roundTripNumber(p.x()) << ',' << roundTripNumber(p.y()) << ',' << roundTripNumber(p.z()) << buf;
+    }
+    return bool(os);
+  };
+  if (out_path.empty()) return writeRows(std::cout) ? kExitOk : kExitFailure;
+  Status w = writeFileAtomically(out_path, writeRows);
   return w.ok() ? kExitOk : report(w);
 }
 

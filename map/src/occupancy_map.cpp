@@ -140,8 +140,10 @@ bool OccupancyMap::isFree(const Vec3& p) const {
 
 void OccupancyMap::forEachLeaf(const std::function<void(const Vec3&, double, VoxelState)>& fn) const {
   for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
-    const octomap::point3d c = it.getCoordinate();
-    fn(Vec3(c.x(), c.y(), c.z()), it.getSize(),
+    // Centres in double (getX/Y/Z): the iterator's getCoordinate() is a float point3d, whose
+    // rounding moves a voxel face off the grid (0.55f - 0.05 > 0.5), so a caller testing whether
+    // a voxel meets a plane on a voxel boundary missed both voxels beside it.
+    fn(Vec3(it.getX(), it.getY(), it.getZ()), it.getSize(),
        tree_->isNodeOccupied(*it) ? VoxelState::kOccupied : VoxelState::kFree);
   }
 }

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // OctoMap .bt/.ot reading with full validation, and atomic writing.
-#include <fcntl.h>
 #include <octomap/OcTree.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -13,7 +11,6 @@
 #include <fstream>
 #include <iomanip>
 #include <locale>
-#include <random>
 #include <sstream>
 #include <vector>
 
@@ -235,7 +232,8 @@ StatusOr<std::string> readFile(const std::string& path, std::size_t max_bytes) {
   return bytes;
 }
 
-StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string& name, UnknownPolicy policy) {
+StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string& name, UnknownPolicy policy,
+                                    std::uint64_t max_memory_bytes) {
   StatusOr<Header> header = parseHeader(bytes, name);
   if (!header.ok()) return header.status();
   const Header& h = *header;
@@ -246,6 +244,10 @@ StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string&
                     std::to_string((bytes.size() - h.data_offset) / min_bytes_per_node));
   ADIT_RETURN_IF_ERROR(h.binary ? validateBinaryData(bytes, h.data_offset, h.size, name)
                                 : validateFullData(bytes, h.data_offset, h.size, name));
+  // The node count is now known to be true: check what the tree will cost before building it.
+  ADIT_RETURN_IF_ERROR(MemoryBudget{max_memory_bytes}.check(
+      estimateOctreeBytes(double(h.size)), name + ": the octree (" + std::to_string(h.size) + " nodes)",
+      "raise --max-memory (a crop is applied only after loading)"));
   auto tree = std::make_shared<octomap::OcTree>(h.resolution);
   ViewBuf view(bytes.data() + h.data_offset, bytes.data() + bytes.size());  // no copy of the data
   std::istream data(&view);
@@ -258,56 +260,10 @@ StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string&
   return map;
 }
 
-StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy) {
-  StatusOr<std::string> bytes = readFile(path);
+StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy, std::uint64_t max_memory_bytes) {
+  StatusOr<std::string> bytes = readFile(path, std::min<std::uint64_t>(std::uint64_t{1} << 32, max_memory_bytes));
   if (!bytes.ok()) return bytes.status();
-  return parseOctomap(*bytes, path, policy);
-}
-
-Status writeFileAtomically(const std::string& path, const std::function<bool(std::ostream&)>& write) {
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return notFound(path + ": directory '" + dir.string() + "' does not exist");
-  if (fs::is_directory(target, ec)) return invalidArgument(path + ": is a directory");
-  std::random_device rd;
-  const fs::path tmp = dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + "_" +
-                              std::to_string(rd() % 1000000));
-  bool ok = false;
-  std::string why;
-  try {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return invalidArgument(path + ": cannot create a file in '" + dir.string() + "': " + std::strerror(errno));
-    const bool wrote = write(out);
-    out.flush();
-    const bool stream_ok = out.good();
-    out.close();
-    ok = wrote && stream_ok && !out.fail();
-    if (!wrote) why = "the writer reported a failure";
-    else if (!ok) why = "write failed (disk full or I/O error?)";
-  } catch (const std::exception& e) {
-    ok = false;
-    why = std::string("the writer threw: ") + e.what();
-  } catch (...) {
-    ok = false;
-    why = "the writer threw an exception";
-  }
-  if (ok) {
-    // Make the data durable before the rename makes it visible, so a crash cannot leave an empty
-    // file under the target's name.
-    const int fd = ::open(tmp.c_str(), O_RDONLY);
-    if (fd < 0 || ::fsync(fd) != 0) { ok = false; why = std::string("fsync failed: ") + std::strerror(errno); }
-    if (fd >= 0) ::close(fd);
-  }
-  if (ok) {
-    fs::rename(tmp, target, ec);
-    if (ec) { ok = false; why = "rename failed: " + ec.message(); }
-  }
-  if (!ok) {
-    fs::remove(tmp, ec);
-    return internalError(path + ": " + why + "; nothing was written");
-  }
-  return {};
+  return parseOctomap(*bytes, path, policy, max_memory_bytes);
 }
 
 namespace {

@@ -2,11 +2,13 @@
 // Survey YAML parsing and validation. yaml-cpp stays in this file.
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
 
 #include "adit/map/map_io.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 
 namespace adit::map {
@@ -251,10 +253,84 @@ StatusOr<SurveyNetwork> parseSurvey(const std::string& text, const std::string& 
   return net;
 }
 
-StatusOr<SurveyNetwork> loadSurvey(const std::string& path) {
-  StatusOr<std::string> text = readFile(path, std::size_t{256} << 20);
+StatusOr<SurveyNetwork> loadSurvey(const std::string& path, std::uint64_t max_memory_bytes) {
+  StatusOr<std::string> text = readFile(path, std::min<std::uint64_t>(std::uint64_t{256} << 20, max_memory_bytes));
   if (!text.ok()) return text.status();
+  ADIT_RETURN_IF_ERROR(MemoryBudget{max_memory_bytes}.check(
+      estimateSurveyParseBytes(*text), path + ": parsing the survey (" + std::to_string(text->size()) + " bytes of YAML)",
+      "split the network into several files or raise --max-memory"));
   return parseSurvey(*text, path);
+}
+
+namespace {
+
+// Part [t0, t1] of the segment a + t (b - a), t in [0, 1], inside `box` (Liang-Barsky).
+bool clipSegment(const Vec3& a, const Vec3& b, const Aabb& box, double* t0, double* t1) {
+  *t0 = 0;
+  *t1 = 1;
+  const Vec3 d = b - a;
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(d[k]) < 1e-12) {
+      if (a[k] < box.min[k] || a[k] > box.max[k]) return false;
+      continue;
+    }
+    double lo = (box.min[k] - a[k]) / d[k], hi = (box.max[k] - a[k]) / d[k];
+    if (lo > hi) std::swap(lo, hi);
+    *t0 = std::max(*t0, lo);
+    *t1 = std::min(*t1, hi);
+    if (*t0 > *t1) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+StatusOr<SurveyNetwork> cropNetwork(const SurveyNetwork& net, const Aabb& box) {
+  if (!allFinite(box.min) || !allFinite(box.max) || box.empty())
+    return invalidArgument("crop box must be finite with min <= max");
+  SurveyNetwork out;
+  out.name = net.name;
+  out.resolution_m = net.resolution_m;
+  out.rock_shell_m = net.rock_shell_m;
+  out.sections = net.sections;
+  int cuts = 0;
+  for (const SurveyRoadway& road : net.roadways) {
+    const CrossSection& s = net.sections.at(road.section);
+    // Whatever a centreline point can reach: its section (any tilt), the shell, a voxel's rounding.
+    const double reach = std::hypot(0.5 * s.maxWidth(), s.height()) + net.rock_shell_m + 2 * net.resolution_m;
+    const Aabb grown = box.inflated(reach);
+    std::vector<SurveyRoadway> runs;
+    bool open = false;
+    for (std::size_t k = 1; k < road.stations.size(); ++k) {
+      const std::string &ia = road.stations[k - 1], &ib = road.stations[k];
+      const Vec3 &a = net.stations.at(ia), &b = net.stations.at(ib);
+      double t0 = 0, t1 = 1;
+      if (!clipSegment(a, b, grown, &t0, &t1) || (b - a).head<2>().norm() * (t1 - t0) < 1e-3) {
+        open = false;
+        continue;
+      }
+      // A long segment is cut at the grown box, so that only the part near the box is voxelized.
+      auto station = [&](const std::string& id, double t) {
+        if (t == 0.0 || t == 1.0) {
+          out.stations[id] = net.stations.at(id);
+          return id;
+        }
+        const std::string cut = id + "#cut" + std::to_string(++cuts);
+        out.stations[cut] = a + t * (b - a);
+        return cut;
+      };
+      const std::string from = station(ia, t0), to = station(ib, t1);
+      if (!open || t0 > 0.0) runs.push_back({road.name, {from}, road.section});
+      runs.back().stations.push_back(to);
+      open = t1 == 1.0;
+    }
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      if (runs.size() > 1) runs[i].name += "/" + std::to_string(i + 1);
+      out.roadways.push_back(std::move(runs[i]));
+    }
+  }
+  if (out.roadways.empty()) return failedPrecondition("crop box reaches no roadway of the survey network");
+  return out;
 }
 
 Status SurveyNetwork::validate() const {
@@ -307,7 +383,14 @@ Aabb SurveyNetwork::bounds() const {
   Aabb box;
   for (const SurveyRoadway& road : roadways) {
     const CrossSection& s = sections.at(road.section);
-    const double grow = 0.5 * s.maxWidth() + rock_shell_m + resolution_m;
+    // Sections are swept square to the centreline, so an inclined roadway's roof leans back
+    // horizontally by height * sin(slope).
+    double max_sin = 0;
+    for (std::size_t k = 1; k < road.stations.size(); ++k) {
+      const Vec3 d = stations.at(road.stations[k]) - stations.at(road.stations[k - 1]);
+      max_sin = std::max(max_sin, std::abs(d.z()) / d.norm());
+    }
+    const double grow = std::max(0.5 * s.maxWidth(), s.height() * max_sin) + rock_shell_m + resolution_m;
     for (const std::string& id : road.stations) {
       const Vec3& p = stations.at(id);
       box.extend(Vec3(p.x() - grow, p.y() - grow, p.z() - rock_shell_m - resolution_m));

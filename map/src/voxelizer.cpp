@@ -23,15 +23,24 @@ class Sweeper {
  public:
   Sweeper(double res, BitVoxelSet* out) : res_(res), inv_(1.0 / res), out_(out) {}
 
-  // Section swept along the floor segment a->b: horizontal lateral axis, vertical walls, floor
-  // interpolated along the segment and flat across it.
+  // Section swept along the floor segment a->b, perpendicular to it: the lateral axis is
+  // horizontal, the section's "up" axis is perpendicular to the centreline in its vertical
+  // plane, so an inclined roadway keeps its full clearance measured square to the floor (a
+  // vertical section would leave h cos(theta): 0.46 m of a 3 m section at 70 degrees).
   void segment(const Vec3& a, const Vec3& b, const CrossSection& s) {
-    const Eigen::Vector2d d = (b - a).head<2>();
+    const Vec3 d = b - a;
     const double len = d.norm();
-    const Eigen::Vector2d t = d / len, n(-t.y(), t.x());
+    const double hlen = d.head<2>().norm();
+    const Vec3 dir = d / len;
+    const Eigen::Vector2d t = d.head<2>() / hlen, n(-t.y(), t.x());
+    const double sin_t = dir.z(), cos_t = hlen / len;
+    const Vec3 up(-sin_t * t.x(), -sin_t * t.y(), cos_t);
     const double hw = 0.5 * s.maxWidth(), h = s.height();
+    // Horizontal footprint along t: the roof end caps lean back by h sin(theta).
+    const double lean = -h * sin_t;
+    const double s_lo = std::min(0.0, lean), s_hi = hlen + std::max(0.0, lean);
     double xmin = 1e300, xmax = -1e300;
-    for (double sa : {0.0, len})
+    for (double sa : {s_lo, s_hi})
       for (double su : {-hw, hw}) {
         const double x = a.x() + sa * t.x() + su * n.x();
         xmin = std::min(xmin, x);
@@ -39,17 +48,30 @@ class Sweeper {
       }
     for (int kx = keyOf(xmin, inv_); kx <= keyOf(xmax, inv_); ++kx) {
       const double xc = centreOf(kx, res_);
-      // y interval from 0 <= (p-a).t <= len and |(p-a).n| <= hw.
       double ylo = -1e300, yhi = 1e300;
-      if (!slab(xc - a.x(), t.x(), t.y(), 0.0, len, a.y(), &ylo, &yhi)) continue;
+      if (!slab(xc - a.x(), t.x(), t.y(), s_lo, s_hi, a.y(), &ylo, &yhi)) continue;
       if (!slab(xc - a.x(), n.x(), n.y(), -hw, hw, a.y(), &ylo, &yhi)) continue;
       for (int ky = keyOf(ylo, inv_); ky <= keyOf(yhi, inv_); ++ky) {
         const double yc = centreOf(ky, res_);
         const Eigen::Vector2d p(xc - a.x(), yc - a.y());
-        const double along = p.dot(t), u = p.dot(n);
-        if (along < 0 || along > len || std::abs(u) > hw) continue;
-        const double floor_z = a.z() + (b.z() - a.z()) * (along / len);
-        column(kx, ky, floor_z, h, [&](double v) { return std::abs(u) <= s.halfWidthAt(v); });
+        const double u = p.dot(n);
+        if (std::abs(u) > hw) continue;
+        // along(z) and v(z) are linear in z; v's slope is cos(theta) > 0.
+        const double along0 = p.x() * dir.x() + p.y() * dir.y(), v0 = p.x() * up.x() + p.y() * up.y();
+        double zlo = a.z() - v0 / cos_t, zhi = a.z() + (h - v0) / cos_t;
+        if (std::abs(sin_t) > 1e-12) {
+          double z1 = a.z() - along0 / sin_t, z2 = a.z() + (len - along0) / sin_t;
+          if (z1 > z2) std::swap(z1, z2);
+          zlo = std::max(zlo, z1);
+          zhi = std::min(zhi, z2);
+        } else if (along0 < 0 || along0 > len) {
+          continue;
+        }
+        for (int kz = keyOf(zlo, inv_); kz <= keyOf(zhi, inv_); ++kz) {
+          const double dz = centreOf(kz, res_) - a.z();
+          const double along = along0 + dz * sin_t, v = v0 + dz * cos_t;
+          if (along >= 0 && along <= len && v >= 0 && v <= h && std::abs(u) <= s.halfWidthAt(v)) out_->set(kx, ky, kz);
+        }
       }
     }
   }

@@ -9,12 +9,15 @@
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -819,6 +822,116 @@ TEST(MapIoAtomicWrite, OverwritesAnExistingMap) {
   ASSERT_TRUE(writeOctomap(*fixture().map, path).ok());
   EXPECT_EQ(readBytes(path), fixture().ot);
   EXPECT_EQ(dir.entries(), std::vector<std::string>{"map.ot"});
+}
+
+TEST(MapIoAtomicWrite, SymlinksAreFollowedAndKept) {
+  ScratchDir dir;
+  fs::create_directory(dir.path("real"));
+  writeBytes(dir.path("real/map.bt"), "old");
+  fs::create_symlink("real/map.bt", dir.path("link.bt"));  // relative to the link's directory
+  fs::create_symlink(dir.path("link.bt"), dir.path("chain.bt"));  // a chain, absolute
+  ASSERT_TRUE(writeOctomap(*fixture().map, dir.path("chain.bt")).ok());
+  EXPECT_TRUE(fs::is_symlink(dir.path("chain.bt")));
+  EXPECT_TRUE(fs::is_symlink(dir.path("link.bt")));
+  EXPECT_EQ(readBytes(dir.path("real/map.bt")), fixture().bt);
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"chain.bt", "link.bt", "real"}));
+  EXPECT_EQ(fs::directory_iterator(dir.path("real"))->path().filename(), "map.bt");  // no temp file left
+
+  // A dangling link creates its target and stays a link.
+  fs::create_symlink("real/new.bt", dir.path("dangling.bt"));
+  ASSERT_TRUE(writeFileAtomically(dir.path("dangling.bt"), [](std::ostream& os) { return bool(os << "x"); }).ok());
+  EXPECT_TRUE(fs::is_symlink(dir.path("dangling.bt")));
+  EXPECT_EQ(readBytes(dir.path("real/new.bt")), "x");
+
+  // A loop is refused with a message, and nothing is created.
+  fs::create_symlink("loop_b", dir.path("loop_a"));
+  fs::create_symlink("loop_a", dir.path("loop_b"));
+  const Status s = writeFileAtomically(dir.path("loop_a"), [](std::ostream& os) { return bool(os << "x"); });
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("symbolic links"), std::string::npos) << s.message();
+  EXPECT_TRUE(fs::is_symlink(dir.path("loop_a")));
+}
+
+TEST(MapIoAtomicWrite, ReplacedFileKeepsItsPermissions) {
+  ScratchDir dir;
+  const std::string path = dir.path("map.bt");
+  writeBytes(path, "old");
+  fs::permissions(path, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+  ASSERT_TRUE(writeOctomap(*fixture().map, path).ok());
+  EXPECT_EQ(fs::status(path).permissions(), fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+}
+
+TEST(MapIoAtomicWrite, CharacterDeviceIsWrittenThroughNotReplaced) {
+  ScratchDir dir;
+  const std::string path = dir.path("null.bt");
+  // A copy of /dev/null (major 1, minor 3); creating device nodes needs root (CAP_MKNOD).
+  if (::mknod(path.c_str(), S_IFCHR | 0666, makedev(1, 3)) != 0)
+    GTEST_SKIP() << "cannot create a character device here (" << std::strerror(errno) << ")";
+  ASSERT_TRUE(writeOctomap(*fixture().map, path).ok());
+  EXPECT_EQ(fs::status(path).type(), fs::file_type::character);
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"null.bt"});
+  // /dev/null itself, as a user would give it.
+  EXPECT_TRUE(writeFileAtomically("/dev/null", [](std::ostream& os) { return bool(os << "x"); }).ok());
+  EXPECT_EQ(fs::status("/dev/null").type(), fs::file_type::character);
+}
+
+TEST(MapIoAtomicWrite, FifoIsWrittenThroughToItsReader) {
+  ScratchDir dir;
+  const std::string path = dir.path("pipe.bt");
+  ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0) << std::strerror(errno);
+  std::future<std::string> received = std::async(std::launch::async, [&] { return readBytes(path); });
+  ASSERT_TRUE(writeOctomap(*fixture().map, path).ok());
+  ASSERT_EQ(received.wait_for(std::chrono::seconds(30)), std::future_status::ready);
+  EXPECT_EQ(received.get(), fixture().bt);
+  EXPECT_EQ(fs::status(path).type(), fs::file_type::fifo);
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"pipe.bt"});
+}
+
+// A child process writes slowly; a signal in the middle kills it and leaves no temporary file,
+// and the previous content of the target untouched.
+void expectSignalLeavesNoTempFile(int sig) {
+  ScratchDir dir;
+  const std::string target = dir.path("map.bt");
+  writeBytes(target, "previous content\n");
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const Status s = writeFileAtomically(target, [](std::ostream& os) {
+      os << std::string(1 << 16, 'x');
+      os.flush();  // the temporary file now exists and holds data
+      for (int i = 0; i < 600; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      return true;
+    });
+    ::_exit(s.ok() ? 0 : 3);
+  }
+  // Wait until the temporary file has data, then interrupt.
+  bool started = false;
+  for (int i = 0; i < 3000 && !started; ++i) {
+    for (const auto& e : fs::directory_iterator(dir.dir()))
+      if (e.path().filename() != "map.bt" && fs::file_size(e.path()) > 0) started = true;
+    if (!started) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_TRUE(started);
+  ASSERT_EQ(::kill(pid, sig), 0);
+  int wstatus = 0;
+  ASSERT_EQ(::waitpid(pid, &wstatus, 0), pid);
+  ASSERT_TRUE(WIFSIGNALED(wstatus)) << "child exited normally with " << WEXITSTATUS(wstatus);
+  EXPECT_EQ(WTERMSIG(wstatus), sig);
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"map.bt"});
+  EXPECT_EQ(readBytes(target), "previous content\n");
+}
+
+TEST(MapIoAtomicWrite, InterruptLeavesNoTempFile) { expectSignalLeavesNoTempFile(SIGINT); }
+TEST(MapIoAtomicWrite, TerminateLeavesNoTempFile) { expectSignalLeavesNoTempFile(SIGTERM); }
+
+TEST(MapIoAtomicWrite, PreviousSignalHandlersAreRestored) {
+  struct sigaction before {};
+  ASSERT_EQ(::sigaction(SIGINT, nullptr, &before), 0);
+  ScratchDir dir;
+  ASSERT_TRUE(writeFileAtomically(dir.path("a"), [](std::ostream& os) { return bool(os << "x"); }).ok());
+  struct sigaction after {};
+  ASSERT_EQ(::sigaction(SIGINT, nullptr, &after), 0);
+  EXPECT_EQ(after.sa_handler, before.sa_handler);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -3,8 +3,8 @@
 /// @file
 /// Reading and writing maps. Readers validate a whole file before anything is built from it
 /// (OctoMap's own readers trust their input: a truncated .bt makes them read garbage), and
-/// writers go through a temporary file renamed into place, so a failed write never leaves a
-/// half file behind.
+/// writers go through a temporary file renamed into place, so a failed or interrupted write
+/// never leaves a half file behind (see writeFileAtomically for devices, FIFOs and symlinks).
 ///
 ///   StatusOr<OccupancyMap> map = loadMap("maps/district.yaml");   // survey, .bt or .ot
 ///   Status s = writeOctomap(*map, "district.bt");
@@ -15,6 +15,7 @@
 #include <string>
 
 #include "adit/map/occupancy_map.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 
 namespace adit::map {
@@ -27,6 +28,11 @@ StatusOr<MapFormat> formatFromPath(const std::string& path);
 struct LoadOptions {
   UnknownPolicy unknown_policy = UnknownPolicy::kRock;
   ProgressFn progress;  ///< optional
+  /// Every step (file, parse, voxels, octree, crop) is estimated first and refused above this.
+  std::uint64_t max_memory_bytes = kDefaultMaxMemoryBytes;
+  /// Keep only the voxels whose centre lies in this box; a survey is cut to the roadway
+  /// segments that reach into it before it is voxelized, so a part of a huge network fits.
+  std::optional<Aabb> crop;
 };
 
 /// Loads any supported map: a survey roadway network (voxelized), an OctoMap .bt or .ot.
@@ -43,16 +49,26 @@ StatusOr<LoadedMap> loadMapAndSurvey(const std::string& path, const LoadOptions&
 /// OctoMap binary (.bt) or full (.ot, OcTree only) from a file or from bytes; `name` is used in
 /// messages. Every structural fact is checked: magic line, header fields, node encoding, depth
 /// <= 16, node count equal to the header's, no trailing bytes, finite log-odds.
-StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy = UnknownPolicy::kRock);
+StatusOr<OccupancyMap> loadOctomap(const std::string& path, UnknownPolicy policy = UnknownPolicy::kRock,
+                                   std::uint64_t max_memory_bytes = kDefaultMaxMemoryBytes);
+/// The header's node count is checked (after the node stream is validated against it) against
+/// `max_memory_bytes` before the tree is built.
 StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string& name,
-                                    UnknownPolicy policy = UnknownPolicy::kRock);
+                                    UnknownPolicy policy = UnknownPolicy::kRock,
+                                    std::uint64_t max_memory_bytes = kDefaultMaxMemoryBytes);
 
 /// Writes .bt or .ot (by extension) atomically.
 Status writeOctomap(const OccupancyMap& map, const std::string& path);
 
 /// Calls `write` on a stream to a temporary file beside `path`, then renames it over `path`.
 /// If `write` returns false or throws, or the stream fails, the temporary file is removed and
-/// `path` is untouched.
+/// `path` is untouched. Writers never destroy what is not theirs:
+/// - a symbolic link is followed (through chains and to a dangling target) and its target is
+///   replaced, never the link itself; a replaced regular file keeps its permission bits;
+/// - a character device (/dev/null, a terminal) or a FIFO is written through in place, without a
+///   temporary file (such a write cannot be atomic); block devices and sockets are refused;
+/// - SIGINT, SIGTERM or SIGHUP during the write remove the temporary file, then the signal's
+///   previous disposition runs (the process still dies of it unless the application handles it).
 Status writeFileAtomically(const std::string& path, const std::function<bool(std::ostream&)>& write);
 
 /// Whole file into memory, with a clear error if it is missing, a directory or too large.

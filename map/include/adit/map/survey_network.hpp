@@ -19,6 +19,7 @@
 
 #include "adit/map/cross_section.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "adit/map/types.hpp"
 
 namespace adit::map {
@@ -52,7 +53,15 @@ struct SurveyNetwork {
 
 /// Parses the YAML text; `name` (usually the path) prefixes every error as "name:line:col: ...".
 StatusOr<SurveyNetwork> parseSurvey(const std::string& yaml_text, const std::string& name);
-StatusOr<SurveyNetwork> loadSurvey(const std::string& path);
+/// Refuses (before parsing) a file whose parse would need more than `max_memory_bytes`.
+StatusOr<SurveyNetwork> loadSurvey(const std::string& path, std::uint64_t max_memory_bytes = kDefaultMaxMemoryBytes);
+
+/// The part of the network that can put a voxel in `box`: every run of consecutive segments
+/// whose swept section (with its rock shell) reaches into the box becomes a roadway (named
+/// "<name>" or "<name>/<k>" when a roadway is cut into several runs). Refuses a box that no
+/// roadway reaches. voxelize() of the result, cropped to the box, equals the whole network's
+/// voxels in the box except at the cut ends (no revolve where a run ends inside the grown box).
+StatusOr<SurveyNetwork> cropNetwork(const SurveyNetwork& network, const Aabb& box);
 
 struct VoxelizeOptions {
   UnknownPolicy unknown_policy = UnknownPolicy::kRock;

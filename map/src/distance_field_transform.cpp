@@ -1,0 +1,232 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The exact separable Euclidean feature transform (Felzenszwalb-Huttenlocher lower envelopes, one
+// pass per axis), over all tiles (build) or over a dense box (windowed update).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "distance_field_impl.hpp"
+
+namespace adit::map {
+namespace {
+
+// One line of the separable transform: candidates (position along the line, squared distance
+// already accumulated over the earlier axes, site word) in increasing position; for every query
+// position (increasing) the candidate minimising (q - p)^2 + f. Felzenszwalb & Huttenlocher 2012.
+class LineSolver {
+ public:
+  void clear() { pos_.clear(); f_.clear(); site_.clear(); all_zero_ = true; }
+  void add(int p, double f, std::uint64_t site) {
+    pos_.push_back(p);
+    f_.push_back(f);
+    site_.push_back(site);
+    all_zero_ = all_zero_ && f == 0.0;
+  }
+  bool empty() const { return pos_.empty(); }
+
+  void prepare() {
+    k_ = 0;
+    // Only rock on the line (the first pass): the nearest candidate by position, no envelope.
+    if (all_zero_) return;
+    const std::size_t n = pos_.size();
+    v_.resize(n);
+    z_.resize(n + 1);
+    int k = 0;
+    v_[0] = 0;
+    z_[0] = -std::numeric_limits<double>::infinity();
+    z_[1] = std::numeric_limits<double>::infinity();
+    for (std::size_t q = 1; q < n; ++q) {
+      double s;
+      for (;;) {
+        const std::size_t r = v_[std::size_t(k)];
+        s = ((f_[q] + double(pos_[q]) * pos_[q]) - (f_[r] + double(pos_[r]) * pos_[r])) /
+            (2.0 * double(pos_[q] - pos_[r]));
+        if (s <= z_[std::size_t(k)]) { --k; continue; }  // z_[0] = -inf ends this
+        break;
+      }
+      ++k;
+      v_[std::size_t(k)] = q;
+      z_[std::size_t(k)] = s;
+      z_[std::size_t(k) + 1] = std::numeric_limits<double>::infinity();
+    }
+    k_ = 0;
+  }
+  // Queries must come in increasing position after prepare().
+  std::uint64_t solve(int q) {
+    if (all_zero_) {
+      const std::size_t n = pos_.size();
+      std::size_t k = std::size_t(k_);
+      while (k + 1 < n && pos_[k + 1] <= q) ++k;
+      if (k + 1 < n && (pos_[k] > q || pos_[k + 1] - q < q - pos_[k])) {
+        k_ = int(k);
+        return site_[pos_[k] > q ? k : k + 1];
+      }
+      k_ = int(k);
+      return site_[k];
+    }
+    while (z_[std::size_t(k_) + 1] < double(q)) ++k_;
+    return site_[v_[std::size_t(k_)]];
+  }
+
+ private:
+  std::vector<int> pos_;
+  std::vector<double> f_;
+  std::vector<std::uint64_t> site_;
+  std::vector<std::size_t> v_;
+  std::vector<double> z_;
+  int k_ = 0;
+  bool all_zero_ = true;
+};
+
+// Squared distance from voxel `key` to the site in `w`, over the axes before `axis` (the axes a
+// previous pass has already resolved; the other coordinates of the site equal the voxel's).
+inline double partialF(const int key[3], std::uint64_t w, int axis) {
+  double f = 0;
+  for (int a = 0; a < axis; ++a) {
+    const double d = key[a] - siteCoord(w, a);
+    f += d * d;
+  }
+  return f;
+}
+
+}  // namespace
+
+// Full transform in place, over the allocated tiles only: along each axis, the tiles are
+// grouped in lines; gaps between tiles (and the ends) are rock, of which only the two voxels
+// bounding each gap can be nearest for anything outside it.
+void DistanceField::Impl::transformAll(const ProgressFn& progress) {
+  for (Block& b : blocks)
+    for (std::uint64_t& w : b)
+      if (isFreeWord(w)) w = kFreeBit;  // the first pass must see rock voxels only
+  LineSolver solver;
+  std::vector<std::pair<int, std::uint64_t*>> queries;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int b1 = (axis + 1) % 3, b2 = (axis + 2) % 3;
+    // Tiles sorted by (other two block coords, own coord) form the lines.
+    std::vector<std::uint32_t> order(blocks.size());
+    for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+      const auto& ca = block_coords[a];
+      const auto& cb = block_coords[b];
+      if (ca[b2] != cb[b2]) return ca[b2] < cb[b2];
+      if (ca[b1] != cb[b1]) return ca[b1] < cb[b1];
+      return ca[axis] < cb[axis];
+    });
+    std::size_t start = 0;
+    while (start < order.size()) {
+      std::size_t end = start + 1;
+      while (end < order.size() && block_coords[order[end]][b1] == block_coords[order[start]][b1] &&
+             block_coords[order[end]][b2] == block_coords[order[start]][b2])
+        ++end;
+      for (int u = 0; u < kBlockSize; ++u)
+        for (int v = 0; v < kBlockSize; ++v) {
+          int key[3];
+          key[b1] = (block_coords[order[start]][b1] << kBlockBits) + u;
+          key[b2] = (block_coords[order[start]][b2] << kBlockBits) + v;
+          solver.clear();
+          queries.clear();
+          auto addRock = [&](int p) {
+            // Keys 0 and 65535 are always rock (see build()), so nothing beyond them is needed.
+            if (p < 0 || p > 65535) return;
+            key[axis] = p;
+            solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
+          };
+          int prev_end = std::numeric_limits<int>::min();
+          for (std::size_t i = start; i < end; ++i) {
+            const int first = block_coords[order[i]][axis] << kBlockBits;
+            if (first != prev_end + 1) {
+              if (prev_end != std::numeric_limits<int>::min()) addRock(prev_end + 1);
+              if (prev_end == std::numeric_limits<int>::min() || first - 1 > prev_end + 1) addRock(first - 1);
+            }
+            Block& blk = blocks[order[i]];
+            for (int p = first; p < first + kBlockSize; ++p) {
+              key[axis] = p;
+              std::uint64_t& w = blk[std::size_t(localIndex(key[0], key[1], key[2]))];
+              if (!isFreeWord(w)) {
+                solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
+              } else {
+                if (hasSite(w)) solver.add(p, partialF(key, w, axis), w & kKeyMask);
+                queries.emplace_back(p, &w);
+              }
+            }
+            prev_end = first + kBlockSize - 1;
+          }
+          addRock(prev_end + 1);
+          if (queries.empty()) continue;
+          solver.prepare();
+          for (auto& [p, w] : queries) *w = kFreeBit | kSiteBit | solver.solve(p);
+        }
+      start = end;
+    }
+    if (progress) progress("distance field", double(axis + 1) / 3.0);
+  }
+}
+
+// Transform over a dense copy of box `r` (outside it: no sites), writing back the free voxels
+// of `write`. Returns the largest centre-to-centre distance (voxels) found in `write`, or
+// infinity if some free voxel there saw no rock inside `r`.
+double DistanceField::Impl::transformBox(const BoxI& r, BoxI write) {
+  for (int a = 0; a < 3; ++a) {  // nothing outside the tiles to write
+    write.lo[a] = std::max(write.lo[a], r.lo[a]);
+    write.hi[a] = std::min(write.hi[a], r.hi[a]);
+  }
+  const int n[3] = {r.hi[0] - r.lo[0] + 1, r.hi[1] - r.lo[1] + 1, r.hi[2] - r.lo[2] + 1};
+  std::vector<std::uint64_t> grid(static_cast<std::size_t>(n[0]) * std::size_t(n[1]) * std::size_t(n[2]));
+  auto at = [&](int x, int y, int z) -> std::uint64_t& {
+    return grid[(std::size_t(z - r.lo[2]) * std::size_t(n[1]) + std::size_t(y - r.lo[1])) * std::size_t(n[0]) +
+                std::size_t(x - r.lo[0])];
+  };
+  for (int z = r.lo[2]; z <= r.hi[2]; ++z)
+    for (int y = r.lo[1]; y <= r.hi[1]; ++y)
+      for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
+        const std::uint64_t w = word(x, y, z);
+        at(x, y, z) = isFreeWord(w) ? kFreeBit : 0;
+      }
+  LineSolver solver;
+  std::vector<std::pair<int, std::uint64_t*>> queries;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int b1 = (axis + 1) % 3, b2 = (axis + 2) % 3;
+    int key[3];
+    for (key[b1] = r.lo[b1]; key[b1] <= r.hi[b1]; ++key[b1])
+      for (key[b2] = r.lo[b2]; key[b2] <= r.hi[b2]; ++key[b2]) {
+        solver.clear();
+        queries.clear();
+        for (int p = r.lo[axis]; p <= r.hi[axis]; ++p) {
+          key[axis] = p;
+          std::uint64_t& w = at(key[0], key[1], key[2]);
+          if (!isFreeWord(w)) {
+            solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
+          } else {
+            if (hasSite(w)) solver.add(p, partialF(key, w, axis), w & kKeyMask);
+            queries.emplace_back(p, &w);
+          }
+        }
+        if (queries.empty()) continue;
+        if (solver.empty()) {
+          for (auto& q : queries) *q.second = kFreeBit;
+          continue;
+        }
+        solver.prepare();
+        for (auto& [p, w] : queries) *w = kFreeBit | kSiteBit | solver.solve(p);
+      }
+  }
+  double worst = 0;
+  for (int z = write.lo[2]; z <= write.hi[2]; ++z)
+    for (int y = write.lo[1]; y <= write.hi[1]; ++y)
+      for (int x = write.lo[0]; x <= write.hi[0]; ++x) {
+        const std::uint64_t w = at(x, y, z);
+        if (!isFreeWord(w)) continue;
+        if (!hasSite(w)) return std::numeric_limits<double>::infinity();
+        const double dx = x - siteCoord(w, 0), dy = y - siteCoord(w, 1), dz = z - siteCoord(w, 2);
+        worst = std::max(worst, std::sqrt(dx * dx + dy * dy + dz * dz));
+      }
+  for (int z = write.lo[2]; z <= write.hi[2]; ++z)
+    for (int y = write.lo[1]; y <= write.hi[1]; ++y)
+      for (int x = write.lo[0]; x <= write.hi[0]; ++x) {
+        const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
+        if (b >= 0) blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))] = at(x, y, z);
+      }
+  return worst;
+}
+
+}  // namespace adit::map
