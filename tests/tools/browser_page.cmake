@@ -46,7 +46,9 @@ set(FLAGS --headless --no-sandbox --disable-gpu --disable-quic --no-first-run --
           --window-size=${WINDOW} --virtual-time-budget=${BUDGET_MS})
 
 function(run_chromium profile url out_var)
-  set(dir "${WORK}/chromium-${profile}")
+  # One profile per page and run, so that tests of different pages can run in parallel.
+  get_filename_component(page_name "${PAGE}" NAME_WE)
+  set(dir "${WORK}/chromium-${page_name}-${profile}")
   file(REMOVE_RECURSE "${dir}")
   file(MAKE_DIRECTORY "${dir}")
   execute_process(COMMAND ${CHROMIUM} ${FLAGS} --user-data-dir=${dir} ${ARGN} ${url}
