@@ -15,7 +15,22 @@
 ///   in.movers = {{"obstacle 1", 0.3, kFigureMoving}};
 ///   in.frames.push_back({0.0, start, "following", {mover_at_0}});
 ///   Status s = writeAnimationPage(fig, in, "run.html");   // atomic
+///
+/// The page: the picture with the moving obstacles (discs of their world radii, numbered, their
+/// whole tracks dashed and the part driven so far solid) and the robot (a disc of its radius
+/// coloured by its status, a heading tick, the driven path and a trail of the last 8 s fading
+/// out); beside it a clock, the status, the robot's x/y/z and speed, a legend and the summary.
+/// It plays on opening at a speed that shows the run in about half a minute; `run.html#t=42.5`
+/// opens it paused at 42.5 s (for stills). Keys: space, arrows, Home/End.
+/// What a test can read in the DOM (attributes of <html>): data-ready="1" once started,
+/// data-frame / data-time / data-status of the frame shown, data-playing, and data-errors, the
+/// number of script errors and blocked fetches (their text is in #errors). A
+/// Content-Security-Policy forbids every network fetch. Size: about 3.6 bytes per stored number,
+/// e.g. 218 kB of frame data for 3000 frames with 10 moving obstacles.
+/// Screenshot (README): `cmake -DPAGE=run.html -DSCREENSHOT=shot.png [-DAT=seconds]
+/// -P tests/tools/browser_page.cmake` (Debian's chromium).
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -50,10 +65,36 @@ struct AnimationPageInput {
   std::vector<std::pair<std::string, std::string>> summary;
 };
 
+/// What was written, for callers that report it (a long run's page should stay small).
+struct AnimationPageInfo {
+  std::size_t page_bytes = 0;        ///< the whole HTML file
+  std::size_t background_bytes = 0;  ///< the embedded PNG (before base64)
+  std::size_t frame_data_bytes = 0;  ///< the encoded frames (JSON text)
+  std::size_t frames = 0;
+};
+
 /// Renders `background` to PNG in memory and writes the page to `path` atomically. Errors: an
 /// empty or non-monotonic frame list, NaN coordinates, a frame whose mover count differs from
 /// `movers`, whatever Figure::renderPng refuses, an unwritable path. Text is HTML-escaped.
+/// `info`, when given, is filled on success.
 adit::Status writeAnimationPage(const Figure& background, const AnimationPageInput& input,
-                                const std::string& path);
+                                const std::string& path, AnimationPageInfo* info = nullptr);
+
+/// The checks writeAnimationPage makes on `input` (frames, times, coordinates, radii, counts).
+adit::Status validateAnimationPageInput(const AnimationPageInput& input);
+
+/// The page's text for an already rendered background: `png` is the picture and `view` maps world
+/// x-y to its pixels (columnOf/rowOf). writeAnimationPage is renderPng followed by this; exposed
+/// so that a caller holding a picture (and the tests) can build a page without a Figure.
+/// Positions are stored rounded to 1 mm and times to 1 ms, as per-series differences.
+adit::StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& png,
+                                              const TopViewInfo& view,
+                                              const AnimationPageInput& input,
+                                              AnimationPageInfo* info = nullptr);
+
+/// animationPageHtml written to `path` atomically.
+adit::Status writeAnimationPageHtml(const std::vector<unsigned char>& png, const TopViewInfo& view,
+                                    const AnimationPageInput& input, const std::string& path,
+                                    AnimationPageInfo* info = nullptr);
 
 }  // namespace adit::tools
