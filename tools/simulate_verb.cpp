@@ -10,6 +10,7 @@
 
 #include "adit/local/simulator.hpp"
 #include "adit/map/map_io.hpp"
+#include "common/animation_page.hpp"
 #include "common/cli.hpp"
 #include "common/figure.hpp"
 #include "verbs.hpp"
@@ -25,6 +26,7 @@ struct SimulateArgs {
   std::string scenario;
   std::string out;
   std::string picture;
+  std::string html;
   bool quiet = false;
 };
 
@@ -63,7 +65,9 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
 
 // The run drawn on the map (or open space): static obstacles, moving-obstacle tracks, the
 // expected path and the trajectory coloured by time.
-Figure runFigure(const Scenario& sc, const Environment& env, const SimulationResult& r) {
+// `mover_ends` marks where each mover was last seen near the run (the still picture); the page
+// animates the movers itself and leaves them out.
+Figure runFigure(const Scenario& sc, const Environment& env, const SimulationResult& r, bool mover_ends) {
   TopViewOptions opt;
   opt.title = sc.name + " (" + methodName(sc.params.method) + "): " + outcomeName(r.outcome);
   Figure fig(opt);
@@ -89,7 +93,7 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
     end.radius_m = m.obstacle.shape.boundingRadius();
     end.fill = end.stroke = kFigureMoving;
     end.label = m.name;
-    fig.addDisc(end);
+    if (mover_ends) fig.addDisc(end);
   }
   if (env.map()) fig.setMap(env.map());
   else fig.setWorldBounds(box.inflated(1.0));
@@ -111,6 +115,33 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
   return fig;
 }
 
+// The animated page: the same figure as background, the robot and the movers per period.
+Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& r, const std::string& path) {
+  AnimationPageInput in;
+  in.title = sc.name + " (" + methodName(sc.params.method) + ")";
+  in.robot_radius_m = sc.params.robot.radius_m;
+  for (const NamedObstacle& m : sc.moving_obstacles)
+    in.movers.push_back({m.name, m.obstacle.shape.boundingRadius(), kFigureMoving});
+  for (const TrajectorySample& s : r.trajectory) {
+    PageFrame f{s.t_s, s.position, stepStatusName(s.status), {}};
+    for (const NamedObstacle& m : sc.moving_obstacles) f.movers.push_back(m.obstacle.positionAt(s.t_s));
+    in.frames.push_back(std::move(f));
+  }
+  char buf[64];
+  auto fmt = [&buf](const char* f, double v) {
+    std::snprintf(buf, sizeof buf, f, v);
+    return std::string(buf);
+  };
+  in.summary = {{"method", methodName(sc.params.method)},
+                {"outcome", outcomeName(r.outcome)},
+                {"arrival time", r.arrived() ? fmt("%.1f s", r.arrival_time_s) : "-"},
+                {"path length", fmt("%.2f m", r.path_length_m)},
+                {"min clearance", std::isfinite(r.min_clearance_m) ? fmt("%.3f m", r.min_clearance_m) : "-"},
+                {"collisions", std::to_string(r.collisions)},
+                {"step time p50", fmt("%.1f us", r.step_time_p50_us)}};
+  return writeAnimationPage(fig, in, path);
+}
+
 int run(const SimulateArgs& a) {
   // Check the output names before the (possibly long) run.
   for (const std::string* p : {&a.picture}) {
@@ -119,6 +150,8 @@ int run(const SimulateArgs& a) {
     if (ext != ".png" && ext != ".svg" && ext != ".PNG" && ext != ".SVG")
       return report(invalidArgument(*p + ": --picture must end in .png or .svg"));
   }
+  if (!a.html.empty() && (a.html.size() < 5 || a.html.substr(a.html.size() - 5) != ".html"))
+    return report(invalidArgument(a.html + ": --html must end in .html"));
   StatusOr<Scenario> sc = loadScenario(a.scenario);
   if (!sc.ok()) return report(sc.status());
   if (!a.quiet) std::fprintf(stderr, "adit: simulating %s with %s\n", sc->name.c_str(), methodName(sc->params.method));
@@ -135,7 +168,9 @@ int run(const SimulateArgs& a) {
     std::fwrite(json.data(), 1, json.size(), stdout);
   }
   if (!a.picture.empty())
-    if (Status s = runFigure(*sc, *env, *r).render(a.picture); !s.ok()) return report(s);
+    if (Status s = runFigure(*sc, *env, *r, true).render(a.picture); !s.ok()) return report(s);
+  if (!a.html.empty())
+    if (Status s = writePage(*sc, runFigure(*sc, *env, *r, false), *r, a.html); !s.ok()) return report(s);
   if (!a.quiet) {
     std::fprintf(stderr, "adit: %s: %s", sc->name.c_str(), outcomeName(r->outcome));
     if (r->arrived()) std::fprintf(stderr, " at t = %.1f s", r->arrival_time_s);
@@ -156,6 +191,7 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   cmd->add_option("SCENARIO", args->scenario, "Scenario file (.yaml)")->required();
   cmd->add_option("--out", args->out, "Write the JSON here instead of stdout (atomically)");
   cmd->add_option("--picture", args->picture, "Top view of the run (.png or .svg)");
+  cmd->add_option("--html", args->html, "Animated page of the run (.html, one offline file)");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   cmd->callback([args, rc] { *rc = run(*args); });
 }
