@@ -128,8 +128,14 @@ void LocalPlanner::reset() {
 }
 
 void LocalPlanner::addRockPoints(const Vec3& q, const Vec3& v, const Vec3& a, double radius) {
+  // Wang 2014 sees only its field of view: the scan skips the rest (the same test as inFieldOfView).
+  map::ViewCone cone;
+  if (params_.method == Method::kWang2014) {
+    cone.axis = unitOr(v, Vec3::Zero());
+    cone.half_angle_rad = params_.wang2014.view_half_angle_deg * kPi / 180.0;
+  }
   const map::RockPointsResult r =
-      map::rockSurfacePoints(*world_.field, q, radius, rock_points_.data(), rock_points_.size());
+      map::rockSurfacePoints(*world_.field, q, radius, cone, rock_points_.data(), rock_points_.size());
   // One point per direction bin (the nearest), as a range sensor would see the rock: a wall is
   // then a few obstacles, not hundreds of voxels whose forces would swamp everything else.
   bin_distance_.fill(std::numeric_limits<double>::infinity());
@@ -412,7 +418,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
       case Method::kTian2016: return tianRepulsion(prox, o.v_rel, o.a_rel, P.tian2016);
       case Method::kWang2014: {
         const Wang2014Params& w = P.wang2014;
-        if (!inFieldOfView(q, heading, o.point, w.view_range_m, half_view)) return {};
+        if (o.rho > wang_rho0 || !inFieldOfView(q, heading, o.point, w.view_range_m, half_view)) return {};
         double delta = 1.0;
         if (o.moving) {
           const double v_ro = o.v_rel.dot(-o.grad);

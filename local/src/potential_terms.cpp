@@ -179,12 +179,24 @@ double fuzzyRepulsionGain(double d, double theta, double range, double half_angl
       const int k = kRules[i][j];
       strength[k] = std::max(strength[k], std::min(mu_d[i], mu_b[j]));
     }
+  // The output sets sampled once over the universe (the per-call cost is then min/max only).
+  struct OutputTable {
+    double y[kSamples];
+    double mu[kSamples][4];
+  };
+  static const OutputTable table = [] {
+    OutputTable t{};
+    for (int s = 0; s < kSamples; ++s) {
+      t.y[s] = kUniverseLo + (kUniverseHi - kUniverseLo) * double(s) / double(kSamples - 1);
+      for (int k = 0; k < 4; ++k) t.mu[s][k] = gauss(t.y[s], kOutCentre[k], kOutSigma);
+    }
+    return t;
+  }();
   double num = 0.0, den = 0.0;
   for (int s = 0; s < kSamples; ++s) {
-    const double y = kUniverseLo + (kUniverseHi - kUniverseLo) * double(s) / double(kSamples - 1);
     double mu = 0.0;
-    for (int k = 0; k < 4; ++k) mu = std::max(mu, std::min(strength[k], gauss(y, kOutCentre[k], kOutSigma)));
-    num += mu * y;
+    for (int k = 0; k < 4; ++k) mu = std::max(mu, std::min(strength[k], table.mu[s][k]));
+    num += mu * table.y[s];
     den += mu;
   }
   return den > 0.0 ? std::clamp(num / den, 0.0, 1.0) : 0.0;

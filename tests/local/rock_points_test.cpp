@@ -57,6 +57,23 @@ TEST(RockPoints, MatchesBruteForceAndRespectsTheBuffer) {
     ++checked;
   }
   EXPECT_GT(checked, 10);
+  // The cone variant: exactly the full result's points inside the cone.
+  for (const Vec3& axis : {Vec3(1, 0, 0), Vec3(0, 1, 0.3), Vec3(-1, -1, -1)}) {
+    const Vec3 c(5, 0.5, 1.2);
+    const double half = 1.0;  // rad
+    const RockPointsResult full = rockSurfacePoints(*f, c, 1.8, buf.data(), buf.size());
+    std::vector<Vec3> want;
+    for (std::size_t k = 0; k < full.written; ++k) {
+      const Vec3 d = buf[k] - c;
+      if (d.dot(axis.normalized()) >= std::cos(half) * d.norm()) want.push_back(buf[k]);
+    }
+    std::vector<Vec3> got(buf.size());
+    const RockPointsResult part = rockSurfacePoints(*f, c, 1.8, ViewCone{axis, half}, got.data(), got.size());
+    got.resize(part.written);
+    EXPECT_GT(want.size(), 0u);
+    ASSERT_EQ(got.size(), want.size()) << axis.transpose();
+    for (std::size_t k = 0; k < got.size(); ++k) EXPECT_LT((got[k] - want[k]).norm(), 1e-12);  // same scan order
+  }
   // A small buffer: the count is still right, and truncated says so.
   const Vec3 c(5, 1.5, 1.5);
   Vec3 small[4];

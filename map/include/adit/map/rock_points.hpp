@@ -32,4 +32,14 @@ struct RockPointsResult {
 RockPointsResult rockSurfacePoints(const DistanceField& field, const Vec3& centre, double radius, Vec3* out,
                                    std::size_t capacity, std::size_t max_window_voxels = 1u << 18) noexcept;
 
+/// A cone about `axis` (unit or zero = no cone) with half opening `half_angle_rad`.
+struct ViewCone {
+  Vec3 axis = Vec3::Zero();
+  double half_angle_rad = 3.14159265358979323846;
+};
+/// The same, only the points inside the cone (a field of view): voxels outside are not read.
+RockPointsResult rockSurfacePoints(const DistanceField& field, const Vec3& centre, double radius, const ViewCone& cone,
+                                   Vec3* out, std::size_t capacity,
+                                   std::size_t max_window_voxels = 1u << 18) noexcept;
+
 }  // namespace adit::map
