@@ -120,6 +120,7 @@ void LocalPlanner::reset() {
   clock_s_ = 0.0;
   best_progress_ = std::numeric_limits<double>::infinity();
   last_improvement_s_ = 0.0;
+  wait_credit_s_ = 0.0;
   escapes_ = 0;
   escaping_ = false;
   stuck_ = false;
@@ -343,6 +344,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   } else if (progress < best_progress_ - P.monitor.min_progress_m) {
     best_progress_ = progress;
     last_improvement_s_ = clock_s_;
+    wait_credit_s_ = 0.0;
     escapes_ = 0;
     escaping_ = false;
   }
@@ -373,7 +375,10 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
 
   // Progress monitor: a window without a new best is a local minimum or an oscillation. Waiting
   // for a moving obstacle does not count against the robot.
-  if (moving_closing) last_improvement_s_ += dt;
+  if (moving_closing && wait_credit_s_ < P.monitor.max_wait_s) {
+    last_improvement_s_ += dt;
+    wait_credit_s_ += dt;
+  }
   if (escaping_ && clock_s_ >= escape_until_s_) {
     escaping_ = false;
     last_improvement_s_ = clock_s_;

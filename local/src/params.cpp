@@ -100,7 +100,8 @@ Status RobotLimits::validate() const {
 
 Status MonitorParams::validate() const {
   return Checker("MonitorParams")
-      .positive("window_s", window_s).nonNegative("min_progress_m", min_progress_m)
+      .positive("window_s", window_s).nonNegative("max_wait_s", max_wait_s)
+      .nonNegative("min_progress_m", min_progress_m)
       .rule("max_escapes", max_escapes, max_escapes >= 0 && max_escapes <= 100, "in [0, 100]")
       .positive("escape_time_s", escape_time_s).positive("virtual_goal_offset_m", virtual_goal_offset_m)
       .positive("arrival_tolerance_m", arrival_tolerance_m).positive("subgoal_switch_m", subgoal_switch_m)

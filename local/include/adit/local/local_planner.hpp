@@ -126,6 +126,7 @@ class LocalPlanner {
   double clock_s_ = 0.0;
   double best_progress_ = std::numeric_limits<double>::infinity();
   double last_improvement_s_ = 0.0;
+  double wait_credit_s_ = 0.0;  // time not counted against the robot while it yields
   int escapes_ = 0;
   bool escaping_ = false;
   double escape_until_s_ = 0.0;

@@ -131,6 +131,9 @@ struct RobotLimits {
 /// Progress monitor and escape (local minima and oscillation), spec "Known traps".
 struct MonitorParams {
   double window_s = 4.0;           ///< progress is judged over this much time
+  /// Waiting for closing moving obstacles is not held against the robot, up to this much time
+  /// since the last progress (then the monitor counts again: no endless yielding).
+  double max_wait_s = 30.0;
   double min_progress_m = 0.3;     ///< less goal-distance reduction than this over a window: no progress
   bool escape = true;              ///< try escapes (rotation direction, then virtual sub-goals)
   int max_escapes = 3;             ///< after this many failed escapes in a row: stuck
@@ -149,7 +152,7 @@ struct MonitorParams {
   /// One field list for YAML overrides, dumps and docs.
   template <class V>
   void visit(V& v) {
-    v("window_s", window_s); v("min_progress_m", min_progress_m); v("escape", escape);
+    v("window_s", window_s); v("max_wait_s", max_wait_s); v("min_progress_m", min_progress_m); v("escape", escape);
     v("max_escapes", max_escapes); v("escape_time_s", escape_time_s);
     v("virtual_goal_offset_m", virtual_goal_offset_m); v("arrival_tolerance_m", arrival_tolerance_m);
     v("subgoal_switch_m", subgoal_switch_m); v("full_speed_force", full_speed_force);
