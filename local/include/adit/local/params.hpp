@@ -47,7 +47,7 @@ struct Tian2016Params {
   double t = 2.0;         ///< velocity exponent ("n")
   double p = 2.0;         ///< acceleration exponent ("q")
   double l = 2.0;         ///< line-field exponent
-  double K_q = 1.0;       ///< repulsion position gain
+  double K_q = 1.0;       ///< repulsion position gain (not given in the paper)
   double K_v = 0.5;       ///< repulsion closing-speed gain
   double K_a = 0.5;       ///< repulsion closing-acceleration gain
   double rho0_m = 2.0;    ///< influence distance rho_0
