@@ -118,6 +118,30 @@ TEST(LocalPlanner, ClassicSaysStuckAfterTheWindowAndResetsOnANewPath) {
   EXPECT_NE(p.step(s, line(s.position, Vec3(0, 8, 0)), {}, 0.1).status, StepStatus::kStuck);
 }
 
+// Yielding to a closing mover pauses the monitor, but only for max_wait_s: a sensor that reports
+// an obstacle closing in forever cannot keep a trapped robot from saying stuck.
+TEST(LocalPlanner, WaitingForMoversIsForgivenOnlyUpToMaxWait) {
+  World w;
+  for (double y = -3; y <= 3; y += 0.4) w.static_obstacles.push_back({Vec3(5, y, 0), 0.3});
+  LocalPlanner p = make(Method::kClassic, w);
+  const map::Polyline path = line(Vec3::Zero(), Vec3(10, 0, 0));
+  std::vector<map::MovingObstacle> mov(1);
+  mov[0].shape = map::RobotShape::sphere(0.2);
+  mov[0].position = Vec3(4.0, -1.8, 0);
+  mov[0].velocity = Vec3(0, 0.06, 0);  // always reported as closing in, never arriving
+  RobotState s;
+  int steps = 0;
+  for (; steps < 1000; ++steps) {
+    const StepCommand c = p.step(s, path, mov, 0.1);
+    if (c.status == StepStatus::kStuck) break;
+    s.position += 0.05 * (s.velocity + c.velocity);
+    s.velocity = c.velocity;
+  }
+  const double t = 0.1 * steps, window = p.params().monitor.window_s, wait = p.params().monitor.max_wait_s;
+  EXPECT_GT(t, wait);                  // the waiting was forgiven...
+  EXPECT_LT(t, window + wait + 10.0);  // ...but not for ever
+}
+
 TEST(LocalPlanner, YieldsToAnObstacleComingHeadOn) {
   LocalPlanner p = make(Method::kTian2016);
   const map::Polyline path = line(Vec3::Zero(), Vec3(20, 0, 0));
