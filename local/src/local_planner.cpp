@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "adit/local/potential_terms.hpp"
 #include "adit/map/collision.hpp"
@@ -80,6 +82,22 @@ Vec3 clampNorm(const Vec3& v, double max) {
 Vec3 unitOr(const Vec3& v, const Vec3& fallback) {
   const double n = v.norm();
   return n > 1e-12 ? Vec3(v / n) : fallback;
+}
+
+// FNV-1a over the path's coordinates: any change of any point is a new path.
+std::uint64_t pathSignature(const map::Polyline& path) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (const Vec3& p : path.points)
+    for (int i = 0; i < 3; ++i) {
+      std::uint64_t bits;
+      const double x = p[i];
+      std::memcpy(&bits, &x, sizeof bits);
+      for (int b = 0; b < 8; ++b) {
+        h ^= (bits >> (8 * b)) & 0xffu;
+        h *= 1099511628211ull;
+      }
+    }
+  return h;
 }
 
 }  // namespace
@@ -297,10 +315,11 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
 
   // A different path (the caller replanned) restarts the sub-goal index and the monitor, and
   // clears a kStuck verdict.
-  if (path.points.size() != path_size_ || path.points.back() != path_goal_) {
+  const std::uint64_t signature = pathSignature(path);
+  if (signature != path_signature_ || path.points.size() != path_size_) {
     reset();
     path_size_ = path.points.size();
-    path_goal_ = goal;
+    path_signature_ = signature;
   }
 
   auto brake = [&](StepStatus status) {

@@ -26,6 +26,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -46,7 +47,7 @@ enum class StepStatus {
   kFollowing,  ///< on the way, the field mostly pulls along the path
   kYielding,   ///< slowing or backing off for a moving obstacle that closes in
   kDetouring,  ///< deflected round an obstacle, or escaping a local minimum
-  kStuck,      ///< no progress after the bounded escapes: replan (stays until reset())
+  kStuck,      ///< no progress after the bounded escapes: replan (stays until reset() or a new path)
   kArrived,    ///< the centre is within the arrival tolerance of the goal
   kRefused,    ///< the input was not usable (non-finite, empty path, dt <= 0); set-points zero
 };
@@ -134,7 +135,7 @@ class LocalPlanner {
   bool stuck_ = false;
   std::size_t segment_ = 0;
   std::size_t path_size_ = 0;
-  Vec3 path_goal_ = Vec3::Zero();
+  std::uint64_t path_signature_ = 0;  // of the path the monitor state belongs to
 
   // Scratch, sized in create(): never reallocated by step().
   struct ObstacleData {
