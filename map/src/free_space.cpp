@@ -212,11 +212,14 @@ class LineExtent {
   std::vector<int> lo_, hi_;
 };
 
+// Roof above and floor below: outside a wall, beyond an open end, under a holed floor or over a
+// holed roof the column holds no surface on one side. (Walls on both sides along x or y would
+// be stricter, but a straight roadway scanned with open ends has none along its axis, and in
+// front of a cross-cut's mouth none across it: that test would cut roadways at every junction.)
 struct Hull {
-  LineExtent x, y, z;
-  Hull(const std::array<int, 3>& n, int k) : x(0, n, k), y(1, n, k), z(2, n, k) {}
-  // Roof above and floor below, and walls on both sides along x or along y.
-  bool inside(const Cell& c) const { return z.encloses(c) && (x.encloses(c) || y.encloses(c)); }
+  LineExtent z;
+  Hull(const std::array<int, 3>& n, int k) : z(2, n, k) {}
+  bool inside(const Cell& c) const { return z.encloses(c); }
 };
 
 std::string fmtPoint(const Vec3& p) {
@@ -257,12 +260,11 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
   for (int i = 0; i < 3; ++i) n[i] = hi[i] - lo[i] + 1;
   // The three hull tables are dense 2-D planes of the box: estimate them before allocating.
   const int hk = std::max(1, int(std::lround(params.hull_cell_m * inv)));
-  const std::uint64_t m0 = std::uint64_t(n[0] / hk + 1), m1 = std::uint64_t(n[1] / hk + 1), m2 = std::uint64_t(n[2] / hk + 1);
-  const std::uint64_t plane_bytes = 8 * (m0 * m1 + m1 * m2 + m0 * m2);
+  const std::uint64_t plane_bytes = 8 * std::uint64_t(n[0] / hk + 1) * std::uint64_t(n[1] / hk + 1);
   if (plane_bytes > params.max_memory_bytes / 2) {
     std::ostringstream os;
     os << "the input's box spans " << n[0] << " x " << n[1] << " x " << n[2] << " voxels at " << res
-       << " m; its hull tables alone need " << (plane_bytes >> 20) << " MiB (budget " << (params.max_memory_bytes >> 20)
+       << " m; its hull table alone needs " << (plane_bytes >> 20) << " MiB (budget " << (params.max_memory_bytes >> 20)
        << " MiB): use a coarser --resolution or crop the input";
     return outOfRange(os.str());
   }
@@ -280,8 +282,6 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
     const int i = Grid::cell(c[0], c[1], c[2]);
     b->flags[i] |= kSurface;
     b->dist[i] = 0;
-    hull.x.add(c);
-    hull.y.add(c);
     hull.z.add(c);
     layer.push_back(c);
   }
@@ -306,7 +306,7 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
   }
 
   // Closing = dilation by r (dist <= r) then erosion by r: cells of the dilation within r of its
-  // outside (or of the box's edge) are eroded; the rest that is not surface plugs a hole.
+  // outside are eroded; the rest that is not surface plugs a hole.
   std::uint64_t closed = 0;
   const int r = int(std::lround(params.closing_radius_m * inv));
   if (r > 0) {
@@ -317,8 +317,9 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
       for (int i = 0; i < kBV; ++i) {
         if (b.dist[i] > r) continue;
         const Cell c{bc[0] * kB + (i % kB), bc[1] * kB + (i / kB) % kB, bc[2] * kB + i / (kB * kB)};
+        // Beyond the box is unknown, not open: holes in walls that lie on the box's rim close too.
         const bool edge = !eachNeighbour(c, [&](int x, int y, int z) {
-          if (!grid.inside(x, y, z)) return false;
+          if (!grid.inside(x, y, z)) return true;
           Brick* nb = grid.find(x, y, z);
           return nb && nb->dist[Grid::cell(x, y, z)] <= r;
         });
@@ -413,8 +414,8 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
     if (b->flags[ci] & kClosed)
       return invalidArgument(where + " lies in space the closing filled (a passage narrower than twice --close)");
     if (!hull.inside(c))
-      return invalidArgument(where + " is not inside the scan's hull (no roof and floor above and below it, or no "
-                                     "walls on both sides): move it into a roadway");
+      return invalidArgument(where + " is not inside the scan's hull (no scanned roof above it or no floor below it): "
+                                     "move it into a roadway");
     b->flags[ci] |= kFree;
     free_count = 1;
     layer.assign(1, c);

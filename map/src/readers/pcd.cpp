@@ -26,6 +26,7 @@ struct PcdHeader {
   std::string data;
   std::size_t data_offset = 0;
   std::uint64_t data_line = 0;  // first data line (1-based), ascii
+  std::uint64_t points_line = 0;
 };
 
 StatusOr<std::uint64_t> parseCount(const std::string& tok, const std::string& where) {
@@ -80,7 +81,7 @@ StatusOr<PcdHeader> parseHeader(const std::string& b, const std::string& name, c
       ADIT_ASSIGN_OR_RETURN(std::uint64_t x, parseCount(v[0], where + ": " + key));
       if (key == "WIDTH") { h.width = x; have_width = true; }
       else if (key == "HEIGHT") h.height = x;
-      else { h.points = x; have_points = true; }
+      else { h.points = x; have_points = true; h.points_line = line; }
     } else if (key == "VIEWPOINT") {
       h.viewpoint.clear();
       for (const auto& t : v) {
@@ -126,7 +127,8 @@ StatusOr<PcdHeader> parseHeader(const std::string& b, const std::string& name, c
                            std::to_string(h.width * h.height));
   if (h.points == 0) return invalidArgument(name + ": the PCD file has no points (POINTS 0)");
   if (h.points > limits.max_points)
-    return outOfRange(name + ": header announces " + std::to_string(h.points) + " points, more than the limit of " +
+    return outOfRange(atLine(name, h.points_line) + ": header announces " + std::to_string(h.points) +
+                      " points, more than the limit of " +
                       std::to_string(limits.max_points));
   return h;
 }

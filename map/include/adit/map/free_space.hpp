@@ -8,9 +8,9 @@
 ///  - it stays within `max_wall_distance_m` (Chebyshev) of the scanned surface,
 ///  - an optional morphological closing of the surface (radius `closing_radius_m`) plugs holes
 ///    narrower than twice the radius before filling,
-///  - a voxel may be filled only if it lies inside the scan's hull: surface above and below it in
-///    its column, and surface on both sides along x or along y (lines `hull_cell_m` thick). Outside a roadway wall, beyond an
-///    open end or under a holed floor that test fails, so free space cannot run round the outside.
+///  - a voxel may be filled only if it lies inside the scan's hull: scanned surface above and below
+///    it in its column (`hull_cell_m` thick). Outside a roadway wall, beyond an open end, under a
+///    holed floor or over a holed roof that test fails, so free space cannot run round the outside.
 /// Everything not recovered stays unknown, i.e. rock under adit's default policy. The input's
 /// bounding box is the grid: nothing is ever filled outside it.
 ///
