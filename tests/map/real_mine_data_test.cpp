@@ -103,18 +103,27 @@ FloodCheck check(const OccupancyMap& map, const ColumnHull& hull, const Aabb& bo
   return out;
 }
 
-TEST(RealMineData, JinchuanRegisteredCloudIsOneNavigableNetwork) {
-  StatusOr<Geometry> g = readGeometry(kData + "/jinchuan_mine_pcd/21_all_25_all.pcd");
-  ASSERT_TRUE(g.ok()) << g.status().message();
-  ASSERT_EQ(g->points.size(), 98802u);
+// Reads a Jinchuan PCD, floods it from `seed` and checks the result against its own points.
+FloodCheck importJinchuan(const std::string& file, std::size_t points, double res, const Vec3& seed) {
+  StatusOr<Geometry> g = readGeometry(kData + "/jinchuan_mine_pcd/" + file);
+  EXPECT_TRUE(g.ok()) << g.status().message();
+  if (!g.ok()) return {};
+  EXPECT_EQ(g->points.size(), points);
   ImportParams p;
-  p.resolution_m = 0.5;  // the registered merge is sparse (~100-600 points per metre of roadway)
-  p.seed = Vec3(10, 0.8, 1.0);
+  p.resolution_m = res;
+  p.seed = seed;
   StatusOr<ImportResult> r = buildMapFromGeometry(*g, p);
-  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_TRUE(r.ok()) << r.status().message();
+  if (!r.ok()) return {};
   Aabb box;
   for (const Vec3& q : g->points) box.extend(q);
-  const FloodCheck c = check(r->map, ColumnHull(g->points), box.inflated(p.resolution_m));
+  return check(r->map, ColumnHull(g->points), box.inflated(res));
+}
+
+TEST(RealMineData, JinchuanRegisteredCloudIsOneNavigableNetwork) {
+  // The registered merge is sparse (~100-600 points per metre of roadway): 0.5 m voxels.
+  const FloodCheck c = importJinchuan("21_all_25_all.pcd", 98802, 0.5, {10, 0.8, 1.0});
+  ASSERT_GT(c.free, 0u);
   EXPECT_EQ(c.outside_box, 0u);
   EXPECT_EQ(c.outside_hull, 0u);
   EXPECT_EQ(c.reached, c.free) << "free space is not one connected region";
@@ -127,21 +136,14 @@ TEST(RealMineData, JinchuanRegisteredCloudIsOneNavigableNetwork) {
 }
 
 TEST(RealMineData, JinchuanRawCompressedScanConverts) {
-  StatusOr<Geometry> g = readGeometry(kData + "/jinchuan_mine_pcd/2025-04-21-11-04-46.pcd");  // binary_compressed
-  ASSERT_TRUE(g.ok()) << g.status().message();
-  ASSERT_EQ(g->points.size(), 176758u);
-  ImportParams p;
-  p.resolution_m = 0.3;
-  p.seed = Vec3(10, -2, 0);
-  StatusOr<ImportResult> r = buildMapFromGeometry(*g, p);
-  ASSERT_TRUE(r.ok()) << r.status().message();
-  Aabb box;
-  for (const Vec3& q : g->points) box.extend(q);
-  const FloodCheck c = check(r->map, ColumnHull(g->points), box.inflated(p.resolution_m));
+  // One raw survey, PCD binary_compressed.
+  const FloodCheck c = importJinchuan("2025-04-21-11-04-46.pcd", 176758, 0.3, {10, -2, 0});
+  ASSERT_GT(c.free, 0u);
+  EXPECT_EQ(c.outside_box, 0u);
   EXPECT_EQ(c.outside_hull, 0u);
   EXPECT_EQ(c.reached, c.free);
-  EXPECT_LT(c.west.x(), -5.0);   // the west end of the survey's drift
-  EXPECT_GT(c.east.x(), 65.0);   // and its east end
+  EXPECT_LT(c.west.x(), -5.0);  // the west end of the survey's drift
+  EXPECT_GT(c.east.x(), 65.0);  // and its east end
 }
 
 TEST(RealMineData, KoutziMeshIsOneNavigableNetwork) {

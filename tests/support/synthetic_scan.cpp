@@ -96,20 +96,20 @@ std::vector<Vec3> lScan(double leg, double width, double height, double spacing)
   return pts;
 }
 
-std::string pcdAscii(const std::vector<Vec3>& pts) {
+// Header, then one "x y z" float line or 12 float bytes per point.
+std::string floatRows(std::string header, const std::vector<Vec3>& pts, bool ascii) {
   std::ostringstream os;
-  os << pcdHeader(pts.size(), "ascii");
   os.precision(9);
-  for (const Vec3& p : pts) os << float(p.x()) << " " << float(p.y()) << " " << float(p.z()) << "\n";
-  return os.str();
+  for (const Vec3& p : pts) {
+    if (ascii) os << float(p.x()) << " " << float(p.y()) << " " << float(p.z()) << "\n";
+    else
+      for (int i = 0; i < 3; ++i) put(&header, float(p[i]));
+  }
+  return header + os.str();
 }
 
-std::string pcdBinary(const std::vector<Vec3>& pts) {
-  std::string s = pcdHeader(pts.size(), "binary");
-  for (const Vec3& p : pts)
-    for (int i = 0; i < 3; ++i) put(&s, float(p[i]));
-  return s;
-}
+std::string pcdAscii(const std::vector<Vec3>& pts) { return floatRows(pcdHeader(pts.size(), "ascii"), pts, true); }
+std::string pcdBinary(const std::vector<Vec3>& pts) { return floatRows(pcdHeader(pts.size(), "binary"), pts, false); }
 
 std::string pcdCompressed(const std::vector<Vec3>& pts) {
   std::string raw;
@@ -127,19 +127,9 @@ std::string pcdCompressed(const std::vector<Vec3>& pts) {
   return s + lzf;
 }
 
-std::string plyAscii(const std::vector<Vec3>& pts) {
-  std::ostringstream os;
-  os << plyHeader(pts.size(), "ascii");
-  os.precision(9);
-  for (const Vec3& p : pts) os << float(p.x()) << " " << float(p.y()) << " " << float(p.z()) << "\n";
-  return os.str();
-}
-
+std::string plyAscii(const std::vector<Vec3>& pts) { return floatRows(plyHeader(pts.size(), "ascii"), pts, true); }
 std::string plyBinary(const std::vector<Vec3>& pts) {
-  std::string s = plyHeader(pts.size(), "binary_little_endian");
-  for (const Vec3& p : pts)
-    for (int i = 0; i < 3; ++i) put(&s, float(p[i]));
-  return s;
+  return floatRows(plyHeader(pts.size(), "binary_little_endian"), pts, false);
 }
 
 std::string xyzText(const std::vector<Vec3>& pts, char sep, const std::string& header) {
