@@ -16,6 +16,7 @@
 #include "adit/map/free_space.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/readers/import.hpp"
+#include "adit/map/readers/ros_map.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
 #include "common/progress.hpp"
@@ -77,6 +78,54 @@ int convertSurvey(const ConvertArgs& a, const Vec3& origin, UnknownPolicy policy
   return kExitOk;
 }
 
+bool isRosMapFile(const std::string& path) {
+  StatusOr<MapFormat> f = formatFromPath(path);
+  if (!f.ok() || *f != MapFormat::kSurveyYaml) return false;
+  StatusOr<std::string> text = readFile(path, std::size_t{1} << 20);
+  return text.ok() && isRosMapYaml(*text);
+}
+
+int convertRosMap(const ConvertArgs& a, const Vec3& origin, UnknownPolicy policy) {
+  StatusOr<RosMap> ros = readRosMap(a.in);
+  if (!ros.ok()) return report(ros.status());
+  ExtrudeOptions o;
+  o.height_m = a.height;
+  o.resolution_m = a.resolution.value_or(0.0);
+  o.shift = origin;
+  o.unknown_policy = policy;
+  StatusOr<OccupancyMap> map = extrudeRosMap(*ros, o);
+  if (!map.ok()) return report(Status(map.status().code(), a.in + ": " + map.status().message()));
+  Status w = writeOctomap(*map, a.out);
+  if (!w.ok()) return report(w);
+  if (!origin.isZero()) {
+    Status s = writeOriginSidecar(a.out, origin, false);
+    if (!s.ok()) return report(s);
+  }
+  std::uint64_t free_cells = 0, occupied_cells = 0;
+  for (std::int8_t c : ros->cells) {
+    free_cells += c == 0;
+    occupied_cells += c == 100;
+  }
+  if (a.json) {
+    nlohmann::ordered_json j;
+    j["input"] = a.in;
+    j["output"] = a.out;
+    j["kind"] = "ros map";
+    j["pixels"] = {{"width", ros->width}, {"height", ros->height}, {"free", free_cells}, {"occupied", occupied_cells}};
+    j["resolution_m"] = map->resolution();
+    j["height_m"] = a.height;
+    j["voxels"] = {{"free", map->stats().free_voxels}, {"occupied", map->stats().occupied_voxels}};
+    std::cout << j.dump(2) << "\n";
+    std::cout.flush();
+    if (!std::cout) return report(internalError("cannot write the summary to stdout"));
+  }
+  if (!a.quiet)
+    std::fprintf(stderr, "wrote %s: %d x %d pixels (%llu free, %llu occupied) extruded to %.2f m at %.3f m\n",
+                 a.out.c_str(), ros->width, ros->height, (unsigned long long)free_cells,
+                 (unsigned long long)occupied_cells, a.height, map->resolution());
+  return kExitOk;
+}
+
 }  // namespace
 
 void addConvertOptions(CLI::App* cmd, ConvertArgs* a) {
@@ -98,11 +147,13 @@ void addConvertOptions(CLI::App* cmd, ConvertArgs* a) {
   cmd->add_option("--max-ray", a->max_ray, "With --trajectory: ignore points farther than this from every pose [m]");
   cmd->add_option("--max-memory-mb", a->max_memory_mb, "Refuse imports whose working grid exceeds this (default 4096)");
   cmd->add_option("--max-points", a->max_points, "Refuse files announcing more points (default 5e8)");
+  cmd->add_option("--height", a->height, "ROS map_server maps: extrude free and occupied cells from z = 0 to this [m] "
+                                         "(default 2)");
   cmd->add_flag("--json", a->json, "Print a JSON summary (counts, origin, timings) on stdout");
 }
 
 bool needsImport(const ConvertArgs& a) {
-  return isImportFormat(a.in) || a.resolution.has_value() || !a.origin.empty() || a.up != "z" || !a.seed.empty() || !a.trajectory.empty();
+  return isImportFormat(a.in) || isRosMapFile(a.in) || a.resolution.has_value() || !a.origin.empty() || a.up != "z" || !a.seed.empty() || !a.trajectory.empty();
 }
 
 int runImportConvert(const ConvertArgs& a) {
@@ -126,6 +177,7 @@ int runImportConvert(const ConvertArgs& a) {
   if (!isImportFormat(a.in)) {
     StatusOr<MapFormat> in_format = formatFromPath(a.in);
     if (!in_format.ok()) return report(in_format.status());
+    if (isRosMapFile(a.in)) return convertRosMap(a, requested_origin.value_or(Vec3::Zero()), *policy);
     if (*in_format != MapFormat::kSurveyYaml)
       return report(invalidArgument(a.in + ": --origin/--up/--seed/--trajectory apply to imported data and surveys, "
                                            "not to an existing octree"));
