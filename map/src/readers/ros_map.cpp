@@ -95,26 +95,27 @@ Status decodePgm(const std::string& b, const std::string& name, std::uint64_t ma
   return {};
 }
 
-}  // namespace
-
-bool isRosMapYaml(const std::string& text) {
+// yaml-cpp throws; its marks are 0-based.
+StatusOr<YAML::Node> loadYaml(const std::string& text, const std::string& name) {
   try {
-    const YAML::Node root = YAML::Load(text);
-    return root.IsMap() && root["image"] && !root["stations"];
-  } catch (const std::exception&) {
-    return false;
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    return invalidArgument(name + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
+                           ": YAML error: " + e.msg);
+  } catch (const std::exception& e) {
+    return invalidArgument(name + ": YAML error: " + e.what());
   }
 }
 
+}  // namespace
+
+bool isRosMapYaml(const std::string& text) {
+  StatusOr<YAML::Node> root = loadYaml(text, "");
+  return root.ok() && root->IsMap() && (*root)["image"] && !(*root)["stations"];
+}
+
 StatusOr<RosMap> parseRosMapYaml(const std::string& text, const std::string& name) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::ParserException& e) {
-    std::ostringstream os;
-    os << name << ":" << e.mark.line + 1 << ":" << e.mark.column + 1 << ": YAML error: " << e.msg;
-    return invalidArgument(os.str());
-  }
+  ADIT_ASSIGN_OR_RETURN(const YAML::Node root, loadYaml(text, name));
   if (!root.IsMap()) return invalidArgument(name + ": a map_server YAML must be a mapping");
   RosMap m;
   const YAML::Node image = root["image"];
