@@ -15,6 +15,7 @@
 
 #include "adit/map/free_space.hpp"
 #include "adit/map/map_io.hpp"
+#include "adit/map/readers/dxf.hpp"
 #include "adit/map/readers/import.hpp"
 #include "adit/map/readers/ros_map.hpp"
 #include "adit/map/survey_network.hpp"
@@ -57,8 +58,15 @@ Status writeOriginSidecar(const std::string& out, const Vec3& origin, bool autom
   return writeFileAtomically(out + ".origin.json", [&](std::ostream& f) { return bool(f << j.dump(2) << "\n"); });
 }
 
-int convertSurvey(const ConvertArgs& a, const Vec3& origin, UnknownPolicy policy, ProgressBar& bar) {
-  StatusOr<SurveyNetwork> net = loadSurvey(a.in);
+std::string lowerExtension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// A survey network (from YAML or DXF centrelines), shifted and voxelized.
+int convertSurvey(const ConvertArgs& a, StatusOr<SurveyNetwork> net, const Vec3& origin, bool automatic,
+                  UnknownPolicy policy, ProgressBar& bar) {
   if (!net.ok()) return report(net.status());
   for (auto& [name, p] : net->stations) p = toMapFrame(p, a.up == "y", origin);
   if (a.resolution) net->resolution_m = *a.resolution;
@@ -71,11 +79,38 @@ int convertSurvey(const ConvertArgs& a, const Vec3& origin, UnknownPolicy policy
   Status w = writeOctomap(*map, a.out);
   if (!w.ok()) return report(w);
   if (!origin.isZero()) {
-    Status s = writeOriginSidecar(a.out, origin, false);
+    Status s = writeOriginSidecar(a.out, origin, automatic);
     if (!s.ok()) return report(s);
   }
-  if (!a.quiet) std::fprintf(stderr, "wrote %s (survey shifted by -%s)\n", a.out.c_str(), xyz(origin).c_str());
+  if (!a.quiet)
+    std::fprintf(stderr, "wrote %s: %zu roadways, %.1f m of centreline, shifted by -(%s)\n", a.out.c_str(),
+                 net->roadways.size(), net->totalLength(), xyz(origin).c_str());
   return kExitOk;
+}
+
+int convertDxfCentrelines(const ConvertArgs& a, const DxfContents& d, const std::optional<Vec3>& requested_origin,
+                          UnknownPolicy policy, ProgressBar& bar) {
+  DxfSections sections;
+  if (!a.sections.empty()) {
+    StatusOr<std::string> text = readFile(a.sections, std::size_t{1} << 20);
+    if (!text.ok()) return report(text.status());
+    StatusOr<DxfSections> s = parseDxfSections(*text, a.sections);
+    if (!s.ok()) return report(s.status());
+    sections = *s;
+  }
+  std::optional<CrossSection> fallback;
+  if (!a.section.empty()) {
+    StatusOr<CrossSection> s = parseSectionSpec(a.section);
+    if (!s.ok()) return report(s.status());
+    fallback = *s;
+  }
+  StatusOr<SurveyNetwork> net = dxfToSurvey(d, sections, fallback, a.resolution.value_or(0.2));
+  if (!net.ok()) return report(Status(net.status().code(), a.in + ": " + net.status().message()));
+  Aabb box;
+  for (const auto& [name, p] : net->stations) box.extend(toMapFrame(p, a.up == "y", Vec3::Zero()));
+  bool automatic = false;
+  const Vec3 origin = chooseOrigin(box.inflated(net->rock_shell_m + 10.0), net->resolution_m, requested_origin, &automatic);
+  return convertSurvey(a, std::move(net), origin, automatic, policy, bar);
 }
 
 bool isRosMapFile(const std::string& path) {
@@ -147,13 +182,17 @@ void addConvertOptions(CLI::App* cmd, ConvertArgs* a) {
   cmd->add_option("--max-ray", a->max_ray, "With --trajectory: ignore points farther than this from every pose [m]");
   cmd->add_option("--max-memory-mb", a->max_memory_mb, "Refuse imports whose working grid exceeds this (default 4096)");
   cmd->add_option("--max-points", a->max_points, "Refuse files announcing more points (default 5e8)");
+  cmd->add_option("--sections", a->sections, "DXF centrelines: YAML of cross-sections by layer (survey schema: "
+                                             "sections: {LAYER: {shape: arch, width: 5, wall_height: 3}})");
+  cmd->add_option("--section", a->section, "DXF centrelines: section for layers not in --sections, e.g. "
+                                           "'{shape: rectangle, width: 4, height: 3}'");
   cmd->add_option("--height", a->height, "ROS map_server maps: extrude free and occupied cells from z = 0 to this [m] "
                                          "(default 2)");
   cmd->add_flag("--json", a->json, "Print a JSON summary (counts, origin, timings) on stdout");
 }
 
 bool needsImport(const ConvertArgs& a) {
-  return isImportFormat(a.in) || isRosMapFile(a.in) || a.resolution.has_value() || !a.origin.empty() || a.up != "z" || !a.seed.empty() || !a.trajectory.empty();
+  return isImportFormat(a.in) || lowerExtension(a.in) == ".dxf" || isRosMapFile(a.in) || a.resolution.has_value() || !a.origin.empty() || a.up != "z" || !a.seed.empty() || !a.trajectory.empty();
 }
 
 int runImportConvert(const ConvertArgs& a) {
@@ -174,14 +213,16 @@ int runImportConvert(const ConvertArgs& a) {
   if (!(a.max_points >= 1) || !(a.max_memory_mb >= 1))
     return report(invalidArgument("--max-points and --max-memory-mb must be >= 1"));
   ProgressBar bar(a.quiet);
-  if (!isImportFormat(a.in)) {
+  const std::string ext = lowerExtension(a.in);
+  const bool is_dxf = ext == ".dxf";
+  if (!isImportFormat(a.in) && !is_dxf) {
     StatusOr<MapFormat> in_format = formatFromPath(a.in);
     if (!in_format.ok()) return report(in_format.status());
     if (isRosMapFile(a.in)) return convertRosMap(a, requested_origin.value_or(Vec3::Zero()), *policy);
     if (*in_format != MapFormat::kSurveyYaml)
       return report(invalidArgument(a.in + ": --origin/--up/--seed/--trajectory apply to imported data and surveys, "
                                            "not to an existing octree"));
-    return convertSurvey(a, requested_origin.value_or(Vec3::Zero()), *policy, bar);
+    return convertSurvey(a, loadSurvey(a.in), requested_origin.value_or(Vec3::Zero()), false, *policy, bar);
   }
 
   ImportParams p;
@@ -204,10 +245,9 @@ int runImportConvert(const ConvertArgs& a) {
     if (!t.ok()) return report(t.status());
     poses = *t;
   }
-  // Only a PCD can bring its own viewpoint; for the rest say what is missing before reading.
-  std::string ext = std::filesystem::path(a.in).extension().string();
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  if (!seed_in && poses.empty() && ext != ".pcd") {
+  // Only a PCD can bring its own viewpoint (and DXF centrelines need none); for the rest say what
+  // is missing before reading.
+  if (!seed_in && poses.empty() && ext != ".pcd" && !is_dxf) {
     p.seed.reset();
     Status v = p.validate();
     if (!v.ok()) return report(v);
@@ -215,8 +255,15 @@ int runImportConvert(const ConvertArgs& a) {
   ReadLimits limits;
   limits.max_points = std::uint64_t(a.max_points);
   if (!a.quiet) std::fprintf(stderr, "reading %s ...\n", a.in.c_str());
-  StatusOr<Geometry> g = readGeometry(a.in, limits);
+  StatusOr<Geometry> g = is_dxf ? StatusOr<Geometry>(Geometry{}) : readGeometry(a.in, limits);
   if (!g.ok()) return report(g.status());
+  if (is_dxf) {
+    StatusOr<DxfContents> d = readDxf(a.in, limits);
+    if (!d.ok()) return report(d.status());
+    if (!d->polylines.empty()) return convertDxfCentrelines(a, *d, requested_origin, *policy, bar);
+    if (!a.quiet) std::fprintf(stderr, "no centrelines in %s: its 3DFACEs are a mesh\n", a.in.c_str());
+    g = std::move(d->faces);
+  }
   const auto t_read = Clock::now();
   const bool y_up = a.up == "y";
   Aabb box;

@@ -17,6 +17,7 @@ struct ConvertArgs {
   bool quiet = false, json = false;
   std::optional<double> resolution;
   std::string seed, trajectory, origin, up = "z";
+  std::string sections, section;  // DXF centrelines
   double height = 2.0;
   double max_wall_distance = 5.0, close = 0.0, max_ray = 60.0, hull_cell = 0.0;
   double max_memory_mb = 4096;
