@@ -10,6 +10,7 @@
 #include <cmath>
 #include <deque>
 #include <memory>
+#include <unordered_map>
 #include <sstream>
 
 #include "voxel_blocks.hpp"
@@ -222,6 +223,55 @@ struct Hull {
   bool inside(const Cell& c) const { return z.encloses(c); }
 };
 
+// Trajectory poses bucketed in cubes of `cell` metres: the nearest pose to a point is searched
+// ring by ring outwards, so a scan of millions of points against thousands of poses stays linear.
+class PoseIndex {
+ public:
+  PoseIndex(const std::vector<Vec3>& poses, double cell) : poses_(poses), cell_(cell) {
+    for (std::size_t i = 0; i < poses.size(); ++i) buckets_[key(cellOf(poses[i]))].push_back(i);
+  }
+  // Nearest pose within max_d (ties: the later pose), or nullptr.
+  const Vec3* nearest(const Vec3& p, double max_d) const {
+    const std::array<std::int64_t, 3> c = cellOf(p);
+    const int rings = int(std::ceil(max_d / cell_)) + 1;
+    const Vec3* best = nullptr;
+    double bd = max_d * max_d;
+    std::size_t bi = 0;
+    for (int k = 0; k <= rings; ++k) {
+      for (int dx = -k; dx <= k; ++dx)
+        for (int dy = -k; dy <= k; ++dy)
+          for (int dz = -k; dz <= k; ++dz) {
+            if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != k) continue;
+            auto it = buckets_.find(key({c[0] + dx, c[1] + dy, c[2] + dz}));
+            if (it == buckets_.end()) continue;
+            for (std::size_t i : it->second) {
+              const double d2 = (poses_[i] - p).squaredNorm();
+              if (d2 < bd || (d2 == bd && best && i > bi)) {
+                bd = d2;
+                best = &poses_[i];
+                bi = i;
+              }
+            }
+          }
+      // Every pose in ring k + 1 is at least k cells away.
+      if (best && std::sqrt(bd) <= k * cell_) break;
+    }
+    return best;
+  }
+
+ private:
+  std::array<std::int64_t, 3> cellOf(const Vec3& p) const {
+    return {std::int64_t(std::floor(p.x() / cell_)), std::int64_t(std::floor(p.y() / cell_)),
+            std::int64_t(std::floor(p.z() / cell_))};
+  }
+  static std::uint64_t key(const std::array<std::int64_t, 3>& c) {
+    return (std::uint64_t(c[0] & 0x1fffff) << 42) | (std::uint64_t(c[1] & 0x1fffff) << 21) | std::uint64_t(c[2] & 0x1fffff);
+  }
+  const std::vector<Vec3>& poses_;
+  double cell_;
+  std::unordered_map<std::uint64_t, std::vector<std::size_t>> buckets_;
+};
+
 std::string fmtPoint(const Vec3& p) {
   std::ostringstream os;
   os << p.x() << "," << p.y() << "," << p.z();
@@ -365,18 +415,10 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
     // meets, so a point hidden behind rock from that pose clears nothing beyond the rock.
     octomap::OcTree keyer(res);
     octomap::KeyRay ray;
-    const double max2 = params.max_ray_m * params.max_ray_m;
+    const PoseIndex poses(params.trajectory, std::max(2.0, params.max_ray_m / 8));
     for (std::size_t pi = 0; pi < geometry.points.size(); ++pi) {
       const Vec3& p = geometry.points[pi];
-      const Vec3* best = nullptr;
-      double bd = max2;
-      for (const Vec3& q : params.trajectory) {
-        const double d2 = (q - p).squaredNorm();
-        if (d2 <= bd) {
-          bd = d2;
-          best = &q;
-        }
-      }
+      const Vec3* best = poses.nearest(p, params.max_ray_m);
       if (!best) continue;
       const Aabb span(best->cwiseMin(p), best->cwiseMax(p));
       if (!checkExtent(span, res).ok()) continue;
