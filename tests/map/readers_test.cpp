@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <random>
 
 #include "adit/map/readers/import.hpp"
 #include "adit/map/readers/las.hpp"
@@ -28,6 +29,12 @@ std::vector<Vec3> samplePoints() {
   std::vector<Vec3> p = t.points();
   p.emplace_back(1234.5678, -98.765, 0.125);  // a value that shows float precision is kept
   return p;
+}
+
+std::int64_t firstNonFiniteForTest(const std::vector<Vec3>& pts) {
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    if (!pts[i].allFinite()) return std::int64_t(i);
+  return -1;
 }
 
 void expectSamePoints(const std::vector<Vec3>& want, const Geometry& got, double tol) {
@@ -279,6 +286,44 @@ TEST(StlReader, LyingTriangleCountIsRefused) {
   std::memcpy(&s[80], &lie, 4);
   expectError(parseMesh(s, "lie.stl", "stl"), "lie.stl: offset 80: binary STL header says 50000000 triangles");
   expectError(parseMesh(s.substr(0, 40), "short.stl", "stl"), "truncated STL");
+}
+
+// Seeded random corruption (byte changes, deletions, insertions, cuts) of every variant: each
+// result is an error or a geometry, never a crash or a hang. A smoke test; the fuzzers go deeper.
+TEST(Import, RandomCorruptionIsHandled) {
+  TubeScan t;
+  t.length = 2.0;
+  t.spacing = 0.5;
+  const auto pts = t.points();
+  const std::vector<std::pair<const char*, std::string>> files = {
+      {".pcd", test::pcdAscii(pts)},        {".pcd", test::pcdBinary(pts)},     {".pcd", test::pcdCompressed(pts)},
+      {".ply", test::plyAscii(pts)},        {".ply", test::plyBinary(pts)},     {".xyz", test::xyzText(pts)},
+      {".las", test::las(pts, 4)},          {".stl", test::stlBinary(t.mesh())}, {".stl", test::stlAscii(t.mesh())},
+      {".obj", test::objText(t.mesh())}};
+  std::mt19937_64 rng(7);
+  for (const auto& [ext, good] : files) {
+    int refused = 0;
+    for (int i = 0; i < 200; ++i) {
+      std::string b = good;
+      for (int k = 1 + int(rng() % 6); k > 0 && !b.empty(); --k) {
+        const std::size_t pos = rng() % b.size();
+        switch (rng() % 4) {
+          case 0: b[pos] = char(rng()); break;
+          case 1: b.erase(pos, 1 + rng() % 16); break;
+          case 2: b.insert(pos, 1, char(rng())); break;
+          default: b.resize(pos); break;
+        }
+      }
+      StatusOr<Geometry> g = parseGeometry(b, "fuzz", ext);
+      if (!g.ok()) {
+        ++refused;
+        EXPECT_EQ(g.status().message().rfind("fuzz", 0), 0u) << g.status().message();
+      } else {
+        EXPECT_EQ(firstNonFiniteForTest(g->points), -1) << ext;
+      }
+    }
+    EXPECT_GT(refused, 0) << ext;
+  }
 }
 
 TEST(Import, DispatchesByExtensionAndFixesTheFrame) {
