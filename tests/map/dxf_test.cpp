@@ -108,6 +108,12 @@ TEST(Dxf, EmptyAndBrokenFilesAreRefused) {
   ASSERT_FALSE(none.ok());
   EXPECT_NE(none.status().message().find("no LWPOLYLINE/POLYLINE"), std::string::npos);
   EXPECT_FALSE(parseDxf("AutoCAD Binary DXF\r\n\x1a", "b.dxf").ok());
+  std::string lie = dxf(lwpolyline("M", {{0, 0}, {1, 0}}, 0));
+  lie.replace(lie.find("90\n2\n"), 5, "90\n2000000000\n");
+  StatusOr<DxfContents> liar = parseDxf(lie, "lie.dxf");
+  ASSERT_FALSE(liar.ok());
+  EXPECT_NE(liar.status().message().find("lie.dxf:10: LWPOLYLINE announces 2000000000 vertices"), std::string::npos)
+      << liar.status().message();
   ReadLimits small;
   small.max_points = 2;
   EXPECT_FALSE(parseDxf(dxf(lwpolyline("M", {{0, 0}, {1, 0}, {2, 0}}, 0)), "big.dxf", small).ok());

@@ -73,12 +73,39 @@ StatusOr<SurveyNetwork> parseWithStub(const std::string& text, const std::string
   return parseSurvey(text + stub, name);
 }
 
+// dxflib sizes an LWPOLYLINE's vertex buffer from its group 90 before reading any vertex: a count
+// the file cannot hold (each vertex takes at least two group pairs, ~8 bytes) is refused first.
+Status checkVertexCounts(const std::string& b, const std::string& name) {
+  std::istringstream in(b);
+  std::string code, value;
+  std::uint64_t line = 0;
+  bool in_lw = false;
+  while (std::getline(in, code) && std::getline(in, value)) {
+    line += 2;
+    const auto trim = [](std::string& t) {
+      while (!t.empty() && (t.back() == '\r' || t.back() == ' ')) t.pop_back();
+      t.erase(0, t.find_first_not_of(' '));
+    };
+    trim(code);
+    trim(value);
+    if (code == "0") in_lw = value == "LWPOLYLINE";
+    if (!in_lw || code != "90") continue;
+    char* end = nullptr;
+    const double n = std::strtod(value.c_str(), &end);
+    if (end == value.c_str() || !(n >= 0) || n > double(b.size()) / 8)
+      return invalidArgument(atLine(name, line) + ": LWPOLYLINE announces " + value +
+                             " vertices, more than the file (" + std::to_string(b.size()) + " bytes) can hold");
+  }
+  return {};
+}
+
 }  // namespace
 
 StatusOr<DxfContents> parseDxf(const std::string& bytes, const std::string& name, const ReadLimits& limits) {
   if (bytes.empty()) return invalidArgument(name + ": empty file");
   if (bytes.compare(0, 22, "AutoCAD Binary DXF\r\n\x1a") == 0)
     return invalidArgument(name + ": binary DXF is not supported, save it as ASCII DXF");
+  ADIT_RETURN_IF_ERROR(checkVertexCounts(bytes, name));
   Collector c(limits.max_points);
   std::istringstream in(bytes);
   DL_Dxf dxf;
