@@ -3,9 +3,11 @@
 // generated roadways (junctionNetwork: main roadway y in [-2, 2] from x = 0 to 14 with floor 0 to
 // 0.3 m, branch x in [12.5, 15.5] up to y = 10 with floor up to 0.5 m, cross-cut x in [4.5, 7.5]
 // down to y = -8 with floor 0; rock elsewhere).
+#include "common/figure.hpp"
 #include "common/render_topview.hpp"
 
 #include <cairo.h>
+#include <octomap/OcTree.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -303,3 +305,138 @@ TEST_F(RenderTopViewTest, InvalidOptionsAreRefused) {
 
 }  // namespace
 }  // namespace adit::tools
+
+// ---- Figure: overlays, open space, side profile ----------------------------------------------
+
+namespace adit::tools::figure_test {
+
+class FigureTest : public RenderTopViewTest {};
+
+TEST_F(FigureTest, SliceExactlyOnVoxelBoundariesDrawsTheFreeVoxelAbove) {
+  // Regression: a slice height on a voxel boundary met neither voxel (OctoMap's float centre of
+  // the one above is a hair over the boundary), so free space was drawn as unknown. It shows on
+  // unpruned leaves (scans, sensed voxels), so the map is a block of single free voxels.
+  auto tree = std::make_shared<octomap::OcTree>(0.1);
+  for (int i = 0; i < 20; ++i)
+    for (int j = 0; j < 20; ++j)
+      for (int k = 0; k < 12; ++k)
+        tree->updateNode(octomap::point3d(0.05f + 0.1f * i, 0.05f + 0.1f * j, 0.05f + 0.1f * k), false,
+                         /*lazy_eval=*/true);
+  auto m = map::OccupancyMap::create(tree);
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  for (double z : {0.3, 0.5, 0.7, 1.0}) {
+    TopViewOptions o;
+    o.max_pixels = 100;
+    o.slice_z_m = z;
+    TopViewInfo info;
+    const fs::path out = dir_ / "slice.png";
+    ASSERT_TRUE(renderTopView(*m, o, out.string(), &info).ok());
+    Picture pic(out);
+    ASSERT_TRUE(pic.ok());
+    EXPECT_EQ(pic.atWorld(info, 1.0, 1.0), kTopViewSliceFree) << "z = " << z;
+    EXPECT_GE(info.free_pixels, 0.95 * info.map_width_px * info.map_height_px) << "z = " << z;
+  }
+}
+
+TEST_F(FigureTest, OverlaysAreDrawnAtTheirWorldPositions) {
+  TopViewOptions o;
+  o.max_pixels = 600;
+  Figure fig(o);
+  fig.setMap(&junction());
+  fig.addLine({{map::Vec3(1, 0, 1), map::Vec3(13, 0, 1)}, 0x00FF00, 4.0, false, {}, "path"});
+  fig.addDisc({map::Vec3(6, -5, 1), 0.8, 0x0000FF, 1.0, 0x0000FF, "", "obstacle"});
+  fig.addMarker({map::Vec3(14, 6, 1), MarkerShape::kSquare, 0xFF00FF, 12.0, "A", "break point"});
+  TopViewInfo info;
+  const fs::path out = dir_ / "overlays.png";
+  ASSERT_TRUE(fig.render(out.string(), &info).ok());
+  Picture pic(out);
+  ASSERT_TRUE(pic.ok());
+  EXPECT_EQ(pic.atWorld(info, 7, 0), 0x00FF00u);
+  EXPECT_EQ(pic.atWorld(info, 6, -5), 0x0000FFu);
+  EXPECT_EQ(pic.atWorld(info, 14, 6), 0xFF00FFu);
+  // the map under the overlays is unchanged elsewhere
+  EXPECT_NE(pic.atWorld(info, 10, 1.5), kTopViewBackground);
+}
+
+TEST_F(FigureTest, PngInMemoryEqualsTheFile) {
+  Figure fig;
+  fig.setMap(&junction());
+  fig.addLine({{map::Vec3(1, 0, 1), map::Vec3(13, 0, 1)}, kFigurePath, 2.0, true, {}, ""});
+  const fs::path out = dir_ / "a.png";
+  TopViewInfo a, b;
+  ASSERT_TRUE(fig.render(out.string(), &a).ok());
+  std::vector<unsigned char> png;
+  ASSERT_TRUE(fig.renderPng(&png, &b).ok());
+  std::ifstream in(out, std::ios::binary);
+  const std::string file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(std::string(png.begin(), png.end()), file);
+  EXPECT_EQ(a.map_left_px, b.map_left_px);
+  EXPECT_EQ(a.pixels_per_m, b.pixels_per_m);
+}
+
+TEST_F(FigureTest, OpenSpaceFigureTakesItsExtentFromTheOverlays) {
+  Figure fig;
+  std::vector<map::Vec3> traj;
+  std::vector<double> t;
+  for (int k = 0; k <= 20; ++k) {
+    traj.emplace_back(0.7 * k, 0.7 * k, 0);
+    t.push_back(0.5 * k);
+  }
+  fig.addLine({traj, kFigureTrajectory, 3.0, false, t, "trajectory", "time [s]"});
+  fig.addDisc({map::Vec3(9, 11.5, 0), 0.5, kFigureObstacle, 0.6, kFigureObstacle, "", "static obstacle"});
+  TopViewInfo info;
+  const fs::path out = dir_ / "open.svg";
+  ASSERT_TRUE(fig.render(out.string(), &info).ok());
+  EXPECT_LE(info.x_min_m, 0.0);
+  EXPECT_GE(info.y_max_m, 14.0);
+  std::ifstream in(out, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("</svg>"), std::string::npos);
+  EXPECT_EQ(text.find("data:image/png;base64"), std::string::npos);  // no raster without a map
+}
+
+TEST_F(FigureTest, ProfilePanelAddsItsHeight) {
+  Figure plain;
+  plain.setMap(&junction());
+  Figure with = plain;
+  SideProfile p;
+  p.series.push_back({{0, 5, 12, 20}, {1.0, 1.2, 1.4, 3.0}, kFigurePath, 2.0, false, "path"});
+  p.series.push_back({{0, 20}, {0.0, 2.0}, 0x8E735C, 1.5, true, "floor"});
+  p.labels.push_back({12, 1.4, "A"});
+  with.setProfile(p);
+  TopViewInfo a, b;
+  ASSERT_TRUE(plain.render((dir_ / "plain.png").string(), &a).ok());
+  ASSERT_TRUE(with.render((dir_ / "profile.png").string(), &b).ok());
+  EXPECT_GT(b.height_px, a.height_px + 150);
+  EXPECT_EQ(a.map_left_px, b.map_left_px);
+}
+
+TEST_F(FigureTest, InvalidOverlaysAreRefusedAndWriteNothing) {
+  const double nan = std::nan("");
+  auto refused = [&](Figure fig, const std::string& needle) {
+    const fs::path out = dir_ / "bad.png";
+    const Status s = fig.render(out.string());
+    EXPECT_FALSE(s.ok());
+    EXPECT_NE(s.message().find(needle), std::string::npos) << s.message();
+    EXPECT_FALSE(fs::exists(out));
+  };
+  Figure a;
+  a.addLine({{map::Vec3(0, 0, 0), map::Vec3(nan, 1, 0)}});
+  refused(a, "line 0");
+  Figure b;
+  b.addLine({{map::Vec3(0, 0, 0), map::Vec3(1, 1, 0)}, kFigurePath, 2.0, false, {1.0}});
+  refused(b, "1 values for 2 points");
+  Figure c;
+  c.addDisc({map::Vec3(0, 0, 0), -1.0});
+  refused(c, "radius_m");
+  Figure d;  // nothing at all
+  refused(d, "nothing to draw");
+  Figure e;
+  e.addMarker({map::Vec3(0, 0, 0)});
+  SideProfile p;
+  p.series.push_back({{0, 1}, {0}});
+  e.setProfile(p);
+  refused(e, "differ in length");
+}
+
+}  // namespace adit::tools::figure_test

@@ -92,7 +92,7 @@ struct ProfileLabel {
   std::string text;
 };
 struct SideProfile {
-  std::string title = "side profile";
+  std::string title = "Side profile: height z [m] along the route [m]";
   std::vector<ProfileSeries> series;
   std::vector<ProfileLabel> labels;
   double height_px = 180.0;  ///< panel height; the width is the map area's
@@ -120,6 +120,10 @@ class Figure {
   adit::Status renderPng(std::vector<unsigned char>* png, TopViewInfo* info = nullptr) const;
 
  private:
+  enum class Output { kPng, kSvg };
+  adit::Status draw(Output kind, const std::string& path, std::vector<unsigned char>* png,
+                    TopViewInfo* info) const;
+
   TopViewOptions options_;
   const adit::map::OccupancyMap* map_ = nullptr;
   std::optional<adit::map::Aabb> bounds_;

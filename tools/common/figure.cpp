@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// Top-view pictures: one pass over the octree leaves into a 32-bit raster (per pixel the lowest
-// floor key, or the strongest slice state), coloured in place, then annotated with Cairo.
-#include "common/render_topview.hpp"
+// The one renderer: the top view is one pass over the octree leaves into a 32-bit raster (per
+// pixel the lowest floor key, or the strongest slice state), coloured in place; overlays (lines,
+// markers, discs) are drawn over it, then the annotations (axes, legend, scale bar, north arrow,
+// side profile) with Cairo. renderTopView() is a Figure without overlays.
+#include "common/figure.hpp"
 
 #include <cairo-svg.h>
 #include <cairo.h>
@@ -58,19 +60,27 @@ constexpr std::array<std::uint32_t, 11> kViridis = {0x440154, 0x482475, 0x414487
                                                     0x2A788E, 0x21918C, 0x22A884, 0x44BF70,
                                                     0x7AD151, 0xBDDF26, 0xFDE725};
 constexpr double kRampStart = 0.15;
+// Plasma (matplotlib, CC0) for overlay values such as time: unlike viridis it never matches the
+// floor colours under it. Its darkest tenth is skipped for the same reason as viridis'.
+constexpr std::array<std::uint32_t, 11> kPlasma = {0x0D0887, 0x41049D, 0x6A00A8, 0x8F0DA4,
+                                                   0xB12A90, 0xCC4778, 0xE16462, 0xF2844B,
+                                                   0xFCA636, 0xFCCE25, 0xF0F921};
+constexpr std::uint32_t kOpenSpace = 0xF2EFE8;  ///< the map area of a figure without a map
 
-std::uint32_t rampColour(double t) {
+std::uint32_t sampleRamp(const std::array<std::uint32_t, 11>& stops, double t) {
   const double v = kRampStart + (1.0 - kRampStart) * std::clamp(t, 0.0, 1.0);
   const double f = v * 10.0;
   const int i = std::min(static_cast<int>(f), 9);
   const double a = f - i;
   std::uint32_t out = 0;
   for (int shift = 16; shift >= 0; shift -= 8) {
-    const double c0 = (kViridis[i] >> shift) & 0xFF, c1 = (kViridis[i + 1] >> shift) & 0xFF;
+    const double c0 = (stops[i] >> shift) & 0xFF, c1 = (stops[i + 1] >> shift) & 0xFF;
     out |= static_cast<std::uint32_t>(std::lround(c0 + a * (c1 - c0))) << shift;
   }
   return out;
 }
+std::uint32_t rampColour(double t) { return sampleRamp(kViridis, t); }
+std::uint32_t valueColour(double t) { return sampleRamp(kPlasma, t); }
 
 void setColour(cairo_t* cr, std::uint32_t c, double alpha = 1.0) {
   cairo_set_source_rgba(cr, ((c >> 16) & 0xFF) / 255.0, ((c >> 8) & 0xFF) / 255.0, (c & 0xFF) / 255.0, alpha);
@@ -205,6 +215,33 @@ Ticks makeTicks(cairo_t* cr, const Font& f, double lo, double hi, double step) {
   return t;
 }
 
+enum class GlyphKind { kLine, kMarker, kDisc };
+
+/// One row of the overlays' legend.
+struct LegendItem {
+  GlyphKind kind = GlyphKind::kLine;
+  std::uint32_t colour = 0, stroke = 0;
+  bool dashed = false;
+  MarkerShape shape = MarkerShape::kCircle;
+  double fill_alpha = 1.0;
+  std::string text;
+};
+
+/// The colour bar of the overlays' per-vertex values (e.g. time along a trajectory).
+struct ValueRamp {
+  std::string label;
+  double vmin = 0, vmax = 0;
+};
+
+/// What the layout needs to know of the figure besides the options.
+struct Content {
+  const OccupancyMap* map = nullptr;
+  Aabb bounds;  ///< world extent drawn (x-y used; z for the caption when there is a map)
+  std::vector<LegendItem> items;
+  std::optional<ValueRamp> value_ramp;
+  const SideProfile* profile = nullptr;
+};
+
 struct Layout {
   double u = 1.0;  ///< annotation scale (1 = sizes below in pixels)
   int width = 0, height = 0;
@@ -235,6 +272,19 @@ struct Layout {
   // scale bar
   double bar_m = 0, bar_px = 0, bar_left = 0, bar_top = 0, bar_h = 0, bar_label_base = 0;
   int bar_segments = 4;
+
+  // overlays' legend (below the map legend) and the value colour bar
+  bool has_map = true;
+  std::vector<LegendItem> items;
+  std::optional<ValueRamp> value_ramp;
+  double value_ramp_height = 0;
+
+  // side profile panel (below the scale bar)
+  const SideProfile* profile = nullptr;
+  double prof_title_base = 0, prof_left = 0, prof_top = 0, prof_w = 0, prof_h = 0;
+  double prof_s0 = 0, prof_s1 = 1, prof_z0 = 0, prof_z1 = 1;
+  Ticks pst, pzt;
+  double prof_xlabel_base = 0;
 };
 
 struct RasterStats {
@@ -273,7 +323,10 @@ std::pair<double, double> legendSize(cairo_t* cr, const Layout& L) {
   }
   h += 10 * u;
   const double swatch_row = L.swatch_w + 8 * u;
-  if (!L.slice) {
+  if (!L.has_map) {
+    w = std::max(w, swatch_row + textWidth(cr, L.legend_font, "Open space"));
+    h += L.row_h;
+  } else if (!L.slice) {
     if (L.fmin && *L.fmax > *L.fmin) {
       double lw = 0;
       for (double v : L.ramp_ticks) lw = std::max(lw, textWidth(cr, L.legend_font, legendLabel(L, v)));
@@ -290,12 +343,31 @@ std::pair<double, double> legendSize(cairo_t* cr, const Layout& L) {
       w = std::max(w, swatch_row + textWidth(cr, L.legend_font, s));
     h += 3 * L.row_h;
   }
+  if (!L.items.empty()) {
+    h += 12 * u;
+    for (const LegendItem& it : L.items) {
+      w = std::max(w, swatch_row + textWidth(cr, L.legend_font, it.text));
+      h += L.row_h;
+    }
+  }
+  if (L.value_ramp) {
+    h += 12 * u + lineMetrics(cr, L.legend_title_font).height() + 4 * u + L.value_ramp_height + 12 * u;
+    w = std::max(w, textWidth(cr, L.legend_title_font, L.value_ramp->label));
+    double lw = 0;
+    for (double v : {L.value_ramp->vmin, L.value_ramp->vmax})
+      lw = std::max(lw, textWidth(cr, L.legend_font, formatNumber(v, 1)));
+    w = std::max(w, L.ramp_width + 10 * u + lw);
+  }
   return {w, h};
 }
 
-Status computeLayout(const OccupancyMap& map, const TopViewOptions& o, cairo_t* cr, Layout& L, bool& raised,
+Status computeLayout(const Content& C, const TopViewOptions& o, cairo_t* cr, Layout& L, bool& raised,
                      const RasterStats* stats) {
-  const Aabb b = map.bounds();
+  const Aabb b = C.bounds;
+  L.has_map = C.map != nullptr;
+  L.items = C.items;
+  L.value_ramp = C.value_ramp;
+  L.profile = C.profile;
   const double wx = b.max.x() - b.min.x(), wy = b.max.y() - b.min.y();
   raised = false;
   double s = o.pixels_per_m;
@@ -308,7 +380,7 @@ Status computeLayout(const OccupancyMap& map, const TopViewOptions& o, cairo_t* 
     }
   }
   L.s = s;
-  L.slice = o.slice_z_m.has_value();
+  L.slice = L.has_map && o.slice_z_m.has_value();
   L.x0 = b.min.x();
   L.y1 = b.max.y();
   const double mw = std::max(1.0, std::ceil(wx * s - 1e-6)), mh = std::max(1.0, std::ceil(wy * s - 1e-6));
@@ -344,24 +416,31 @@ Status computeLayout(const OccupancyMap& map, const TopViewOptions& o, cairo_t* 
   L.row_h = 20 * u;
   L.ramp_width = 18 * u;
   L.ramp_height = 200 * u;
+  L.value_ramp_height = 120 * u;
 
   // Title and caption.
   L.title = o.title;
-  const double res = map.resolution();
+  const double res = L.has_map ? C.map->resolution() : 0.1;
   {
     const int d = decimalsFor(res);
     const int de = std::max(1, std::min(d, 2));
     std::ostringstream os;
-    os << "Resolution " << formatNumber(res, d) << " m  \u00b7  extent " << formatNumber(wx, de) << " \u00d7 "
-       << formatNumber(wy, de) << " m, z " << formatNumber(b.min.z(), de) << " to " << formatNumber(b.max.z(), de)
-       << " m  \u00b7  "
+    if (L.has_map)
+      os << "Resolution " << formatNumber(res, d) << " m  \u00b7  extent " << formatNumber(wx, de) << " \u00d7 "
+         << formatNumber(wy, de) << " m, z " << formatNumber(b.min.z(), de) << " to "
+         << formatNumber(b.max.z(), de) << " m  \u00b7  ";
+    else
+      os << "Open space, extent " << formatNumber(wx, de) << " \u00d7 " << formatNumber(wy, de) << " m  \u00b7  ";
+    os 
        << (s >= 1 ? formatNumber(s, s >= 10 ? 1 : 2) + " px/m" : "1 px = " + formatNumber(1 / s, 2) + " m")
        << "  \u00b7  coordinates in m, x east, y north";
     L.caption = os.str();
   }
 
   // Legend contents.
-  if (L.slice) {
+  if (!L.has_map) {
+    L.legend_title = "World";
+  } else if (L.slice) {
     L.legend_title = "Slice at z = " + formatNumber(*o.slice_z_m, 2) + " m";
     if (o.slice_band_m > 0) L.legend_subtitle = {"band \u00b1" + formatNumber(o.slice_band_m / 2, 2) + " m"};
   } else {
@@ -440,9 +519,57 @@ Status computeLayout(const OccupancyMap& map, const TopViewOptions& o, cairo_t* 
   L.bar_h = 7 * u;
   const LineMetrics lm = lineMetrics(cr, L.legend_font);
   L.bar_label_base = L.bar_top + L.bar_h + 5 * u + lm.ascent;
-  const double bar_bottom = L.bar_label_base + lm.descent;
+  double bar_bottom = L.bar_label_base + lm.descent;
+  double prof_right = 0;
+  if (L.profile) {
+    // The side profile: its own axes under the scale bar, as wide as the map area (at least
+    // 420 px, so that a tall narrow map still gets a readable profile).
+    const SideProfile& P = *L.profile;
+    const LineMetrics ptm = lineMetrics(cr, L.legend_title_font);
+    L.prof_title_base = bar_bottom + 26 * u + ptm.ascent;
+    L.prof_top = L.prof_title_base + ptm.descent + 10 * u;
+    L.prof_h = std::max(60.0, P.height_px) * u;
+    L.prof_w = std::max<double>(L.mw, 420 * u);
+    double s0 = std::numeric_limits<double>::infinity(), s1 = -s0, z0 = s0, z1 = -s0;
+    for (const ProfileSeries& ser : P.series)
+      for (std::size_t k = 0; k < ser.s_m.size(); ++k) {
+        s0 = std::min(s0, ser.s_m[k]);
+        s1 = std::max(s1, ser.s_m[k]);
+        z0 = std::min(z0, ser.z_m[k]);
+        z1 = std::max(z1, ser.z_m[k]);
+      }
+    for (const ProfileLabel& lab : P.labels) {
+      z0 = std::min(z0, lab.z_m);
+      z1 = std::max(z1, lab.z_m);
+    }
+    if (!(s1 >= s0)) { s0 = 0; s1 = 1; }
+    if (!(z1 >= z0)) { z0 = 0; z1 = 1; }
+    if (s1 - s0 < 1e-9) s1 = s0 + 1;
+    const double zpad = std::max(0.5, 0.12 * (z1 - z0));
+    L.prof_s0 = s0;
+    L.prof_s1 = s1;
+    L.prof_z0 = z0 - zpad;
+    L.prof_z1 = z1 + zpad;
+    double pstep = niceAtLeast(std::max((s1 - s0) * 70 * u / L.prof_w, 1e-3));
+    for (;;) {
+      L.pst = makeTicks(cr, L.tick_font, s0, s1, pstep);
+      if (pstep / (s1 - s0) * L.prof_w >= L.pst.max_label_width + 18 * u) break;
+      pstep = nextNice(pstep);
+    }
+    const double zstep =
+        niceAtLeast(std::max((L.prof_z1 - L.prof_z0) * 2.5 * tick_m.height() / L.prof_h, 1e-3));
+    L.pzt = makeTicks(cr, L.tick_font, L.prof_z0, L.prof_z1, zstep);
+    L.prof_left = std::max<double>(L.map_left, M + L.pzt.max_label_width + L.tick_len + 5 * u);
+    L.prof_xlabel_base = L.prof_top + L.prof_h + L.tick_len + 4 * u + tick_m.ascent;
+    bar_bottom = L.prof_xlabel_base + tick_m.descent;
+    prof_right = L.prof_left + L.prof_w + L.pst.max_label_width / 2;
+    double legend_x = L.prof_left;
+    for (const ProfileSeries& ser : P.series)
+      if (!ser.legend.empty()) legend_x += L.swatch_w + 14 * u + textWidth(cr, L.legend_font, ser.legend);
+    prof_right = std::max(prof_right, legend_x + textWidth(cr, L.legend_title_font, P.title) + 20 * u);
+  }
 
-  double right = std::max({L.map_left + L.mw + L.xt.max_label_width / 2, L.panel_left + panel_w,
+  double right = std::max({L.map_left + L.mw + L.xt.max_label_width / 2, L.panel_left + panel_w, prof_right,
                            L.bar_left + L.bar_px + textWidth(cr, L.legend_font, formatLength(L.bar_m)) / 2});
   right = std::max({right, M + (L.title.empty() ? 0.0 : textWidth(cr, L.title_font, L.title)),
                     M + textWidth(cr, L.caption_font, L.caption)});
@@ -471,10 +598,16 @@ RasterStats rasterise(const OccupancyMap& map, const TopViewOptions& o, const La
   for (int r = 0; r < L.mh; ++r) std::fill_n(base + r * stride, L.mw, init);
 
   constexpr double eps = 1e-6;
+  // The band in voxel units. A leaf spans [kb, kt) voxels; its float centre is not exact (0.55 may
+  // be 0.5500001), so its ends are rounded to the voxel grid and the band is compared with a
+  // tolerance: a slice exactly on a voxel boundary (z = 0.5 on a 0.1 m map) then meets the voxel
+  // above it, and only that one, instead of neither.
+  const double band_lo = zlo / res, band_hi = zhi / res;
   map.forEachLeaf([&](const Vec3& c, double size, VoxelState state) {
     const double h = 0.5 * size;
     if (slice) {
-      if (c.z() - h > zhi || c.z() + h <= zlo) return;  // voxel [z-h, z+h) does not meet the band
+      const double kb = std::round((c.z() - h) / res), kt = std::round((c.z() + h) / res);
+      if (kb > band_hi + 1e-6 || kt <= band_lo + 1e-6) return;  // [kb, kt) does not meet the band
     } else if (state != VoxelState::kFree) {
       return;
     }
@@ -575,6 +708,28 @@ void drawSwatch(cairo_t* cr, const Layout& L, double x, double y_top, std::uint3
   drawText(cr, L.legend_font, kInk, label, x + L.swatch_w + 8 * L.u, base);
 }
 
+void drawOverlayLegend(cairo_t* cr, const Layout& L, double y);
+
+/// A vertical colour bar (top = 1), as one gradient so that SVG keeps it as one element.
+void drawColourBar(cairo_t* cr, std::uint32_t (*colour)(double), double x, double top, double w, double h,
+                   double u) {
+  cairo_pattern_t* grad = cairo_pattern_create_linear(0, top + h, 0, top);
+  constexpr int kStops = 40;
+  for (int k = 0; k <= kStops; ++k) {
+    const std::uint32_t c = colour(double(k) / kStops);
+    cairo_pattern_add_color_stop_rgb(grad, double(k) / kStops, ((c >> 16) & 0xFF) / 255.0,
+                                     ((c >> 8) & 0xFF) / 255.0, (c & 0xFF) / 255.0);
+  }
+  cairo_rectangle(cr, x, top, w, h);
+  cairo_set_source(cr, grad);
+  cairo_fill(cr);
+  cairo_pattern_destroy(grad);
+  cairo_rectangle(cr, x, top, w, h);
+  setColour(cr, kFrame);
+  cairo_set_line_width(cr, 1.0 * u);
+  cairo_stroke(cr);
+}
+
 void drawLegend(cairo_t* cr, const Layout& L) {
   const double u = L.u, x = L.panel_left;
   double y = L.legend_top;
@@ -586,31 +741,22 @@ void drawLegend(cairo_t* cr, const Layout& L) {
     y += lm.height();
   }
   y += 10 * u;
+  if (!L.has_map) {
+    drawSwatch(cr, L, x, y, kOpenSpace, "Open space");
+    drawOverlayLegend(cr, L, y + L.row_h);
+    return;
+  }
   if (L.slice) {
     drawSwatch(cr, L, x, y, kTopViewSliceFree, "Free");
     drawSwatch(cr, L, x, y + L.row_h, kTopViewSliceOccupied, "Occupied (rock)");
     drawSwatch(cr, L, x, y + 2 * L.row_h, kTopViewBackground, "Unknown");
+    drawOverlayLegend(cr, L, y + 3 * L.row_h);
     return;
   }
   if (L.fmin && *L.fmax > *L.fmin) {
     const double top = y + 4 * u, h = L.ramp_height, w = L.ramp_width;
     const double fmin = *L.fmin, fmax = *L.fmax, span = fmax - fmin;
-    // the ramp as a gradient (top = highest floor), so SVG keeps it as one element
-    cairo_pattern_t* ramp = cairo_pattern_create_linear(0, top + h, 0, top);
-    constexpr int kStops = 40;
-    for (int k = 0; k <= kStops; ++k) {
-      const std::uint32_t c = rampColour(double(k) / kStops);
-      cairo_pattern_add_color_stop_rgb(ramp, double(k) / kStops, ((c >> 16) & 0xFF) / 255.0,
-                                       ((c >> 8) & 0xFF) / 255.0, (c & 0xFF) / 255.0);
-    }
-    cairo_rectangle(cr, x, top, w, h);
-    cairo_set_source(cr, ramp);
-    cairo_fill(cr);
-    cairo_pattern_destroy(ramp);
-    cairo_rectangle(cr, x, top, w, h);
-    setColour(cr, kFrame);
-    cairo_set_line_width(cr, 1.0 * u);
-    cairo_stroke(cr);
+    drawColourBar(cr, rampColour, x, top, w, h, u);
     for (double v : L.ramp_ticks) {
       const double ty = top + (fmax - v) / span * h;
       cairo_move_to(cr, x + w, ty);
@@ -625,6 +771,7 @@ void drawLegend(cairo_t* cr, const Layout& L) {
     y += L.row_h;
   }
   drawSwatch(cr, L, x, y, kTopViewBackground, L.fmin ? "Rock / unknown" : "No free space");
+  drawOverlayLegend(cr, L, y + L.row_h);
 }
 
 void drawScaleBar(cairo_t* cr, const Layout& L) {
@@ -675,8 +822,271 @@ void drawAxes(cairo_t* cr, const Layout& L) {
   }
 }
 
+// ---- overlays --------------------------------------------------------------------------------------
+
+struct Overlays {
+  const std::vector<FigureLine>& lines;
+  const std::vector<FigureMarker>& markers;
+  const std::vector<FigureDisc>& discs;
+};
+
+void setDash(cairo_t* cr, bool dashed, double u) {
+  if (dashed) {
+    const double d[] = {7 * u, 5 * u};
+    cairo_set_dash(cr, d, 2, 0);
+  } else {
+    cairo_set_dash(cr, nullptr, 0, 0);
+  }
+}
+
+/// A marker's path centred at (x, y) with diameter d (filled by the caller; kCross is stroked).
+void markerPath(cairo_t* cr, MarkerShape shape, double x, double y, double d) {
+  const double r = d / 2;
+  switch (shape) {
+    case MarkerShape::kCircle: cairo_arc(cr, x, y, r, 0, 2 * M_PI); break;
+    case MarkerShape::kSquare: cairo_rectangle(cr, x - 0.85 * r, y - 0.85 * r, 1.7 * r, 1.7 * r); break;
+    case MarkerShape::kTriangle:
+      cairo_move_to(cr, x, y - 1.1 * r);
+      cairo_line_to(cr, x + r, y + 0.75 * r);
+      cairo_line_to(cr, x - r, y + 0.75 * r);
+      cairo_close_path(cr);
+      break;
+    case MarkerShape::kDiamond:
+      cairo_move_to(cr, x, y - 1.15 * r);
+      cairo_line_to(cr, x + r, y);
+      cairo_line_to(cr, x, y + 1.15 * r);
+      cairo_line_to(cr, x - r, y);
+      cairo_close_path(cr);
+      break;
+    case MarkerShape::kCross:
+      cairo_move_to(cr, x - r, y - r);
+      cairo_line_to(cr, x + r, y + r);
+      cairo_move_to(cr, x + r, y - r);
+      cairo_line_to(cr, x - r, y + r);
+      break;
+  }
+}
+
+void drawMarkerGlyph(cairo_t* cr, MarkerShape shape, std::uint32_t colour, double x, double y, double d, double u) {
+  markerPath(cr, shape, x, y, d);
+  if (shape == MarkerShape::kCross) {
+    cairo_set_line_width(cr, std::max(2.0, 0.22 * d));
+    setColour(cr, kInk);
+    cairo_stroke_preserve(cr);
+    cairo_set_line_width(cr, std::max(1.2, 0.12 * d));
+    setColour(cr, colour);
+    cairo_stroke(cr);
+    return;
+  }
+  setColour(cr, colour);
+  cairo_fill_preserve(cr);
+  setColour(cr, kInk);
+  cairo_set_line_width(cr, 1.3 * u);
+  cairo_stroke(cr);
+}
+
+/// Text with a light halo, legible over any colour of the map.
+void drawHaloText(cairo_t* cr, const Font& f, const std::string& s, double x, double y) {
+  useFont(cr, f);
+  cairo_move_to(cr, x, y);
+  cairo_text_path(cr, s.c_str());
+  setColour(cr, kPage, 0.85);
+  cairo_set_line_width(cr, 0.3 * f.size);
+  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  cairo_stroke_preserve(cr);
+  setColour(cr, kInk);
+  cairo_fill(cr);
+}
+
+/// The value range of every line that has values (the one colour bar they share).
+std::optional<ValueRamp> valueRange(const std::vector<FigureLine>& lines) {
+  std::optional<ValueRamp> r;
+  for (const FigureLine& l : lines) {
+    if (l.values.empty()) continue;
+    if (!r) r = ValueRamp{l.values_label.empty() ? std::string("value") : l.values_label,
+                          std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    for (double v : l.values) {
+      r->vmin = std::min(r->vmin, v);
+      r->vmax = std::max(r->vmax, v);
+    }
+  }
+  return r;
+}
+
+void drawOverlays(cairo_t* cr, const Layout& L, const Overlays& ov) {
+  const double u = L.u;
+  auto px = [&](const Vec3& p) { return L.map_left + (p.x() - L.x0) * L.s; };
+  auto py = [&](const Vec3& p) { return L.map_top + (L.y1 - p.y()) * L.s; };
+  cairo_save(cr);
+  cairo_rectangle(cr, L.map_left, L.map_top, L.mw, L.mh);
+  cairo_clip(cr);
+  cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
+  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  for (const FigureDisc& d : ov.discs) {
+    cairo_new_path(cr);
+    cairo_arc(cr, px(d.center), py(d.center), std::max(2.0, d.radius_m * L.s), 0, 2 * M_PI);
+    setColour(cr, d.fill, d.fill_alpha);
+    cairo_fill_preserve(cr);
+    setColour(cr, d.stroke);
+    cairo_set_line_width(cr, 1.2 * u);
+    cairo_stroke(cr);
+  }
+  const std::optional<ValueRamp> ramp = valueRange(ov.lines);
+  for (const FigureLine& l : ov.lines) {
+    if (l.points.size() < 2) continue;
+    const double w = l.width_px * u;
+    setDash(cr, l.dashed, u);
+    if (l.values.empty()) {
+      // a dark casing under the line keeps it visible on light and dark ground alike
+      for (int pass = 0; pass < 2; ++pass) {
+        cairo_move_to(cr, px(l.points[0]), py(l.points[0]));
+        for (std::size_t k = 1; k < l.points.size(); ++k) cairo_line_to(cr, px(l.points[k]), py(l.points[k]));
+        setColour(cr, pass == 0 ? kInk : l.colour, pass == 0 ? 0.55 : 1.0);
+        cairo_set_line_width(cr, pass == 0 ? w + 2 * u : w);
+        cairo_stroke(cr);
+      }
+    } else {
+      const double span = ramp && ramp->vmax > ramp->vmin ? ramp->vmax - ramp->vmin : 0.0;
+      for (std::size_t k = 1; k < l.points.size(); ++k) {
+        const double v = 0.5 * (l.values[k - 1] + l.values[k]);
+        cairo_move_to(cr, px(l.points[k - 1]), py(l.points[k - 1]));
+        cairo_line_to(cr, px(l.points[k]), py(l.points[k]));
+        setColour(cr, valueColour(span > 0 ? (v - ramp->vmin) / span : 0.5));
+        cairo_set_line_width(cr, w);
+        cairo_stroke(cr);
+      }
+    }
+  }
+  setDash(cr, false, u);
+  for (const FigureMarker& m : ov.markers)
+    drawMarkerGlyph(cr, m.shape, m.colour, px(m.position), py(m.position), m.size_px * u, u);
+  const Font label_font{12.5 * u, true};
+  for (const FigureMarker& m : ov.markers)
+    if (!m.label.empty())
+      drawHaloText(cr, label_font, m.label, px(m.position) + 0.5 * m.size_px * u + 4 * u,
+                   py(m.position) - 0.5 * m.size_px * u - 2 * u);
+  for (const FigureDisc& d : ov.discs)
+    if (!d.label.empty())
+      drawHaloText(cr, Font{11 * u, false}, d.label, px(d.center) + d.radius_m * L.s + 3 * u,
+                   py(d.center) + 4 * u);
+  cairo_restore(cr);
+}
+
+/// The overlays' legend rows and the value colour bar, from `y` down in the legend panel.
+void drawOverlayLegend(cairo_t* cr, const Layout& L, double y) {
+  const double u = L.u, x = L.panel_left;
+  if (!L.items.empty()) {
+    y += 12 * u;
+    for (const LegendItem& it : L.items) {
+      const double cy = y + L.swatch_h / 2;
+      switch (it.kind) {
+        case GlyphKind::kLine:
+          setDash(cr, it.dashed, u * 0.6);
+          cairo_move_to(cr, x, cy);
+          cairo_line_to(cr, x + L.swatch_w, cy);
+          setColour(cr, it.colour);
+          cairo_set_line_width(cr, 3 * u);
+          cairo_stroke(cr);
+          setDash(cr, false, u);
+          break;
+        case GlyphKind::kMarker:
+          drawMarkerGlyph(cr, it.shape, it.colour, x + L.swatch_w / 2, cy, 10 * u, u);
+          break;
+        case GlyphKind::kDisc:
+          cairo_arc(cr, x + L.swatch_w / 2, cy, 6 * u, 0, 2 * M_PI);
+          setColour(cr, it.colour, it.fill_alpha);
+          cairo_fill_preserve(cr);
+          setColour(cr, it.stroke);
+          cairo_set_line_width(cr, 1.2 * u);
+          cairo_stroke(cr);
+          break;
+      }
+      drawText(cr, L.legend_font, kInk, it.text, x + L.swatch_w + 8 * u, cy + 0.36 * L.legend_font.size);
+      y += L.row_h;
+    }
+  }
+  if (L.value_ramp) {
+    const ValueRamp& r = *L.value_ramp;
+    y += 12 * u;
+    const LineMetrics tm = lineMetrics(cr, L.legend_title_font);
+    drawText(cr, L.legend_title_font, kInk, r.label, x, y + tm.ascent);
+    const double top = y + tm.height() + 4 * u, h = L.value_ramp_height, w = L.ramp_width;
+    drawColourBar(cr, valueColour, x, top, w, h, u);
+    drawText(cr, L.legend_font, kInk, formatNumber(r.vmax, 1), x + w + 9 * u, top + 0.36 * L.legend_font.size);
+    drawText(cr, L.legend_font, kInk, formatNumber(r.vmin, 1), x + w + 9 * u, top + h + 0.36 * L.legend_font.size);
+  }
+}
+
+void drawProfile(cairo_t* cr, const Layout& L) {
+  if (!L.profile) return;
+  const SideProfile& P = *L.profile;
+  const double u = L.u, left = L.prof_left, top = L.prof_top, w = L.prof_w, h = L.prof_h;
+  auto X = [&](double sv) { return left + (sv - L.prof_s0) / (L.prof_s1 - L.prof_s0) * w; };
+  auto Y = [&](double zv) { return top + (L.prof_z1 - zv) / (L.prof_z1 - L.prof_z0) * h; };
+  // title, then the series' legend on the same line
+  drawText(cr, L.legend_title_font, kInk, P.title, left, L.prof_title_base);
+  double lx = left + textWidth(cr, L.legend_title_font, P.title) + 20 * u;
+  for (const ProfileSeries& ser : P.series) {
+    if (ser.legend.empty()) continue;
+    const double cy = L.prof_title_base - 0.36 * L.legend_font.size;
+    setDash(cr, ser.dashed, 0.6 * u);
+    cairo_move_to(cr, lx, cy);
+    cairo_line_to(cr, lx + L.swatch_w, cy);
+    setColour(cr, ser.colour);
+    cairo_set_line_width(cr, 3 * u);
+    cairo_stroke(cr);
+    setDash(cr, false, u);
+    drawText(cr, L.legend_font, kInk, ser.legend, lx + L.swatch_w + 6 * u, L.prof_title_base);
+    lx += L.swatch_w + 14 * u + textWidth(cr, L.legend_font, ser.legend);
+  }
+  cairo_rectangle(cr, left, top, w, h);
+  setColour(cr, 0xFAFAF7);
+  cairo_fill(cr);
+  cairo_set_line_width(cr, std::max(1.0, 0.9 * u));
+  for (std::size_t k = 0; k < L.pzt.values.size(); ++k) {  // light grid and z labels
+    const double yv = Y(L.pzt.values[k]);
+    cairo_move_to(cr, left, yv);
+    cairo_line_to(cr, left + w, yv);
+    setColour(cr, 0xE3E1DA);
+    cairo_stroke(cr);
+    drawText(cr, L.tick_font, kMutedInk, L.pzt.labels[k], left - L.tick_len - 4 * u,
+             yv + 0.36 * L.tick_font.size, 1.0);
+  }
+  for (std::size_t k = 0; k < L.pst.values.size(); ++k) {
+    const double xv = X(L.pst.values[k]);
+    cairo_move_to(cr, xv, top + h);
+    cairo_line_to(cr, xv, top + h + L.tick_len);
+    setColour(cr, kFrame);
+    cairo_stroke(cr);
+    drawText(cr, L.tick_font, kMutedInk, L.pst.labels[k], xv, L.prof_xlabel_base, 0.5);
+  }
+  cairo_save(cr);
+  cairo_rectangle(cr, left, top, w, h);
+  cairo_clip(cr);
+  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  for (const ProfileSeries& ser : P.series) {
+    if (ser.s_m.size() < 2) continue;
+    setDash(cr, ser.dashed, u);
+    cairo_move_to(cr, X(ser.s_m[0]), Y(ser.z_m[0]));
+    for (std::size_t k = 1; k < ser.s_m.size(); ++k) cairo_line_to(cr, X(ser.s_m[k]), Y(ser.z_m[k]));
+    setColour(cr, ser.colour);
+    cairo_set_line_width(cr, ser.width_px * u);
+    cairo_stroke(cr);
+  }
+  setDash(cr, false, u);
+  for (const ProfileLabel& lab : P.labels) {
+    drawMarkerGlyph(cr, MarkerShape::kCircle, kFigureBreakPoint, X(lab.s_m), Y(lab.z_m), 7 * u, u);
+    drawHaloText(cr, Font{11.5 * u, true}, lab.text, X(lab.s_m) + 5 * u, Y(lab.z_m) - 6 * u);
+  }
+  cairo_restore(cr);
+  cairo_rectangle(cr, left - 0.5, top - 0.5, w + 1, h + 1);
+  setColour(cr, kFrame);
+  cairo_set_line_width(cr, 1.0);
+  cairo_stroke(cr);
+}
+
 /// Everything but the raster; `raster`, when given, is painted into the map area first.
-void drawPicture(cairo_t* cr, const Layout& L, cairo_surface_t* raster) {
+void drawPicture(cairo_t* cr, const Layout& L, cairo_surface_t* raster, const Overlays& ov) {
   setupText(cr);
   if (raster) {
     cairo_save(cr);
@@ -686,13 +1096,19 @@ void drawPicture(cairo_t* cr, const Layout& L, cairo_surface_t* raster) {
     cairo_pattern_set_filter(cairo_get_source(cr), CAIRO_FILTER_NEAREST);
     cairo_paint(cr);
     cairo_restore(cr);
+  } else if (!L.has_map) {
+    cairo_rectangle(cr, L.map_left, L.map_top, L.mw, L.mh);
+    setColour(cr, kOpenSpace);
+    cairo_fill(cr);
   }
+  drawOverlays(cr, L, ov);
   if (!L.title.empty()) drawText(cr, L.title_font, kInk, L.title, L.margin, L.title_base);
   drawText(cr, L.caption_font, kMutedInk, L.caption, L.margin, L.caption_base);
   drawAxes(cr, L);
   drawNorthArrow(cr, L);
   drawLegend(cr, L);
   drawScaleBar(cr, L);
+  drawProfile(cr, L);
 }
 
 void fillPage(cairo_t* cr, const Layout& L, bool skip_map_area) {
@@ -714,11 +1130,7 @@ cairo_status_t writeToStream(void* closure, const unsigned char* data, unsigned 
   return os->good() ? CAIRO_STATUS_SUCCESS : CAIRO_STATUS_WRITE_ERROR;
 }
 
-Status validate(const OccupancyMap& map, const TopViewOptions& o, const std::string& path) {
-  const std::string ext = lowerExtension(path);
-  if (ext.empty()) return adit::invalidArgument(path + ": no file extension; use .png or .svg");
-  if (ext != ".png" && ext != ".svg")
-    return adit::invalidArgument(path + ": unknown picture format '" + ext + "'; use .png or .svg");
+Status validateOptions(const TopViewOptions& o) {
   auto bad = [](const char* field, double v, const char* rule) {
     std::ostringstream os;
     os << "top view: " << field << " = " << v << " " << rule;
@@ -734,9 +1146,14 @@ Status validate(const OccupancyMap& map, const TopViewOptions& o, const std::str
     return bad("min_roadway_width_m", o.min_roadway_width_m, "must be finite and > 0");
   if (!std::isfinite(o.max_megapixels) || o.max_megapixels <= 0)
     return bad("max_megapixels", o.max_megapixels, "must be finite and > 0");
-  const Aabb b = map.bounds();
-  if (b.empty() || !map::allFinite(b.min) || !map::allFinite(b.max))
-    return adit::failedPrecondition("top view: the map has no known voxel to draw");
+  return {};
+}
+
+Status validatePath(const std::string& path) {
+  const std::string ext = lowerExtension(path);
+  if (ext.empty()) return adit::invalidArgument(path + ": no file extension; use .png or .svg");
+  if (ext != ".png" && ext != ".svg")
+    return adit::invalidArgument(path + ": unknown picture format '" + ext + "'; use .png or .svg");
   // Fail before the work when the file cannot be placed (writeFileAtomically checks again).
   const std::filesystem::path target(path);
   const std::filesystem::path dir = target.has_parent_path() ? target.parent_path() : std::filesystem::path(".");
@@ -746,22 +1163,139 @@ Status validate(const OccupancyMap& map, const TopViewOptions& o, const std::str
   return {};
 }
 
+Status badOverlay(const std::string& what, std::size_t index, const std::string& why) {
+  return adit::invalidArgument("figure: " + what + " " + std::to_string(index) + ": " + why);
+}
+
+bool finitePositive(double v) { return std::isfinite(v) && v > 0; }
+
+Status validateOverlays(const Overlays& ov, const std::optional<SideProfile>& profile) {
+  for (std::size_t i = 0; i < ov.lines.size(); ++i) {
+    const FigureLine& l = ov.lines[i];
+    for (const Vec3& p : l.points)
+      if (!map::allFinite(p)) return badOverlay("line", i, "a point is not finite");
+    if (!l.values.empty() && l.values.size() != l.points.size())
+      return badOverlay("line", i, std::to_string(l.values.size()) + " values for " +
+                                       std::to_string(l.points.size()) + " points");
+    for (double v : l.values)
+      if (!std::isfinite(v)) return badOverlay("line", i, "a value is not finite");
+    if (!finitePositive(l.width_px)) return badOverlay("line", i, "width_px must be finite and > 0");
+  }
+  for (std::size_t i = 0; i < ov.markers.size(); ++i) {
+    if (!map::allFinite(ov.markers[i].position)) return badOverlay("marker", i, "position is not finite");
+    if (!finitePositive(ov.markers[i].size_px)) return badOverlay("marker", i, "size_px must be finite and > 0");
+  }
+  for (std::size_t i = 0; i < ov.discs.size(); ++i) {
+    if (!map::allFinite(ov.discs[i].center)) return badOverlay("disc", i, "centre is not finite");
+    if (!finitePositive(ov.discs[i].radius_m)) return badOverlay("disc", i, "radius_m must be finite and > 0");
+    if (!(ov.discs[i].fill_alpha >= 0 && ov.discs[i].fill_alpha <= 1))
+      return badOverlay("disc", i, "fill_alpha must be in [0, 1]");
+  }
+  if (profile) {
+    if (!finitePositive(profile->height_px)) return adit::invalidArgument("figure: profile height_px must be > 0");
+    for (std::size_t i = 0; i < profile->series.size(); ++i) {
+      const ProfileSeries& ser = profile->series[i];
+      if (ser.s_m.size() != ser.z_m.size())
+        return badOverlay("profile series", i, "s_m and z_m differ in length");
+      for (std::size_t k = 0; k < ser.s_m.size(); ++k)
+        if (!std::isfinite(ser.s_m[k]) || !std::isfinite(ser.z_m[k]))
+          return badOverlay("profile series", i, "a value is not finite");
+      if (!finitePositive(ser.width_px)) return badOverlay("profile series", i, "width_px must be > 0");
+    }
+    for (std::size_t i = 0; i < profile->labels.size(); ++i)
+      if (!std::isfinite(profile->labels[i].s_m) || !std::isfinite(profile->labels[i].z_m))
+        return badOverlay("profile label", i, "position is not finite");
+  }
+  return {};
+}
+
+/// The world extent of the overlays (x-y), or an empty box.
+Aabb overlayExtent(const Overlays& ov) {
+  Aabb b;
+  for (const FigureLine& l : ov.lines)
+    for (const Vec3& p : l.points) b.extend(p);
+  for (const FigureMarker& m : ov.markers) b.extend(m.position);
+  for (const FigureDisc& d : ov.discs) {
+    b.extend(Vec3(d.center.array() - d.radius_m));
+    b.extend(Vec3(d.center.array() + d.radius_m));
+  }
+  return b;
+}
+
+std::vector<LegendItem> legendItems(const Overlays& ov) {
+  std::vector<LegendItem> items;
+  // aggregate initialisation in the order of LegendItem: kind, colour, stroke, dashed, shape, alpha, text
+  for (const FigureLine& l : ov.lines)
+    if (!l.legend.empty())
+      items.push_back({GlyphKind::kLine, l.values.empty() ? l.colour : valueColour(0.6), 0, l.dashed,
+                       MarkerShape::kCircle, 1.0, l.legend});
+  for (const FigureDisc& d : ov.discs)
+    if (!d.legend.empty())
+      items.push_back({GlyphKind::kDisc, d.fill, d.stroke, false, MarkerShape::kCircle, d.fill_alpha, d.legend});
+  for (const FigureMarker& m : ov.markers)
+    if (!m.legend.empty()) items.push_back({GlyphKind::kMarker, m.colour, 0, false, m.shape, 1.0, m.legend});
+  return items;
+}
+
 }  // namespace
 
-Status renderTopView(const OccupancyMap& map, const TopViewOptions& options, const std::string& path,
-                     TopViewInfo* info) {
-  ADIT_RETURN_IF_ERROR(validate(map, options, path));
-  const bool svg = lowerExtension(path) == ".svg";
+Figure::Figure(TopViewOptions options) : options_(std::move(options)) {}
+void Figure::setMap(const OccupancyMap* map) { map_ = map; }
+void Figure::setWorldBounds(const Aabb& bounds) { bounds_ = bounds; }
+void Figure::addLine(FigureLine line) { lines_.push_back(std::move(line)); }
+void Figure::addMarker(FigureMarker marker) { markers_.push_back(std::move(marker)); }
+void Figure::addDisc(FigureDisc disc) { discs_.push_back(std::move(disc)); }
+void Figure::setProfile(SideProfile profile) { profile_ = std::move(profile); }
+
+Status Figure::render(const std::string& path, TopViewInfo* info) const {
+  ADIT_RETURN_IF_ERROR(validatePath(path));
+  return draw(lowerExtension(path) == ".svg" ? Output::kSvg : Output::kPng, path, nullptr, info);
+}
+
+Status Figure::renderPng(std::vector<unsigned char>* png, TopViewInfo* info) const {
+  if (!png) return adit::invalidArgument("figure: renderPng needs an output buffer");
+  return draw(Output::kPng, "", png, info);
+}
+
+Status Figure::draw(Output kind, const std::string& path, std::vector<unsigned char>* png, TopViewInfo* info) const {
+  const std::string name = path.empty() ? std::string("figure") : path;
+  ADIT_RETURN_IF_ERROR(validateOptions(options_));
+  const Overlays ov{lines_, markers_, discs_};
+  ADIT_RETURN_IF_ERROR(validateOverlays(ov, profile_));
+  Content C;
+  C.map = map_;
+  if (map_) {
+    C.bounds = map_->bounds();
+    if (C.bounds.empty() || !map::allFinite(C.bounds.min) || !map::allFinite(C.bounds.max))
+      return adit::failedPrecondition("top view: the map has no known voxel to draw");
+  } else {
+    if (bounds_ && !bounds_->empty()) {
+      if (!map::allFinite(bounds_->min) || !map::allFinite(bounds_->max))
+        return adit::invalidArgument("figure: world bounds are not finite");
+      C.bounds = *bounds_;
+    } else {
+      C.bounds = overlayExtent(ov);
+      if (C.bounds.empty()) return adit::failedPrecondition("figure: nothing to draw (no map, no bounds, no overlay)");
+      // a margin so that nothing sits on the frame, and a minimum size for a single point
+      const Vec3 sz = C.bounds.size();
+      const double margin = std::max(1.0, 0.06 * std::max(sz.x(), sz.y()));
+      C.bounds = C.bounds.inflated(margin);
+    }
+  }
+  C.items = legendItems(ov);
+  C.value_ramp = valueRange(lines_);
+  C.profile = profile_ ? &*profile_ : nullptr;
+  const bool svg = kind == Output::kSvg;
 
   // Measure on a scratch surface, with a first layout to size the raster.
   SurfacePtr scratch(cairo_image_surface_create(CAIRO_FORMAT_RGB24, 1, 1));
   ContextPtr mcr(cairo_create(scratch.get()));
   if (cairo_status(mcr.get()) != CAIRO_STATUS_SUCCESS)
-    return cairoFailure(path, "create a drawing context", cairo_status(mcr.get()));
+    return cairoFailure(name, "create a drawing context", cairo_status(mcr.get()));
   setupText(mcr.get());
   Layout L;
   bool raised = false;
-  ADIT_RETURN_IF_ERROR(computeLayout(map, options, mcr.get(), L, raised, nullptr));
+  ADIT_RETURN_IF_ERROR(computeLayout(C, options_, mcr.get(), L, raised, nullptr));
 
   // The raster: straight into the picture for PNG, a separate image to embed for SVG.
   SurfacePtr picture, raster;
@@ -769,20 +1303,22 @@ Status renderTopView(const OccupancyMap& map, const TopViewOptions& options, con
   if (!svg) {
     picture.reset(cairo_image_surface_create(CAIRO_FORMAT_RGB24, L.width, L.height));
     if (cairo_surface_status(picture.get()) != CAIRO_STATUS_SUCCESS)
-      return cairoFailure(path, "allocate the picture", cairo_surface_status(picture.get()));
-    cairo_surface_flush(picture.get());
-    auto* data = cairo_image_surface_get_data(picture.get());
-    const std::size_t stride = cairo_image_surface_get_stride(picture.get()) / 4;
-    std::uint32_t* base = reinterpret_cast<std::uint32_t*>(data) + L.map_top * stride + L.map_left;
-    stats = rasterise(map, options, L, base, stride);
-    cairo_surface_mark_dirty(picture.get());
-  } else {
+      return cairoFailure(name, "allocate the picture", cairo_surface_status(picture.get()));
+    if (map_) {
+      cairo_surface_flush(picture.get());
+      auto* data = cairo_image_surface_get_data(picture.get());
+      const std::size_t stride = cairo_image_surface_get_stride(picture.get()) / 4;
+      std::uint32_t* base = reinterpret_cast<std::uint32_t*>(data) + L.map_top * stride + L.map_left;
+      stats = rasterise(*map_, options_, L, base, stride);
+      cairo_surface_mark_dirty(picture.get());
+    }
+  } else if (map_) {
     raster.reset(cairo_image_surface_create(CAIRO_FORMAT_RGB24, L.mw, L.mh));
     if (cairo_surface_status(raster.get()) != CAIRO_STATUS_SUCCESS)
-      return cairoFailure(path, "allocate the raster", cairo_surface_status(raster.get()));
+      return cairoFailure(name, "allocate the raster", cairo_surface_status(raster.get()));
     cairo_surface_flush(raster.get());
     const std::size_t stride = cairo_image_surface_get_stride(raster.get()) / 4;
-    stats = rasterise(map, options, L, reinterpret_cast<std::uint32_t*>(cairo_image_surface_get_data(raster.get())),
+    stats = rasterise(*map_, options_, L, reinterpret_cast<std::uint32_t*>(cairo_image_surface_get_data(raster.get())),
                       stride);
     cairo_surface_mark_dirty(raster.get());
   }
@@ -790,13 +1326,13 @@ Status renderTopView(const OccupancyMap& map, const TopViewOptions& options, con
   // legend was sized for the map's height range); when it does not, e.g. a flat map whose ramp
   // becomes one swatch, the map area moves into a picture of the final size.
   Layout final_layout;
-  ADIT_RETURN_IF_ERROR(computeLayout(map, options, mcr.get(), final_layout, raised, &stats));
+  ADIT_RETURN_IF_ERROR(computeLayout(C, options_, mcr.get(), final_layout, raised, map_ ? &stats : nullptr));
   if (final_layout.width != L.width || final_layout.height != L.height || final_layout.map_left != L.map_left ||
       final_layout.map_top != L.map_top) {
     if (!svg) {
       SurfacePtr resized(cairo_image_surface_create(CAIRO_FORMAT_RGB24, final_layout.width, final_layout.height));
       if (cairo_surface_status(resized.get()) != CAIRO_STATUS_SUCCESS)
-        return cairoFailure(path, "allocate the picture", cairo_surface_status(resized.get()));
+        return cairoFailure(name, "allocate the picture", cairo_surface_status(resized.get()));
       ContextPtr cr(cairo_create(resized.get()));
       cairo_set_operator(cr.get(), CAIRO_OPERATOR_SOURCE);
       cairo_set_source_surface(cr.get(), picture.get(), final_layout.map_left - L.map_left,
@@ -804,7 +1340,7 @@ Status renderTopView(const OccupancyMap& map, const TopViewOptions& options, con
       cairo_rectangle(cr.get(), final_layout.map_left, final_layout.map_top, L.mw, L.mh);
       cairo_fill(cr.get());
       if (cairo_status(cr.get()) != CAIRO_STATUS_SUCCESS)
-        return cairoFailure(path, "copy the raster", cairo_status(cr.get()));
+        return cairoFailure(name, "copy the raster", cairo_status(cr.get()));
       cr.reset();
       picture = std::move(resized);
     }
@@ -817,17 +1353,25 @@ Status renderTopView(const OccupancyMap& map, const TopViewOptions& options, con
   if (!svg) {
     {
       ContextPtr cr(cairo_create(picture.get()));
-      fillPage(cr.get(), L, /*skip_map_area=*/true);
-      drawPicture(cr.get(), L, nullptr);
+      fillPage(cr.get(), L, /*skip_map_area=*/map_ != nullptr);
+      drawPicture(cr.get(), L, nullptr, ov);
       cst = cairo_status(cr.get());
     }
-    if (cst != CAIRO_STATUS_SUCCESS) return cairoFailure(path, "draw the picture", cst);
+    if (cst != CAIRO_STATUS_SUCCESS) return cairoFailure(name, "draw the picture", cst);
     cairo_surface_flush(picture.get());
     stage = "encode the PNG";
-    written = map::writeFileAtomically(path, [&](std::ostream& os) {
+    if (png) {
+      std::ostringstream os;
       cst = cairo_surface_write_to_png_stream(picture.get(), writeToStream, &os);
-      return cst == CAIRO_STATUS_SUCCESS;
-    });
+      if (cst != CAIRO_STATUS_SUCCESS) return cairoFailure(name, stage, cst);
+      const std::string bytes = os.str();
+      png->assign(bytes.begin(), bytes.end());
+    } else {
+      written = map::writeFileAtomically(path, [&](std::ostream& os) {
+        cst = cairo_surface_write_to_png_stream(picture.get(), writeToStream, &os);
+        return cst == CAIRO_STATUS_SUCCESS;
+      });
+    }
   } else {
     stage = "write the SVG";
     written = map::writeFileAtomically(path, [&](std::ostream& os) {
@@ -838,7 +1382,7 @@ Status renderTopView(const OccupancyMap& map, const TopViewOptions& options, con
       {
         ContextPtr cr(cairo_create(surface.get()));
         fillPage(cr.get(), L, /*skip_map_area=*/false);
-        drawPicture(cr.get(), L, raster.get());
+        drawPicture(cr.get(), L, raster.get(), ov);
         cst = cairo_status(cr.get());
       }
       if (cst != CAIRO_STATUS_SUCCESS) return false;
@@ -848,7 +1392,7 @@ Status renderTopView(const OccupancyMap& map, const TopViewOptions& options, con
     });
   }
   // A stream failure is the writer's to explain; any other Cairo failure is ours.
-  if (cst != CAIRO_STATUS_SUCCESS && cst != CAIRO_STATUS_WRITE_ERROR) return cairoFailure(path, stage, cst);
+  if (cst != CAIRO_STATUS_SUCCESS && cst != CAIRO_STATUS_WRITE_ERROR) return cairoFailure(name, stage, cst);
   ADIT_RETURN_IF_ERROR(written);
 
   if (info) {
@@ -870,6 +1414,13 @@ Status renderTopView(const OccupancyMap& map, const TopViewOptions& options, con
     *info = out;
   }
   return {};
+}
+
+Status renderTopView(const OccupancyMap& map, const TopViewOptions& options, const std::string& path,
+                     TopViewInfo* info) {
+  Figure fig(options);
+  fig.setMap(&map);
+  return fig.render(path, info);
 }
 
 }  // namespace adit::tools
