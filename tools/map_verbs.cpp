@@ -142,25 +142,6 @@ int runConvert(const MapArgs& a, const std::string& out) {
   return kExitOk;
 }
 
-// "x,y,z" with finite numbers; `where` names the source in errors.
-StatusOr<Vec3> parsePoint(const std::string& text, const std::string& where) {
-  std::string t = text;
-  for (char& c : t)
-    if (c == ',' || c == ';' || c == '\t') c = ' ';
-  std::istringstream is(t);
-  Vec3 p;
-  std::string tok;
-  for (int i = 0; i < 3; ++i) {
-    if (!(is >> tok)) return invalidArgument(where + ": expected x,y,z, got '" + text + "'");
-    char* end = nullptr;
-    p[i] = std::strtod(tok.c_str(), &end);
-    if (end == tok.c_str() || *end != '\0') return invalidArgument(where + ": '" + tok + "' is not a number");
-    if (!std::isfinite(p[i])) return invalidArgument(where + ": coordinate '" + tok + "' is not finite");
-  }
-  if (is >> tok) return invalidArgument(where + ": expected three values, got more in '" + text + "'");
-  return p;
-}
-
 StatusOr<std::vector<Vec3>> readPointsCsv(const std::string& path) {
   StatusOr<std::string> text = readFile(path, std::size_t{1} << 30);
   if (!text.ok()) return text.status();

@@ -9,5 +9,7 @@ namespace adit::tools {
 
 /// `adit map info|convert|query|slice`.
 void registerMapVerbs(CLI::App& app, int* rc);
+/// `adit plan`.
+void registerPlanVerb(CLI::App& app, int* rc);
 
 }  // namespace adit::tools

@@ -563,8 +563,8 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
   result.mean_clearance_m = count ? sum / double(count) : 0.0;
   std::ostringstream m;
   m.precision(1);
-  m << std::fixed << "path of " << result.length_m << " m with " << (p.size() >= 2 ? p.size() - 2 : 0)
-    << " break points";
+  const std::size_t breaks = p.size() >= 2 ? p.size() - 2 : 0;
+  m << std::fixed << "path of " << result.length_m << " m with " << breaks << " break point" << (breaks == 1 ? "" : "s");
   if (!result.route.empty()) m << " through " << result.route.size() << " roadway" << (result.route.size() > 1 ? "s" : "");
   if (result.time_limited) m << "; the time budget cut the search short (result depends on timing)";
   result.message = m.str();

@@ -59,6 +59,33 @@ std::vector<int> RoadwayGraph::ends() const {
   return out;
 }
 
+std::optional<std::pair<int, int>> RoadwayGraph::farthestEnds() const {
+  const std::vector<int> e = ends();
+  std::optional<std::pair<int, int>> best;
+  double far = -1;
+  for (std::size_t i = 0; i < e.size(); ++i)
+    for (std::size_t j = i + 1; j < e.size(); ++j) {
+      const double d = (nodes_[std::size_t(e[i])].position - nodes_[std::size_t(e[j])].position).norm();
+      if (d > far) far = d, best = std::make_pair(e[i], e[j]);
+    }
+  return best;
+}
+
+Vec3 RoadwayGraph::pointNearEnd(int node, double inset_m) const {
+  const std::vector<int>& inc = incident_.at(std::size_t(node));
+  if (inc.empty()) return nodes_[std::size_t(node)].position;
+  const RoadwayEdge& e = edges_[std::size_t(inc.front())];
+  std::vector<Vec3> pts = e.axis.points;
+  if (e.to == node) std::reverse(pts.begin(), pts.end());
+  double left = std::min(inset_m, 0.5 * e.length_m);
+  for (std::size_t i = 0; i + 1 < pts.size(); ++i) {
+    const double len = (pts[i + 1] - pts[i]).norm();
+    if (len >= left) return pts[i] + (pts[i + 1] - pts[i]) * (left / len);
+    left -= len;
+  }
+  return pts.back();
+}
+
 // ---- from a survey ----
 
 StatusOr<RoadwayGraph> RoadwayGraph::fromSurvey(const map::SurveyNetwork& survey) {

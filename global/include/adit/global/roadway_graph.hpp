@@ -20,6 +20,8 @@
 ///   if (!r.ok()) std::cerr << r.status().message();  // e.g. "... disconnected: ... blocked"
 
 #include <functional>
+#include <optional>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -82,6 +84,11 @@ class RoadwayGraph {
   double totalLength() const;
   /// Nodes with a single edge: the roadway ends (dead ends, faces, portals).
   std::vector<int> ends() const;
+
+  /// The two roadway ends farthest apart (straight-line distance), or nullopt with < 2 ends.
+  std::optional<std::pair<int, int>> farthestEnds() const;
+  /// A point on the corridor axis `inset_m` in from end node `node` (away from the rock face).
+  Vec3 pointNearEnd(int node, double inset_m) const;
 
   void setBlocked(int edge, bool blocked, const std::string& reason = "blocked by hand");
   /// Re-checks every edge whose corridor meets `window` (all edges when the window is empty):
