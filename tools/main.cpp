@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   int rc = adit::tools::kExitOk;
   adit::tools::registerMapVerbs(app, &rc);
   adit::tools::registerPlanVerb(app, &rc);
+  adit::tools::registerBenchVerb(app, &rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -15,7 +15,6 @@
 #include "common/cli.hpp"
 #include "common/figure.hpp"
 #include "common/plan_output.hpp"
-#include "common/progress.hpp"
 #include "verbs.hpp"
 
 namespace adit::tools {
@@ -80,17 +79,11 @@ int runPlan(const PlanArgs& a) {
       return report(invalidArgument("--picture " + a.picture + ": expected a .png or .svg file"));
   }
 
-  ProgressBar bar(a.quiet);
-  StatusOr<LoadedMap> loaded = loadMapAndSurvey(a.map_path, {*policy, bar.callback()});
-  if (!loaded.ok()) {
-    bar.finish();
-    return report(loaded.status());
-  }
-  StatusOr<DistanceField> field = DistanceField::build(loaded->map, bar.callback());
-  bar.finish();
-  if (!field.ok()) return report(field.status());
-  StatusOr<global::GlobalPlanner> planner = global::GlobalPlanner::create(
-      loaded->map, *field, *params, loaded->survey ? &*loaded->survey : nullptr);
+  StatusOr<PlanWorld> world = loadPlanWorld(a.map_path, *policy, a.quiet);
+  if (!world.ok()) return report(world.status());
+  const LoadedMap* loaded = &world->loaded;
+  StatusOr<global::GlobalPlanner> planner =
+      global::GlobalPlanner::create(loaded->map, world->field, *params, world->survey());
   if (!planner.ok()) return report(planner.status());
   if (a.farthest_ends) {
     const auto ends = planner->graph().farthestEnds();

@@ -11,5 +11,7 @@ namespace adit::tools {
 void registerMapVerbs(CLI::App& app, int* rc);
 /// `adit plan`.
 void registerPlanVerb(CLI::App& app, int* rc);
+/// `adit bench global`.
+void registerBenchVerb(CLI::App& app, int* rc);
 
 }  // namespace adit::tools

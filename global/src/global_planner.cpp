@@ -103,7 +103,10 @@ class CorridorSampler : public ob::StateSampler {
 
   void sampleUniform(ob::State* state) override {
     Vec3 p;
-    for (int attempt = 0; attempt < 16; ++attempt) {  // a few tries for a free one; the rest is rock
+    // Inside a corridor a few tries find a free point (the rest of the corridor is rock); the
+    // box sampler of the ground-mode baseline draws once, as OMPL's would.
+    const int attempts = corridor_.isBox() ? 1 : 16;
+    for (int attempt = 0; attempt < attempts; ++attempt) {
       Vec3 axis;
       p = corridor_.sample(rng_, &axis);
       if (validity_.ground()) {
@@ -184,22 +187,19 @@ class ClearanceObjective : public ob::OptimizationObjective {
   const RobotValidity& validity_;
 };
 
-double pathCost(const RobotValidity& v, const std::vector<Vec3>& p, std::size_t from, std::size_t to) {
-  double c = 0;
-  for (std::size_t i = from; i < to; ++i) c += v.segmentCost(p[i], p[i + 1]);
-  return c;
-}
-
 // Greedy shortcutting: from each kept vertex jump to the farthest later vertex that is reachable
-// by a valid straight segment no costlier than the path it replaces. Deterministic.
+// by a valid straight segment no costlier than the path it replaces. Deterministic. Costs of the
+// path between vertices come from prefix sums, so a long path costs O(n^2) segment tests at most.
 std::vector<Vec3> shortcut(const RobotValidity& v, const std::vector<Vec3>& p) {
   if (p.size() < 3) return p;
+  std::vector<double> prefix(p.size(), 0.0);
+  for (std::size_t k = 0; k + 1 < p.size(); ++k) prefix[k + 1] = prefix[k] + v.segmentCost(p[k], p[k + 1]);
   std::vector<Vec3> out{p.front()};
   std::size_t i = 0;
   while (i + 1 < p.size()) {
     std::size_t next = i + 1;
     for (std::size_t j = p.size() - 1; j > i + 1; --j) {
-      if (v.segmentCost(p[i], p[j]) <= pathCost(v, p, i, j) + 1e-12 && v.motionValid(p[i], p[j])) {
+      if (v.motionValid(p[i], p[j]) && v.segmentCost(p[i], p[j]) <= prefix[j] - prefix[i] + 1e-12) {
         next = j;
         break;
       }
@@ -418,9 +418,12 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     std::uint64_t sampler_seed = params.seed;
     const Corridor& corr = *corridor;
     const RobotValidity& val = *validity;
-    space->setStateSamplerAllocator([&corr, &val, &sampler_seed](const ob::StateSpace* s) {
-      return std::make_shared<CorridorSampler>(s, corr, val, 0x5DEECE66Dull * ++sampler_seed);
-    });
+    // The plain-OMPL baseline (whole box, flying) keeps OMPL's own uniform sampler.
+    const bool plain = corr.isBox() && !val.ground();
+    if (!plain)
+      space->setStateSamplerAllocator([&corr, &val, &sampler_seed](const ob::StateSpace* s) {
+        return std::make_shared<CorridorSampler>(s, corr, val, 0x5DEECE66Dull * ++sampler_seed);
+      });
     auto si = std::make_shared<ob::SpaceInformation>(space);
     si->setStateValidityChecker([&corr, &val](const ob::State* s) {
       const Vec3 p = toVec(s);
@@ -439,28 +442,29 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     double first_time = -1;
     const Clock::time_point ompl_start = Clock::now();
     pdef->setIntermediateSolutionCallback([&](const ob::Planner*, const std::vector<const ob::State*>&, const ob::Cost) {
-      if (!have_solution.exchange(true)) first_time = seconds(ompl_start, Clock::now());
+      if (!have_solution.exchange(true)) first_time = seconds(t0, Clock::now());
     });
 
     ob::PlannerPtr planner;
     // Steps of a few corridor radii: longer ones fail in bends, shorter ones waste iterations.
-    const double range = std::clamp(corridor->isBox() ? 0.05 * space->getMaximumExtent() : 6.0, 2.0, 50.0);
+    // (The baseline keeps OMPL's default range, a fifth of the box's extent.)
+    const double range = corridor->isBox() ? 0.0 : 6.0;
     switch (params.planner) {
       case PlannerType::kRrtConnect: {
         auto p = std::make_shared<og::RRTConnect>(si);
-        p->setRange(range);
+        if (range > 0) p->setRange(range);
         planner = p;
         break;
       }
       case PlannerType::kRrtStar: {
         auto p = std::make_shared<og::RRTstar>(si);
-        p->setRange(range);
+        if (range > 0) p->setRange(range);
         planner = p;
         break;
       }
       case PlannerType::kInformedRrtStar: {
         auto p = std::make_shared<og::InformedRRTstar>(si);
-        p->setRange(range);
+        if (range > 0) p->setRange(range);
         planner = p;
         break;
       }
@@ -497,7 +501,7 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
       result.message = m.str();
       return finish(result);
     }
-    result.first_solution_time_s = first_time >= 0 ? first_time : result.ompl_time_s;
+    result.first_solution_time_s = first_time >= 0 ? first_time : seconds(t0, Clock::now());
     auto path = pdef->getSolutionPath()->as<og::PathGeometric>();
     og::PathGeometric work(*path);
     result.ompl_vertices = work.getStateCount();

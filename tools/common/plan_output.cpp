@@ -10,10 +10,24 @@
 
 #include "adit/map/map_io.hpp"
 #include "common/figure.hpp"
+#include "common/progress.hpp"
 
 namespace adit::tools {
 
 using map::Vec3;
+
+StatusOr<PlanWorld> loadPlanWorld(const std::string& path, map::UnknownPolicy policy, bool quiet) {
+  ProgressBar bar(quiet);
+  StatusOr<map::LoadedMap> loaded = map::loadMapAndSurvey(path, {policy, bar.callback()});
+  if (!loaded.ok()) {
+    bar.finish();
+    return loaded.status();
+  }
+  StatusOr<map::DistanceField> field = map::DistanceField::build(loaded->map, bar.callback());
+  bar.finish();
+  if (!field.ok()) return field.status();
+  return PlanWorld{std::move(loaded).value(), std::move(field).value()};
+}
 
 StatusOr<map::RobotShape> parseRobot(const std::string& text) {
   const std::size_t colon = text.find(':');

@@ -59,7 +59,7 @@ struct GlobalPlanResult {
   double min_clearance_m = 0.0;      ///< robot surface to rock, sampled along the path
   double mean_clearance_m = 0.0;
   double planning_time_s = 0.0;      ///< whole plan() call
-  double first_solution_time_s = 0.0;  ///< until OMPL's first exact solution
+  double first_solution_time_s = 0.0;  ///< from the call until OMPL's first exact (raw) path
   double ompl_time_s = 0.0;          ///< OMPL search alone
   std::string planner;
   std::vector<std::string> route;    ///< roadways of the route, in order
