@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <random>
 
 #include "adit/global/global_planner.hpp"
 #include "adit/global/grid_reference.hpp"
@@ -304,6 +305,54 @@ TEST(GlobalPlanner, FreeSpaceGraphWithoutASurvey) {
   GlobalPlanResult r = planner.plan(c, e);
   expectValidPath(planner, r, c, e);
   EXPECT_LE(r.length_m / gridLength(w, planner, c, e), kGridRatioLimit);
+}
+
+}  // namespace
+}  // namespace adit::global
+
+namespace adit::global {
+namespace {
+
+// Path quality on generated roadways: random start/goal pairs in every oracle roadway, the
+// default planner (BIT*) within the default 2 s budget. Targets of the issue: >= 95 % valid
+// paths, length / grid optimum median <= 1.00 and worst <= 1.10.
+TEST(GlobalPlannerQuality, LengthAgainstGridOptimumOnGeneratedRoadways) {
+  std::vector<double> ratios;
+  int attempts = 0, solved = 0;
+  std::mt19937_64 rng(7);
+  for (test::NamedNetwork& named : test::oracleRoadways(14.0)) {
+    World w(named.net);
+    GlobalPlannerParams p;
+    p.max_iterations = 300;
+    GlobalPlanner planner = w.planner(p);
+    int made = 0;
+    for (int tries = 0; made < 4 && tries < 50000; ++tries) {
+      // Voxel centres, which the grid optimum starts from.
+      const double res = w.map.resolution();
+      auto centre = [&](const Vec3& q) { return Vec3(((q / res).array().floor() + 0.5) * res); };
+      const Vec3 a = centre(test::randomPoint(rng, w.map.bounds())), b = centre(test::randomPoint(rng, w.map.bounds()));
+      if ((a - b).norm() < 4.0 || !planner.stateValid(a) || !planner.stateValid(b)) continue;
+      ++made;
+      ++attempts;
+      const GlobalPlanResult r = planner.plan(a, b);
+      if (!r.solved()) {
+        ADD_FAILURE() << named.name << ": " << r.message;
+        continue;
+      }
+      ++solved;
+      EXPECT_TRUE(planner.validatePath(r.path).ok());
+      ratios.push_back(r.length_m / gridLength(w, planner, a, b));
+    }
+  }
+  ASSERT_GE(attempts, 12);
+  EXPECT_GE(double(solved) / attempts, 0.95);
+  std::sort(ratios.begin(), ratios.end());
+  ASSERT_FALSE(ratios.empty());
+  EXPECT_LE(ratios[ratios.size() / 2], 1.00);
+  EXPECT_LE(ratios.back(), 1.10);
+  std::printf("length / grid optimum over %zu paths: median %.3f, worst %.3f\n", ratios.size(), ratios[ratios.size() / 2], ratios.back());
+  RecordProperty("median_ratio", std::to_string(ratios[ratios.size() / 2]));
+  RecordProperty("worst_ratio", std::to_string(ratios.back()));
 }
 
 }  // namespace
