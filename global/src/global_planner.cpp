@@ -339,7 +339,7 @@ StatusOr<GlobalPlanner> GlobalPlanner::create(const map::OccupancyMap& map, cons
       ADIT_ASSIGN_OR_RETURN(impl->graph, RoadwayGraph::fromSurvey(*survey));
       impl->from_survey = true;
     } else {
-      ADIT_ASSIGN_OR_RETURN(impl->graph, RoadwayGraph::fromFreeSpace(field, map.bounds(),
+      ADIT_ASSIGN_OR_RETURN(impl->graph, RoadwayGraph::fromFreeSpace(map, field,
                                                                      impl->validity->requiredClearance(),
                                                                      params.skeleton_cell_m));
     }

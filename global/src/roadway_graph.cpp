@@ -59,8 +59,41 @@ std::vector<int> RoadwayGraph::ends() const {
   return out;
 }
 
+int RoadwayGraph::farthestAlongGraph(int from) const {
+  std::vector<double> dist(nodes_.size(), std::numeric_limits<double>::infinity());
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
+  dist[std::size_t(from)] = 0;
+  open.push({0.0, from});
+  int far = from;
+  while (!open.empty()) {
+    const auto [d, n] = open.top();
+    open.pop();
+    if (d > dist[std::size_t(n)]) continue;
+    if (d > dist[std::size_t(far)]) far = n;
+    for (int e : incident_[std::size_t(n)]) {
+      const RoadwayEdge& edge = edges_[std::size_t(e)];
+      if (edge.blocked) continue;
+      const int o = edge.from == n ? edge.to : edge.from;
+      if (d + edge.length_m < dist[std::size_t(o)]) {
+        dist[std::size_t(o)] = d + edge.length_m;
+        open.push({dist[std::size_t(o)], o});
+      }
+    }
+  }
+  return far;
+}
+
 std::optional<std::pair<int, int>> RoadwayGraph::farthestEnds() const {
   const std::vector<int> e = ends();
+  if (e.size() < 2 && !nodes_.empty()) {
+    // A free-space cell graph has no degree-1 nodes: take the ends of its longest shortest path
+    // instead (two sweeps of Dijkstra, exact on trees, close on roadway networks).
+    const int u = farthestAlongGraph(0);
+    const int v = farthestAlongGraph(u);
+    if (u == v) return std::nullopt;
+    return std::make_pair(u, v);
+  }
   std::optional<std::pair<int, int>> best;
   double far = -1;
   for (std::size_t i = 0; i < e.size(); ++i)
@@ -199,63 +232,78 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromSurvey(const map::SurveyNetwork& survey
 
 // ---- from the free space ----
 
-StatusOr<RoadwayGraph> RoadwayGraph::fromFreeSpace(const map::DistanceField& field, const Aabb& bounds,
+StatusOr<RoadwayGraph> RoadwayGraph::fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
                                                    double required_clearance_m, double cell_m) {
   if (!(cell_m > 0) || !std::isfinite(cell_m)) return invalidArgument("skeleton cell size must be > 0");
+  const Aabb bounds = map.bounds();
   if (bounds.empty()) return failedPrecondition("the map has no free space to build a roadway graph from");
   const double res = field.resolution();
   const Eigen::Array3i dims = ((bounds.max - bounds.min) / cell_m).array().ceil().cast<int>().max(1);
-  const double cells = double(dims.x()) * dims.y() * dims.z();
-  if (cells > 5e7) return outOfRange("map too large for a free-space roadway graph at cell " + std::to_string(cell_m) + " m");
-  // Samples per cell axis: about one per voxel, at most 5 (the field is 1-Lipschitz, so the best
-  // sample is within half a sample spacing of the cell's true best).
-  const int n = std::clamp(int(std::round(cell_m / res)), 1, 5);
+  using Cell = long long;
+  auto key = [&](int x, int y, int z) { return Cell(x) + dims.x() * (Cell(y) + Cell(dims.y()) * z); };
+  auto unkey = [&](Cell k) {
+    return std::array<int, 3>{int(k % dims.x()), int((k / dims.x()) % dims.y()), int(k / (Cell(dims.x()) * dims.y()))};
+  };
+  // Only cells that hold free space (rock under the map's policy elsewhere) are looked at.
+  std::vector<Cell> cells;
+  {
+    std::unordered_map<Cell, bool> seen;
+    map.forEachLeaf([&](const Vec3& c, double size, map::VoxelState state) {
+      if (state != map::VoxelState::kFree) return;
+      const Eigen::Array3i lo = ((c.array() - 0.5 * size - bounds.min.array()) / cell_m).floor().cast<int>().max(0);
+      const Eigen::Array3i hi =
+          ((c.array() + 0.5 * size - bounds.min.array()) / cell_m - 1e-9).floor().cast<int>().min(dims - 1);
+      for (int z = lo.z(); z <= hi.z(); ++z)
+        for (int y = lo.y(); y <= hi.y(); ++y)
+          for (int x = lo.x(); x <= hi.x(); ++x)
+            if (seen.emplace(key(x, y, z), true).second) cells.push_back(key(x, y, z));
+    });
+  }
+  std::sort(cells.begin(), cells.end());  // deterministic node order
+  // Samples per cell axis: about one per voxel, at most 3 (the field is 1-Lipschitz, so the best
+  // sample is within a sample spacing of the cell's true best).
+  const int n = std::clamp(int(std::round(cell_m / res)), 1, 3);
   RoadwayGraph g;
-  std::unordered_map<long long, int> node_of;
-  auto key = [&](int x, int y, int z) { return (long long)(x) + dims.x() * ((long long)(y) + (long long)dims.y() * z); };
+  std::unordered_map<Cell, int> node_of;
   std::vector<double> clearance;
-  for (int z = 0; z < dims.z(); ++z)
-    for (int y = 0; y < dims.y(); ++y)
-      for (int x = 0; x < dims.x(); ++x) {
-        const Vec3 corner = bounds.min + cell_m * Vec3(x, y, z);
-        // Quick reject: the whole cell is rock when its centre is farther from free space than
-        // its half-diagonal; we cannot tell that from an unsigned field, so sample.
-        double best = -1;
-        Vec3 best_p;
-        for (int k = 0; k < n; ++k)
-          for (int j = 0; j < n; ++j)
-            for (int i = 0; i < n; ++i) {
-              const Vec3 p = corner + cell_m * Vec3((i + 0.5) / n, (j + 0.5) / n, (k + 0.5) / n);
-              const double d = field.distance(p);
-              if (d > best) best = d, best_p = p;
-            }
-        if (best < required_clearance_m) continue;
-        node_of[key(x, y, z)] = g.addNode(best_p, "cell-" + std::to_string(g.nodes_.size()));
-        clearance.push_back(best);
-      }
+  for (Cell k : cells) {
+    const auto [x, y, z] = unkey(k);
+    const Vec3 corner = bounds.min + cell_m * Vec3(x, y, z);
+    double best = -1;
+    Vec3 best_p;
+    for (int kk = 0; kk < n; ++kk)
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          const Vec3 p = corner + cell_m * Vec3((i + 0.5) / n, (j + 0.5) / n, (kk + 0.5) / n);
+          const double d = field.distance(p);
+          if (d > best) best = d, best_p = p;
+        }
+    if (best < required_clearance_m) continue;
+    node_of[k] = g.addNode(best_p, "cell-" + std::to_string(g.nodes_.size()));
+    clearance.push_back(best);
+  }
   if (g.nodes_.empty())
     return failedPrecondition("no free space with clearance >= " + std::to_string(required_clearance_m) + " m: no roadway graph");
   static const std::array<std::array<int, 3>, 13> kHalfNeighbours = {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 0},
     {1, -1, 0}, {1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1}, {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {1, -1, -1}}};
   const double step = 0.5 * res;
-  for (int z = 0; z < dims.z(); ++z)
-    for (int y = 0; y < dims.y(); ++y)
-      for (int x = 0; x < dims.x(); ++x) {
-        auto it = node_of.find(key(x, y, z));
-        if (it == node_of.end()) continue;
-        for (const auto& d : kHalfNeighbours) {
-          const int nx = x + d[0], ny = y + d[1], nz = z + d[2];
-          if (nx < 0 || ny < 0 || nz < 0 || nx >= dims.x() || ny >= dims.y() || nz >= dims.z()) continue;
-          auto jt = node_of.find(key(nx, ny, nz));
-          if (jt == node_of.end()) continue;
-          const Vec3 a = g.nodes_[std::size_t(it->second)].position, b = g.nodes_[std::size_t(jt->second)].position;
-          if (!segmentClear(field, a, b, required_clearance_m, step)) continue;
-          Polyline axis;
-          axis.points = {a, b};
-          const double r = std::min(clearance[std::size_t(it->second)], clearance[std::size_t(jt->second)]) +
-                           cell_m * std::sqrt(3.0);
-          g.addEdge(it->second, jt->second, "passage", std::move(axis), r, 0.0);
-        }
+  for (Cell k : cells) {
+    auto it = node_of.find(k);
+    if (it == node_of.end()) continue;
+    const auto [x, y, z] = unkey(k);
+    for (const auto& d : kHalfNeighbours) {
+      const int nx = x + d[0], ny = y + d[1], nz = z + d[2];
+      if (nx < 0 || ny < 0 || nz < 0 || nx >= dims.x() || ny >= dims.y() || nz >= dims.z()) continue;
+      auto jt = node_of.find(key(nx, ny, nz));
+      if (jt == node_of.end()) continue;
+      const Vec3 a = g.nodes_[std::size_t(it->second)].position, b = g.nodes_[std::size_t(jt->second)].position;
+      if (!segmentClear(field, a, b, required_clearance_m, step)) continue;
+      Polyline axis;
+      axis.points = {a, b};
+      const double r = std::min(clearance[std::size_t(it->second)], clearance[std::size_t(jt->second)]) +
+                       cell_m * std::sqrt(3.0);
+      g.addEdge(it->second, jt->second, "passage", std::move(axis), r, 0.0);
+    }
       }
   return g;
 }

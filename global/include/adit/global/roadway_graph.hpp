@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "adit/map/distance_field.hpp"
+#include "adit/map/occupancy_map.hpp"
 #include "adit/map/survey_network.hpp"
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
@@ -70,13 +71,13 @@ class RoadwayGraph {
   /// leaves a main, splits that segment into a junction.
   static StatusOr<RoadwayGraph> fromSurvey(const map::SurveyNetwork& survey);
 
-  /// From the free space, for maps without a survey: the free space is cut into cubic cells of
-  /// `cell_m`; a cell becomes a node at its point of largest clearance when that clearance is at
+  /// From the free space, for maps without a survey: the free space (the map's free leaves) is
+  /// cut into cubic cells of `cell_m`; a cell becomes a node at its point of largest clearance when that clearance is at
   /// least `required_clearance_m`, and neighbouring cells (26-connected) are joined when the
   /// straight segment between their nodes keeps that clearance. Chains of cells are then merged
   /// into edges between junctions and ends, so it is a skeleton of the roadways at cell
   /// resolution. Every edge's roadway name is "passage-N".
-  static StatusOr<RoadwayGraph> fromFreeSpace(const map::DistanceField& field, const map::Aabb& bounds,
+  static StatusOr<RoadwayGraph> fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
                                               double required_clearance_m, double cell_m);
 
   const std::vector<RoadwayNode>& nodes() const { return nodes_; }
@@ -85,7 +86,9 @@ class RoadwayGraph {
   /// Nodes with a single edge: the roadway ends (dead ends, faces, portals).
   std::vector<int> ends() const;
 
-  /// The two roadway ends farthest apart (straight-line distance), or nullopt with < 2 ends.
+  /// The two roadway ends farthest apart (straight-line distance); for a graph without
+  /// degree-1 nodes (the free-space graph) the ends of its longest shortest path. Nullopt when
+  /// there are no two such nodes.
   std::optional<std::pair<int, int>> farthestEnds() const;
   /// A point on the corridor axis `inset_m` in from end node `node` (away from the rock face).
   Vec3 pointNearEnd(int node, double inset_m) const;
@@ -116,6 +119,7 @@ class RoadwayGraph {
     Vec3 point = Vec3::Zero();
     double distance = 0.0;
   };
+  int farthestAlongGraph(int from) const;
   StatusOr<Attachment> attach(const Vec3& p, const char* what, const EdgeFilter& usable) const;
   std::vector<RoadwayNode> nodes_;
   std::vector<RoadwayEdge> edges_;
