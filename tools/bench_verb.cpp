@@ -17,6 +17,7 @@
 
 #include "adit/global/global_planner.hpp"
 #include "adit/global/grid_reference.hpp"
+#include "adit/global/movingai.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "common/cli.hpp"
@@ -32,10 +33,11 @@ using global::GlobalPlannerParams;
 using global::GlobalPlanResult;
 
 struct BenchArgs {
-  std::vector<std::string> maps{"maps/district.yaml"};
+  std::vector<std::string> maps;  ///< none given: maps/district.yaml, unless --movingai alone
   std::string planners = "rrtconnect,bitstar,informedrrtstar,rrtstar,prmstar";
-  std::string robot = "sphere:0.4", mode = "fly", log_dir, json_out;
-  int runs = 2, pairs = 4;
+  std::string robot = "sphere:0.4", mode = "fly", log_dir, json_out, movingai;
+  int runs = 2, pairs = 4, movingai_problems = 10;
+  double movingai_max_length = 60.0;
   double time_s = 2.0;
   bool no_baseline = false, no_grid = false, quiet = false;
 };
@@ -123,6 +125,95 @@ bool writeOmplLog(std::ostream& os, const std::string& experiment, const std::st
   return bool(os);
 }
 
+// The MovingAI voxel maps: each problem is planned on a crop that holds every path of at most
+// its published optimal length (a point of such a path is within length/2 of both ends), with a
+// small sphere (0.05 voxel, no margin). adit keeps half a voxel of conservative clearance, so it
+// plans in a slightly eroded free space: voxels touching a blocked one are not valid centres, and
+// problems starting or ending there are counted, not planned.
+int runMovingAi(const BenchArgs& a, const std::vector<global::PlannerType>& planners, nlohmann::ordered_json* all) {
+  std::vector<std::filesystem::path> maps;
+  for (const auto& entry : std::filesystem::directory_iterator(a.movingai))
+    if (entry.path().extension() == ".3dmap" && std::filesystem::exists(entry.path().string() + ".3dscen"))
+      maps.push_back(entry.path());
+  std::sort(maps.begin(), maps.end());
+  if (maps.empty()) return report(notFound(a.movingai + ": no .3dmap with a .3dmap.3dscen beside it"));
+  std::printf("\n%-12s %-16s %8s %9s %8s %9s %10s %9s %10s %9s\n", "movingai", "planner", "problems", "eroded",
+              "success", "final_ms", "len/grid", "worst", "len/publ", "worst");
+  for (const auto& map_path : maps) {
+    StatusOr<global::MovingAiMap> m = global::loadMovingAiMap(map_path.string());
+    if (!m.ok()) return report(m.status());
+    StatusOr<std::vector<global::MovingAiProblem>> scen = global::loadMovingAiScenarios(map_path.string() + ".3dscen");
+    if (!scen.ok()) return report(scen.status());
+    std::vector<global::MovingAiProblem> pick;
+    for (const global::MovingAiProblem& p : *scen)
+      if (p.optimal_length <= a.movingai_max_length && p.optimal_length >= 10) pick.push_back(p);
+    // Evenly spread over the file (which is sorted by length buckets): deterministic.
+    std::vector<global::MovingAiProblem> problems;
+    for (int i = 0; i < a.movingai_problems && !pick.empty(); ++i)
+      problems.push_back(pick[std::size_t(i) * pick.size() / std::size_t(a.movingai_problems)]);
+    struct Row {
+      int runs = 0, eroded = 0, ok = 0;
+      std::vector<double> ms, grid_ratio, publ_ratio;
+    };
+    std::vector<Row> rows(planners.size());
+    for (const global::MovingAiProblem& prob : problems) {
+      const int pad = int(std::ceil(prob.optimal_length / 2)) + 2;
+      global::VoxelIndex lo, hi;
+      for (int k = 0; k < 3; ++k) {
+        lo[std::size_t(k)] = std::min(prob.start[std::size_t(k)], prob.goal[std::size_t(k)]) - pad;
+        hi[std::size_t(k)] = std::max(prob.start[std::size_t(k)], prob.goal[std::size_t(k)]) + pad + 1;
+      }
+      StatusOr<OccupancyMap> crop = global::movingAiCrop(*m, lo, hi);
+      if (!crop.ok()) return report(crop.status());
+      StatusOr<DistanceField> field = DistanceField::build(*crop);
+      if (!field.ok()) return report(field.status());
+      auto centre = [](const global::VoxelIndex& v) { return Vec3(v[0] + 0.5, v[1] + 0.5, v[2] + 0.5); };
+      const Vec3 s = centre(prob.start), g = centre(prob.goal);
+      for (std::size_t pi = 0; pi < planners.size(); ++pi) {
+        GlobalPlannerParams p;
+        p.robot = RobotShape::sphere(0.05);
+        p.safety_margin_m = 0.0;
+        p.planner = planners[pi];
+        p.time_budget_s = a.time_s;
+        p.skeleton_cell_m = 2.0;
+        StatusOr<global::GlobalPlanner> planner = global::GlobalPlanner::create(*crop, *field, p);
+        Row& row = rows[pi];
+        ++row.runs;
+        if (!planner.ok() || !planner->stateValid(s) || !planner->stateValid(g)) {
+          ++row.eroded;
+          continue;
+        }
+        const GlobalPlanResult r = planner->plan(s, g);
+        if (!r.solved()) continue;
+        ++row.ok;
+        row.ms.push_back(1e3 * r.planning_time_s);
+        row.publ_ratio.push_back(r.length_m / prob.optimal_length);
+        StatusOr<global::GridPathResult> grid =
+            global::gridOptimum([&](const Vec3& c) { return planner->stateValid(c); }, 1.0, s, g);
+        if (grid.ok() && grid->found) row.grid_ratio.push_back(r.length_m / grid->length_m);
+      }
+    }
+    const std::string name = map_path.filename().string();
+    for (std::size_t pi = 0; pi < planners.size(); ++pi) {
+      const Row& row = rows[pi];
+      const int planned = row.runs - row.eroded;
+      auto worst = [](const std::vector<double>& v) { return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end()); };
+      const double success = planned > 0 ? double(row.ok) / planned : std::nan("");
+      std::printf("%-12s %-16s %8d %9d %7.0f%% %9.1f %10.3f %9.3f %10.3f %9.3f\n", name.c_str(),
+                  global::plannerTypeName(planners[pi]), row.runs, row.eroded, 100 * success, quantile(row.ms, 0.5),
+                  quantile(row.grid_ratio, 0.5), worst(row.grid_ratio), quantile(row.publ_ratio, 0.5), worst(row.publ_ratio));
+      all->push_back({{"map", name}, {"planner", global::plannerTypeName(planners[pi])}, {"problems", row.runs},
+                      {"endpoints_eroded", row.eroded}, {"success_rate", success},
+                      {"final_path_ms_median", quantile(row.ms, 0.5)},
+                      {"length_over_grid_median", quantile(row.grid_ratio, 0.5)}, {"length_over_grid_max", worst(row.grid_ratio)},
+                      {"length_over_published_median", quantile(row.publ_ratio, 0.5)},
+                      {"length_over_published_max", worst(row.publ_ratio)}});
+    }
+    std::fflush(stdout);
+  }
+  return kExitOk;
+}
+
 int runBench(const BenchArgs& a) {
   StatusOr<RobotShape> robot = parseRobot(a.robot);
   if (!robot.ok()) return report(robot.status());
@@ -146,9 +237,12 @@ int runBench(const BenchArgs& a) {
     return report(invalidArgument("--log-dir " + a.log_dir + ": not a directory"));
 
   nlohmann::ordered_json all = nlohmann::ordered_json::array();
-  std::printf("%-22s %-22s %5s %8s %9s %9s %9s %9s %9s %7s %8s\n", "map", "planner", "runs", "success", "first_ms",
-              "final_ms", "final_p90", "len/grid", "worst", "breaks", "min_clr");
-  for (const std::string& path : a.maps) {
+  std::vector<std::string> map_paths = a.maps;
+  if (map_paths.empty() && a.movingai.empty()) map_paths.push_back("maps/district.yaml");
+  if (!map_paths.empty())
+    std::printf("%-22s %-22s %5s %8s %9s %9s %9s %9s %9s %7s %8s\n", "map", "planner", "runs", "success", "first_ms",
+                "final_ms", "final_p90", "len/grid", "worst", "breaks", "min_clr");
+  for (const std::string& path : map_paths) {
     StatusOr<PlanWorld> world = loadPlanWorld(path, UnknownPolicy::kRock, a.quiet);
     if (!world.ok()) return report(world.status());
     const LoadedMap* loaded = &world->loaded;
@@ -239,6 +333,10 @@ int runBench(const BenchArgs& a) {
       if (!a.quiet) std::fprintf(stderr, "wrote %s\n", log.c_str());
     }
   }
+  if (!a.movingai.empty()) {
+    const int rc = runMovingAi(a, planners, &all);
+    if (rc != kExitOk) return rc;
+  }
   if (!a.json_out.empty()) {
     Status s = writeFileAtomically(a.json_out, [&](std::ostream& os) { return bool(os << all.dump(2) << "\n"); });
     if (!s.ok()) return report(s);
@@ -258,7 +356,8 @@ void registerBenchVerb(CLI::App& app, int* rc) {
       "length / grid optimum, break points, minimum clearance; beside plain OMPL sampling the whole\n"
       "bounding box (\"-bbox\", same validity checker). Table on stdout; --log-dir writes OMPL's\n"
       "benchmark log format (ompl_benchmark_statistics.py, Planner Arena).");
-  cmd->add_option("--map", a->maps, "Maps (.yaml/.bt/.ot); repeat for several")->capture_default_str();
+  cmd->add_option("--map", a->maps,
+                  "Maps (.yaml/.bt/.ot); repeat for several (default maps/district.yaml unless only --movingai)");
   cmd->add_option("--planners", a->planners, "Comma-separated planner names")->capture_default_str();
   cmd->add_option("--runs", a->runs, "Seeds per problem")->capture_default_str();
   cmd->add_option("--pairs", a->pairs, "Roadway-end pairs per map, farthest first")->capture_default_str();
@@ -267,6 +366,11 @@ void registerBenchVerb(CLI::App& app, int* rc) {
   cmd->add_option("--mode", a->mode, "fly or ground")->capture_default_str()->check(CLI::IsMember({"fly", "ground"}));
   cmd->add_option("--log-dir", a->log_dir, "Write adit_global_<map>.log (OMPL benchmark format) here");
   cmd->add_option("--json", a->json_out, "Also write the table as JSON to this file");
+  cmd->add_option("--movingai", a->movingai,
+                  "Also the MovingAI 3-D voxel benchmark maps in this directory (*.3dmap + *.3dmap.3dscen)");
+  cmd->add_option("--movingai-problems", a->movingai_problems, "Problems per MovingAI map")->capture_default_str();
+  cmd->add_option("--movingai-max-length", a->movingai_max_length,
+                  "Only MovingAI problems with a published optimum up to this many voxels")->capture_default_str();
   cmd->add_flag("--no-baseline", a->no_baseline, "Skip plain OMPL in the bounding box");
   cmd->add_flag("--no-grid", a->no_grid, "Skip the grid optimum (no length ratios)");
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
