@@ -15,7 +15,8 @@
 /// planners stop on an iteration count (GlobalPlannerParams::max_iterations) rather than on the
 /// clock: same inputs and seed give the same path, byte for byte, unless the time budget cuts in
 /// first (then GlobalPlanResult::time_limited says so). PRM* grows its roadmap on a second thread
-/// inside OMPL and is therefore not deterministic.
+/// inside OMPL and is therefore not deterministic. Because OMPL's seed is process-global, plan()
+/// must not run on two threads at once (even on different planners).
 ///
 ///   StatusOr<GlobalPlanner> planner = GlobalPlanner::create(map, field, params, survey_or_null);
 ///   GlobalPlanResult r = planner->plan({0, 0, 1.5}, {600, 15, -21});
