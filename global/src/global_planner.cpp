@@ -214,6 +214,12 @@ std::vector<Vec3> shortcut(const RobotValidity& v, const std::vector<Vec3>& p) {
 // step) while both segments stay valid and the cost drops, and drops break points that became
 // unnecessary: the path tightens around the corners at the required clearance.
 std::vector<Vec3> relax(const RobotValidity& v, std::vector<Vec3> p, int passes) {
+  auto total = [&] {
+    double c = 0;
+    for (std::size_t k = 0; k + 1 < p.size(); ++k) c += v.segmentCost(p[k], p[k + 1]);
+    return c;
+  };
+  double cost = total();
   for (int pass = 0; pass < passes; ++pass) {
     bool changed = false;
     for (std::size_t k = 1; k + 1 < p.size(); ++k) {
@@ -239,7 +245,10 @@ std::vector<Vec3> relax(const RobotValidity& v, std::vector<Vec3> p, int passes)
         }
       }
     }
-    if (!changed) break;
+    // Converged when a whole pass gains less than a millimetre.
+    const double now = total();
+    if (!changed || cost - now < 1e-3) break;
+    cost = now;
   }
   return p;
 }
