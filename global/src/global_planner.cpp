@@ -225,7 +225,9 @@ std::vector<Vec3> relax(const RobotValidity& v, std::vector<Vec3> p, int passes)
     for (std::size_t k = 1; k + 1 < p.size(); ++k) {
       const Vec3 a = p[k - 1], b = p[k + 1];
       const double before = v.segmentCost(a, p[k]) + v.segmentCost(p[k], b);
-      if (v.segmentCost(a, b) <= before + 1e-12 && v.motionValid(a, b)) {
+      // A centimetre of slack: the clearance penalty is sampled per metre, so a break point on a
+      // straight line could otherwise survive on sampling noise alone.
+      if (v.segmentCost(a, b) <= before + 0.01 && v.motionValid(a, b)) {
         p.erase(p.begin() + std::ptrdiff_t(k));
         --k;
         changed = true;
@@ -249,6 +251,38 @@ std::vector<Vec3> relax(const RobotValidity& v, std::vector<Vec3> p, int passes)
     const double now = total();
     if (!changed || cost - now < 1e-3) break;
     cost = now;
+  }
+  return p;
+}
+
+// Break points a couple of metres apart (a taut path rounding a corner at the required
+// clearance) are replaced by one, where the segments before and after them would meet, when that
+// stays valid and costs at most `max_extra` more: fewer sub-goals for the local planner.
+std::vector<Vec3> mergeCloseBreakPoints(const RobotValidity& v, std::vector<Vec3> p, double max_gap, double max_extra) {
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    for (std::size_t k = 1; k + 2 < p.size(); ++k) {
+      if ((p[k + 1] - p[k]).norm() > max_gap) continue;
+      const Vec3 a = p[k - 1], b = p[k + 2];
+      // Closest point between the lines a->p[k] and b->p[k+1] (midpoint of the common normal).
+      const Vec3 d1 = p[k] - a, d2 = p[k + 1] - b, r = a - b;
+      const double aa = d1.dot(d1), bb = d1.dot(d2), cc = d2.dot(d2), dd = d1.dot(r), ee = d2.dot(r);
+      const double den = aa * cc - bb * bb;
+      Vec3 meet = 0.5 * (p[k] + p[k + 1]);
+      if (den > 1e-12 * aa * cc) {
+        const double t1 = (bb * ee - cc * dd) / den, t2 = (aa * ee - bb * dd) / den;
+        if (t1 > 0 && t2 > 0) meet = 0.5 * ((a + t1 * d1) + (b + t2 * d2));
+      }
+      const std::optional<Vec3> q = snap(v, meet, 0.3);
+      if (!q || (*q - meet).norm() > max_gap) continue;
+      const double before = v.segmentCost(a, p[k]) + v.segmentCost(p[k], p[k + 1]) + v.segmentCost(p[k + 1], b);
+      if (v.segmentCost(a, *q) + v.segmentCost(*q, b) > before + max_extra) continue;
+      if (!v.motionValid(a, *q) || !v.motionValid(*q, b)) continue;
+      p[k] = *q;
+      p.erase(p.begin() + std::ptrdiff_t(k) + 1);
+      changed = true;
+    }
   }
   return p;
 }
@@ -533,6 +567,7 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     accept(relax(val, subdivide(val, best, 4.0), 40));
     accept(shortcut(val, best));
     accept(relax(val, best, 40));
+    accept(mergeCloseBreakPoints(val, best, 3.0, 0.05));
     result.path.points = best;
   } catch (const std::exception& e) {
     result.outcome = GlobalPlanOutcome::kError;
