@@ -20,6 +20,7 @@
 #include "common/points_csv.hpp"
 #include "common/progress.hpp"
 #include "common/render_topview.hpp"
+#include "convert_verb.hpp"
 #include "verbs.hpp"
 
 namespace adit::tools {
@@ -153,7 +154,12 @@ int runInfo(const MapArgs& a, bool json) {
   return kExitOk;
 }
 
-int runConvert(const MapArgs& a, const std::string& out) {
+int runConvert(const MapArgs& a, const std::string& out, ConvertArgs c) {
+  c.in = a.path;
+  c.out = out;
+  c.unknown = a.unknown;
+  c.quiet = a.quiet;
+  if (needsImport(c)) return runImportConvert(c);
   StatusOr<MapFormat> target = formatFromPath(out);
   if (!target.ok()) return report(target.status());
   if (*target == MapFormat::kSurveyYaml)
@@ -257,10 +263,14 @@ void registerMapVerbs(CLI::App& app, int* rc) {
   {
     auto a = std::make_shared<MapArgs>();
     auto out = std::make_shared<std::string>();
-    CLI::App* cmd = map->add_subcommand("convert", "Convert a survey .yaml (or .bt/.ot) to an OctoMap .bt/.ot file");
+    auto c = std::make_shared<ConvertArgs>();
+    CLI::App* cmd = map->add_subcommand(
+        "convert", "Convert a survey .yaml, a point cloud (.pcd .ply .xyz .csv .las) or a mesh (.stl .obj .ply .dae) "
+                   "to an OctoMap .bt/.ot file");
     addMapArgs(cmd, a.get());
     cmd->add_option("OUT", *out, "Output .bt or .ot (written atomically: never a half file)")->required();
-    cmd->callback([=] { *rc = runConvert(*a, *out); });
+    addConvertOptions(cmd, c.get());
+    cmd->callback([=] { *rc = runConvert(*a, *out, *c); });
   }
   {
     auto a = std::make_shared<MapArgs>();

@@ -1,0 +1,46 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+// Private helpers of the readers: bytes handed to a library that only opens files (Open3D), and
+// little-endian field access that never reads past the buffer.
+#include <cstdint>
+#include <cstring>
+#include <string>
+
+#include "adit/map/readers/geometry.hpp"
+
+namespace adit::map::readers_internal {
+
+/// An anonymous in-memory file holding `bytes`, reachable by path (/proc/self/fd/N) for
+/// libraries that only read files. Closed on destruction; nothing touches the disk.
+class MemFile {
+ public:
+  static StatusOr<MemFile> create(const std::string& bytes, const std::string& name);
+  MemFile(MemFile&& o) noexcept : fd_(o.fd_), path_(std::move(o.path_)) { o.fd_ = -1; }
+  MemFile(const MemFile&) = delete;
+  MemFile& operator=(const MemFile&) = delete;
+  MemFile& operator=(MemFile&&) = delete;
+  ~MemFile();
+  const std::string& path() const { return path_; }
+
+ private:
+  MemFile(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
+  int fd_ = -1;
+  std::string path_;
+};
+
+/// Silences Open3D's logger (it prints to stdout, which is adit's result channel) and keeps its
+/// last error message for our own report.
+std::string& open3dLastError();
+void quietOpen3d();
+
+template <class T>
+T loadLE(const std::string& b, std::size_t off) {
+  T v;
+  std::memcpy(&v, b.data() + off, sizeof(T));
+  return v;
+}
+
+/// Lowercased extension with the dot (".pcd"), or "".
+std::string extensionOf(const std::string& path);
+
+}  // namespace adit::map::readers_internal

@@ -1,0 +1,145 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/map/readers/ply.hpp"
+
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/io/PointCloudIO.h>
+
+#include <map>
+#include <sstream>
+
+#include "adit/map/map_io.hpp"
+#include "adit/map/readers/mesh.hpp"
+#include "common.hpp"
+
+namespace adit::map {
+
+using namespace readers_internal;
+
+namespace {
+
+struct PlyElement {
+  std::string name;
+  std::uint64_t count = 0;
+  std::uint64_t min_bytes = 0;  // fixed properties plus each list's length field
+};
+
+int typeSize(const std::string& t) {
+  static const std::map<std::string, int> sizes = {
+      {"char", 1},   {"uchar", 1},  {"int8", 1},  {"uint8", 1},   {"short", 2},  {"ushort", 2},
+      {"int16", 2},  {"uint16", 2}, {"int", 4},   {"uint", 4},    {"int32", 4},  {"uint32", 4},
+      {"float", 4},  {"float32", 4}, {"double", 8}, {"float64", 8}};
+  auto it = sizes.find(t);
+  return it == sizes.end() ? 0 : it->second;
+}
+
+}  // namespace
+
+StatusOr<Geometry> parsePly(const std::string& b, const std::string& name, const ReadLimits& limits) {
+  if (b.compare(0, 3, "ply") != 0 || b.size() < 4 || (b[3] != '\n' && b[3] != '\r'))
+    return invalidArgument(name + ": not a PLY file (no 'ply' magic line)");
+  std::vector<PlyElement> elems;
+  std::string format;
+  std::size_t pos = 0;
+  std::uint64_t line = 0;
+  bool has_x = false;
+  while (true) {
+    if (pos >= b.size() || pos > (1u << 20)) return invalidArgument(name + ": PLY header has no end_header");
+    std::size_t end = b.find('\n', pos);
+    if (end == std::string::npos) end = b.size();
+    std::string l = b.substr(pos, end - pos);
+    pos = end + 1;
+    ++line;
+    if (!l.empty() && l.back() == '\r') l.pop_back();
+    std::istringstream is(l);
+    std::string key;
+    is >> key;
+    const std::string where = atLine(name, line);
+    if (key == "end_header") break;
+    if (key == "ply" || key == "comment" || key == "obj_info" || key.empty()) continue;
+    if (key == "format") {
+      std::string ver;
+      is >> format >> ver;
+      if (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian")
+        return invalidArgument(where + ": unknown PLY format '" + format + "'");
+    } else if (key == "element") {
+      PlyElement e;
+      std::string n;
+      is >> e.name >> n;
+      if (n.empty() || n.size() > 19 || n.find_first_not_of("0123456789") != std::string::npos)
+        return invalidArgument(where + ": element count '" + n + "' is not a non-negative integer");
+      e.count = std::stoull(n);
+      if (e.count > limits.max_points)
+        return outOfRange(where + ": element '" + e.name + "' announces " + n + " entries, more than the limit of " +
+                          std::to_string(limits.max_points));
+      elems.push_back(e);
+    } else if (key == "property") {
+      if (elems.empty()) return invalidArgument(where + ": property before any element");
+      std::string t, pname;
+      is >> t;
+      if (t == "list") {
+        std::string ct, it;
+        is >> ct >> it >> pname;
+        if (!typeSize(ct) || !typeSize(it)) return invalidArgument(where + ": bad list property types");
+        elems.back().min_bytes += std::uint64_t(typeSize(ct));
+      } else {
+        is >> pname;
+        if (!typeSize(t)) return invalidArgument(where + ": unknown property type '" + t + "'");
+        elems.back().min_bytes += std::uint64_t(typeSize(t));
+        if (elems.back().name == "vertex" && pname == "x") has_x = true;
+      }
+    } else {
+      return invalidArgument(where + ": unknown PLY header line '" + key + "'");
+    }
+  }
+  if (format.empty()) return invalidArgument(name + ": PLY header has no format line");
+  const PlyElement* vertex = nullptr;
+  std::uint64_t faces = 0;
+  for (const auto& e : elems) {
+    if (e.name == "vertex") vertex = &e;
+    if (e.name == "face") faces = e.count;
+  }
+  if (!vertex || !has_x) return invalidArgument(name + ": PLY has no vertex element with x, y, z");
+  if (vertex->count == 0) return invalidArgument(name + ": PLY has no vertices (element vertex 0)");
+  const std::uint64_t avail = b.size() - std::min(pos, b.size());
+  if (format == "ascii") {
+    std::uint64_t need = 0, lines = 0;
+    for (const auto& e : elems) need += e.count;
+    for (std::size_t p = pos; p < b.size() && lines < need;) {
+      std::size_t e = b.find('\n', p);
+      if (e == std::string::npos) e = b.size();
+      if (b.find_first_not_of(" \t\r", p) < e) ++lines;
+      p = e + 1;
+    }
+    if (lines < need)
+      return dataLoss(atLine(name, line + 1) + ": header announces " + std::to_string(need) + " element lines, only " +
+                      std::to_string(lines) + " follow");
+  } else {
+    std::uint64_t need = 0;
+    for (const auto& e : elems) need += e.count * e.min_bytes;
+    if (avail < need)
+      return dataLoss(at(name, pos) + ": truncated: the header's elements need at least " + std::to_string(need) +
+                      " bytes, only " + std::to_string(avail) + " follow");
+  }
+  if (faces > 0) return parseMesh(b, name, "ply", limits);
+  ADIT_ASSIGN_OR_RETURN(MemFile mem, MemFile::create(b, name));
+  quietOpen3d();
+  open3d::geometry::PointCloud cloud;
+  if (!open3d::io::ReadPointCloud(mem.path(), cloud, open3d::io::ReadPointCloudOption("ply", false, false)))
+    return dataLoss(name + ": cannot decode the PLY vertices" +
+                    (open3dLastError().empty() ? std::string() : " (" + open3dLastError() + ")"));
+  if (cloud.points_.size() != vertex->count)
+    return dataLoss(name + ": decoded " + std::to_string(cloud.points_.size()) + " vertices, header says " +
+                    std::to_string(vertex->count));
+  Geometry g;
+  g.points = std::move(cloud.points_);
+  const std::int64_t bad = firstNonFinite(g.points);
+  if (bad >= 0) return invalidArgument(name + ": vertex " + std::to_string(bad + 1) + " has a non-finite coordinate");
+  return g;
+}
+
+StatusOr<Geometry> readPly(const std::string& path, const ReadLimits& limits) {
+  ADIT_ASSIGN_OR_RETURN(std::string bytes, readFile(path));
+  return parsePly(bytes, path, limits);
+}
+
+}  // namespace adit::map
