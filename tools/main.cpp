@@ -20,6 +20,7 @@ int run(int argc, char** argv) {
   adit::tools::registerMapVerbs(app, &rc);
   adit::tools::registerPlanVerb(app, &rc);
   adit::tools::registerBenchVerb(app, &rc);
+  adit::tools::registerSimulateVerb(app, &rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -14,4 +14,7 @@ void registerPlanVerb(CLI::App& app, int* rc);
 /// `adit bench global`.
 void registerBenchVerb(CLI::App& app, int* rc);
 
+/// `adit simulate SCENARIO.yaml`.
+void registerSimulateVerb(CLI::App& app, int* rc);
+
 }  // namespace adit::tools
