@@ -340,8 +340,20 @@ int RoadwayGraph::refreshBlocked(const map::DistanceField& field, double require
   for (RoadwayEdge& e : edges_) {
     // A dead end's last cross-section is the rock face itself; the roadway there is passable as
     // far as the robot can go, so those last metres are not checked.
-    const double skip_from = incident_[std::size_t(e.from)].size() == 1 ? required_clearance_m + step : 0.0;
-    const double skip_to = incident_[std::size_t(e.to)].size() == 1 ? required_clearance_m + step : 0.0;
+    // On a ramp the end face is square to the centreline (the voxelizer sweeps sections
+    // perpendicular to it), so at mid-height it stands half_height * sin(slope) nearer than at the
+    // floor: the skipped length grows by that much.
+    auto endTilt = [&](std::size_t i0, std::size_t i1) {
+      const Vec3 d = e.axis.points[i1] - e.axis.points[i0];
+      const double n = d.norm();
+      return n > 0 ? e.half_height_m * std::abs(d.z()) / n : 0.0;
+    };
+    const std::size_t np = e.axis.points.size();
+    const double skip_from =
+        incident_[std::size_t(e.from)].size() == 1 ? required_clearance_m + step + (np > 1 ? endTilt(0, 1) : 0.0) : 0.0;
+    const double skip_to = incident_[std::size_t(e.to)].size() == 1
+                               ? required_clearance_m + step + (np > 1 ? endTilt(np - 2, np - 1) : 0.0)
+                               : 0.0;
     if (!window.empty()) {
       Aabb box;
       for (const Vec3& p : e.axis.points) box.extend(p);
