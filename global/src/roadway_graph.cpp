@@ -314,6 +314,8 @@ void RoadwayGraph::setBlocked(int edge, bool blocked, const std::string& reason)
   RoadwayEdge& e = edges_.at(std::size_t(edge));
   e.blocked = blocked;
   e.blocked_reason = blocked ? reason : std::string();
+  e.blocked_from_m = 0.0;
+  e.blocked_to_m = blocked ? e.length_m : 0.0;
 }
 
 namespace {
@@ -365,8 +367,8 @@ int RoadwayGraph::refreshBlocked(const map::DistanceField& field, double require
     }
     bool passable = true;
     Vec3 where = Vec3::Zero();
-    double arc = 0;
-    for (std::size_t i = 0; i + 1 < e.axis.points.size() && passable; ++i) {
+    double arc = 0, first_bad = 0, last_bad = 0;
+    for (std::size_t i = 0; i + 1 < e.axis.points.size(); ++i) {
       const Vec3 a = e.axis.points[i], b = e.axis.points[i + 1];
       const double len = (b - a).norm();
       if (len <= 0) continue;
@@ -376,15 +378,16 @@ int RoadwayGraph::refreshBlocked(const map::DistanceField& field, double require
         const double along = arc + len * k / samples;
         if (along < skip_from || along > e.length_m - skip_to) continue;
         const Vec3 c = a + (len * k / samples) * t;
-        if (!crossSectionPassable(field, c, t, e.radius_m, required_clearance_m, step)) {
-          passable = false;
-          where = c;
-          break;
-        }
+        if (crossSectionPassable(field, c, t, e.radius_m, required_clearance_m, step)) continue;
+        if (passable) first_bad = along, where = c;
+        passable = false;
+        last_bad = along;
       }
       arc += len;
     }
     e.blocked = !passable;
+    e.blocked_from_m = passable ? 0.0 : first_bad;
+    e.blocked_to_m = passable ? 0.0 : last_bad;
     if (e.blocked) {
       std::ostringstream m;
       m.precision(1);
@@ -449,8 +452,14 @@ void appendAxis(const Polyline& axis, std::size_t segment, bool towards_end, std
 
 StatusOr<Route> RoadwayGraph::route(const Vec3& start, const Vec3& goal, const EdgeFilter& filter) const {
   auto usable = [&](const RoadwayEdge& e) { return !e.blocked && (!filter || filter(e)); };
-  ADIT_ASSIGN_OR_RETURN(const Attachment s, attach(start, "start", usable));
-  ADIT_ASSIGN_OR_RETURN(const Attachment t, attach(goal, "goal", usable));
+  auto allowed = [&](const RoadwayEdge& e) { return !filter || filter(e); };
+  ADIT_ASSIGN_OR_RETURN(const Attachment s, attach(start, "start", allowed));
+  ADIT_ASSIGN_OR_RETURN(const Attachment t, attach(goal, "goal", allowed));
+  // Open between arc lengths lo and hi of edge e (no blockage in between)?
+  auto open_between = [](const RoadwayEdge& e, double lo, double hi) {
+    if (lo > hi) std::swap(lo, hi);
+    return !e.blocked || e.blocked_to_m < lo || e.blocked_from_m > hi;
+  };
   const RoadwayEdge& es = edges_[std::size_t(s.edge)];
   const RoadwayEdge& et = edges_[std::size_t(t.edge)];
   const double s_arc = arcLength(es.axis, s.segment, s.point), t_arc = arcLength(et.axis, t.segment, t.point);
@@ -469,11 +478,11 @@ StatusOr<Route> RoadwayGraph::route(const Vec3& start, const Vec3& goal, const E
       open.push({cost + h(node), node});
     }
   };
-  seed(es.from, s_arc);
-  seed(es.to, es.length_m - s_arc);
+  if (open_between(es, 0.0, s_arc)) seed(es.from, s_arc);
+  if (open_between(es, s_arc, es.length_m)) seed(es.to, es.length_m - s_arc);
   double best = std::numeric_limits<double>::infinity();
   int best_end = -1;  // node through which the goal's edge is entered; -3 = same edge directly
-  if (s.edge == t.edge) {
+  if (s.edge == t.edge && open_between(es, s_arc, t_arc)) {
     best = std::abs(t_arc - s_arc);
     best_end = -3;
   }
@@ -484,8 +493,9 @@ StatusOr<Route> RoadwayGraph::route(const Vec3& start, const Vec3& goal, const E
     if (closed[std::size_t(node)]) continue;
     if (f >= best) break;
     closed[std::size_t(node)] = true;
-    if (node == et.from && g[std::size_t(node)] + t_arc < best) best = g[std::size_t(node)] + t_arc, best_end = node;
-    if (node == et.to && g[std::size_t(node)] + et.length_m - t_arc < best)
+    if (node == et.from && open_between(et, 0.0, t_arc) && g[std::size_t(node)] + t_arc < best)
+      best = g[std::size_t(node)] + t_arc, best_end = node;
+    if (node == et.to && open_between(et, t_arc, et.length_m) && g[std::size_t(node)] + et.length_m - t_arc < best)
       best = g[std::size_t(node)] + et.length_m - t_arc, best_end = node;
     for (int e : incident_[std::size_t(node)]) {
       const RoadwayEdge& edge = edges_[std::size_t(e)];

@@ -171,6 +171,22 @@ TEST(GlobalPlanner, BlockedRoadwayTakesTheOtherAndAllBlockedIsNoPathAtOnce) {
   EXPECT_TRUE(r3.path.empty());
 }
 
+TEST(GlobalPlanner, StartAndGoalOnABlockedRoadwayLeaveItAwayFromTheFall) {
+  World w(ladder());
+  GlobalPlanner planner = w.planner(rrtConnect());
+  // Roof fall in the middle of the south roadway; start and goal on either side of it.
+  w.fall({Vec3(14.5, -2.5, -0.5), Vec3(15.5, 2.5, 3.5)}, &planner);
+  const Vec3 a(4, 0, 1.5), b(26, 0, 1.5);
+  GlobalPlanResult r = planner.plan(a, b);
+  expectValidPath(planner, r, a, b);
+  EXPECT_EQ(r.route, (std::vector<std::string>{"south", "west", "north", "east", "south"}));
+  EXPECT_GT(r.length_m, 50.0);
+  // On the same side of the fall: straight along the south roadway.
+  GlobalPlanResult r2 = planner.plan(a, {12, 0, 1.5});
+  ASSERT_TRUE(r2.solved()) << r2.message;
+  EXPECT_EQ(r2.route, std::vector<std::string>{"south"});
+}
+
 TEST(GlobalPlanner, EndpointsInRockOrOutsideAreRefused) {
   World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 12.0));
   GlobalPlanner planner = w.planner(rrtConnect());

@@ -50,6 +50,9 @@ struct RoadwayEdge {
   double max_slope_deg = 0.0;    ///< steepest axis segment (the floor's slope for survey edges)
   bool blocked = false;
   std::string blocked_reason;
+  /// Where along the axis it is blocked [m from `from`]: a robot on the edge can still leave it
+  /// on the side away from the blockage. Blocking by hand blocks the whole edge.
+  double blocked_from_m = 0.0, blocked_to_m = 0.0;
 };
 
 /// A route through the graph from a start to a goal point: the corridor OMPL searches.
@@ -102,7 +105,8 @@ class RoadwayGraph {
                      const map::Aabb& window = map::Aabb());
 
   /// A* over the unblocked edges that pass `filter`, from the edge nearest to `start` (whose
-  /// corridor holds it) to the one nearest to `goal`. Errors: kNotFound when start or goal lies
+  /// corridor holds it) to the one nearest to `goal`. Start and goal may lie on a blocked edge:
+  /// they leave it on the side away from the blockage. Errors: kNotFound when start or goal lies
   /// in no corridor, kFailedPrecondition when they are disconnected (the message names the
   /// blocked edges that would have connected them).
   StatusOr<Route> route(const Vec3& start, const Vec3& goal, const EdgeFilter& filter = {}) const;
