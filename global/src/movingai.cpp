@@ -1,9 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The one global/ source that builds an octree itself: a MovingAI crop becomes an OccupancyMap
-// through OccupancyMap::create(), which takes an octomap::OcTree.
 #include "adit/global/movingai.hpp"
-
-#include <octomap/OcTree.h>
 
 #include <algorithm>
 #include <cmath>
@@ -101,15 +97,12 @@ StatusOr<map::OccupancyMap> movingAiCrop(const MovingAiMap& m, const VoxelIndex&
   const double count = double(hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]);
   if (count > max_voxels) return outOfRange("MovingAI crop of " + std::to_string(count) + " voxels is too large");
   ADIT_RETURN_IF_ERROR(map::checkExtent({map::Vec3(lo[0], lo[1], lo[2]) * voxel_m, map::Vec3(hi[0], hi[1], hi[2]) * voxel_m}, voxel_m));
-  auto tree = std::make_shared<octomap::OcTree>(voxel_m);
-  const float occupied = tree->getClampingThresMaxLog(), free = tree->getClampingThresMinLog();
+  std::vector<map::Vec3> free, occupied;
   for (int z = lo[2]; z < hi[2]; ++z)
     for (int y = lo[1]; y < hi[1]; ++y)
       for (int x = lo[0]; x < hi[0]; ++x)
-        tree->setNodeValue((x + 0.5) * voxel_m, (y + 0.5) * voxel_m, (z + 0.5) * voxel_m,
-                           m.isBlocked(x, y, z) ? occupied : free);
-  tree->prune();
-  return map::OccupancyMap::create(tree, map::UnknownPolicy::kRock);
+        (m.isBlocked(x, y, z) ? occupied : free).emplace_back((x + 0.5) * voxel_m, (y + 0.5) * voxel_m, (z + 0.5) * voxel_m);
+  return map::OccupancyMap::fromVoxels(voxel_m, free, occupied, map::UnknownPolicy::kRock);
 }
 
 }  // namespace adit::global

@@ -82,6 +82,27 @@ StatusOr<OccupancyMap> OccupancyMap::create(std::shared_ptr<octomap::OcTree> tre
   return map;
 }
 
+StatusOr<OccupancyMap> OccupancyMap::fromVoxels(double resolution_m, const std::vector<Vec3>& free,
+                                                const std::vector<Vec3>& occupied, UnknownPolicy policy) {
+  ADIT_RETURN_IF_ERROR(checkResolution(resolution_m));
+  Aabb box;
+  for (const std::vector<Vec3>* list : {&free, &occupied})
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      const Vec3& p = (*list)[i];
+      if (!allFinite(p))
+        return invalidArgument(std::string(list == &free ? "free" : "occupied") + " voxel " + std::to_string(i) +
+                               " is not finite");
+      box.extend(p);
+    }
+  if (!box.empty()) ADIT_RETURN_IF_ERROR(checkExtent(box, resolution_m));
+  auto tree = std::make_shared<octomap::OcTree>(resolution_m);
+  const float free_log = tree->getClampingThresMinLog(), occupied_log = tree->getClampingThresMaxLog();
+  for (const Vec3& p : free) tree->setNodeValue(p.x(), p.y(), p.z(), free_log);
+  for (const Vec3& p : occupied) tree->setNodeValue(p.x(), p.y(), p.z(), occupied_log);
+  tree->prune();
+  return create(std::move(tree), policy);
+}
+
 OccupancyMap OccupancyMap::withUnknownPolicy(UnknownPolicy policy) const {
   OccupancyMap copy = *this;
   copy.policy_ = policy;

@@ -88,3 +88,29 @@ TEST(BundledDistrict, CommittedOctreeIsTheVoxelizedSurvey) {
 
 }  // namespace
 }  // namespace adit::map
+
+namespace adit::map {
+namespace {
+
+TEST(OccupancyMapFromVoxels, BuildsTheGivenVoxelsAndRefusesBadInput) {
+  std::vector<Vec3> free, occupied;
+  for (int x = 0; x < 10; ++x) {
+    free.emplace_back(0.05 + 0.1 * x, 0.05, 0.05);
+    occupied.emplace_back(0.05 + 0.1 * x, 0.15, 0.05);
+  }
+  StatusOr<OccupancyMap> m = OccupancyMap::fromVoxels(0.1, free, occupied);
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  EXPECT_EQ(m->stats().free_voxels, 10u);
+  EXPECT_EQ(m->stats().occupied_voxels, 10u);
+  EXPECT_TRUE(m->isFree({0.55, 0.05, 0.05}));
+  EXPECT_EQ(m->state({0.55, 0.15, 0.05}), VoxelState::kOccupied);
+  EXPECT_FALSE(OccupancyMap::fromVoxels(0.1, {}, occupied).ok());  // empty map: no free voxel
+  EXPECT_FALSE(OccupancyMap::fromVoxels(-1.0, free, occupied).ok());
+  const StatusOr<OccupancyMap> nan = OccupancyMap::fromVoxels(0.1, {Vec3(std::nan(""), 0, 0)}, {});
+  ASSERT_FALSE(nan.ok());
+  EXPECT_NE(nan.status().message().find("free voxel 0"), std::string::npos) << nan.status().message();
+  EXPECT_FALSE(OccupancyMap::fromVoxels(0.1, {Vec3(1e6, 0, 0)}, {}).ok());  // off the key range
+}
+
+}  // namespace
+}  // namespace adit::map

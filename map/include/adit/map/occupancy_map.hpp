@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <vector>
 
 #include "adit/status.hpp"
 #include "adit/map/types.hpp"
@@ -62,6 +63,12 @@ class OccupancyMap {
   /// the chosen policy ("empty map").
   static StatusOr<OccupancyMap> create(std::shared_ptr<octomap::OcTree> tree,
                                        UnknownPolicy policy = UnknownPolicy::kRock);
+  /// A map from voxel centres (e.g. a benchmark grid), for callers that have no octree of their
+  /// own; later points win where two fall in one voxel. Refuses a bad resolution, non-finite
+  /// points, points off OctoMap's key range, and an empty map, like create().
+  static StatusOr<OccupancyMap> fromVoxels(double resolution_m, const std::vector<Vec3>& free,
+                                           const std::vector<Vec3>& occupied,
+                                           UnknownPolicy policy = UnknownPolicy::kRock);
 
   double resolution() const;
   UnknownPolicy unknownPolicy() const { return policy_; }
