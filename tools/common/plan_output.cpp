@@ -84,7 +84,15 @@ std::string breakPointLabel(std::size_t index) {
   return s;
 }
 
-nlohmann::ordered_json planJson(const global::GlobalPlanResult& r) {
+namespace {
+nlohmann::ordered_json pathJson(const map::Polyline& p) {
+  nlohmann::ordered_json path = nlohmann::ordered_json::array();
+  for (const Vec3& q : p.points) path.push_back({q.x(), q.y(), q.z()});
+  return path;
+}
+}  // namespace
+
+nlohmann::ordered_json planJson(const global::GlobalPlanResult& r, const PlanRefinementInfo* refinement) {
   nlohmann::ordered_json j;
   j["outcome"] = global::outcomeName(r.outcome);
   j["message"] = r.message;
@@ -93,22 +101,31 @@ nlohmann::ordered_json planJson(const global::GlobalPlanResult& r) {
   j["mean_clearance"] = r.mean_clearance_m;
   j["planning_time"] = r.planning_time_s;
   j["planner"] = r.planner;
-  nlohmann::ordered_json path = nlohmann::ordered_json::array();
-  for (const Vec3& p : r.path.points) path.push_back({p.x(), p.y(), p.z()});
-  j["path"] = path;
+  j["path"] = pathJson(r.path);
   j["route"] = r.route;
   // Extensions beyond the fixed fields.
   j["first_path_time"] = r.first_solution_time_s;
   j["break_points"] = r.path.size() >= 2 ? r.path.size() - 2 : 0;
   j["time_limited"] = r.time_limited;
+  if (refinement) {
+    j["before"] = {{"length", refinement->length_m},
+                   {"min_clearance", refinement->min_clearance_m},
+                   {"mean_clearance", refinement->mean_clearance_m},
+                   {"break_points", refinement->path.size() >= 2 ? refinement->path.size() - 2 : 0},
+                   {"path", pathJson(refinement->path)}};
+    j["refine"] = {{"outcome", refinement->outcome},
+                   {"message", refinement->message},
+                   {"time", refinement->time_s},
+                   {"iterations", refinement->iterations}};
+  }
   return j;
 }
 
-Status writePlan(const global::GlobalPlanResult& r, const std::string& path) {
+Status writePlan(const global::GlobalPlanResult& r, const std::string& path, const PlanRefinementInfo* refinement) {
   ADIT_ASSIGN_OR_RETURN(const PlanFormat format, planFormatFromPath(path));
   return map::writeFileAtomically(path, [&](std::ostream& os) {
     if (format == PlanFormat::kJson) {
-      os << planJson(r).dump(2) << "\n";
+      os << planJson(r, refinement).dump(2) << "\n";
     } else {
       os << "label,x,y,z\n" << std::setprecision(17);
       const std::vector<Vec3>& p = r.path.points;
@@ -133,7 +150,8 @@ std::pair<double, double> floorAndRoof(const map::OccupancyMap& map, const Vec3&
 }  // namespace
 
 Status drawPlan(const map::OccupancyMap& map, const global::RoadwayGraph& graph, const global::GlobalPlanResult& r,
-                const Vec3& start, const Vec3& goal, const std::string& title, const std::string& path) {
+                const Vec3& start, const Vec3& goal, const std::string& title, const std::string& path,
+                const map::Polyline* unrefined) {
   TopViewOptions o;
   o.title = title;
   Figure fig(o);
@@ -145,7 +163,9 @@ Status drawPlan(const map::OccupancyMap& map, const global::RoadwayGraph& graph,
     blocked_legend = true;
   }
   const std::vector<Vec3>& p = r.path.points;
-  if (p.size() >= 2) fig.addLine({p, kFigurePath, 2.5, false, {}, "expected path", ""});
+  if (unrefined && unrefined->size() >= 2)
+    fig.addLine({unrefined->points, kFigurePath, 1.5, true, {}, "before refinement", ""});
+  if (p.size() >= 2) fig.addLine({p, kFigurePath, 2.5, false, {}, unrefined ? "refined path" : "expected path", ""});
   for (std::size_t i = 1; i + 1 < p.size(); ++i)
     fig.addMarker({p[i], MarkerShape::kCircle, kFigureBreakPoint, 7, breakPointLabel(i - 1), i == 1 ? "break point" : ""});
   fig.addMarker({p.size() >= 2 ? p.front() : start, MarkerShape::kCircle, kFigureStart, 10, "start", "start"});

@@ -32,16 +32,32 @@ StatusOr<map::RobotShape> parseRobot(const std::string& text);
 enum class PlanFormat { kJson, kCsv };
 StatusOr<PlanFormat> planFormatFromPath(const std::string& path);
 
-nlohmann::ordered_json planJson(const global::GlobalPlanResult& r);
+/// `adit plan --refine`: the unrefined path's figures ("before" in the JSON) and how the
+/// break-point refinement went ("refine"). With --refine both before and after clearances are the
+/// distance field minus the robot's horizontal radius, sampled a voxel apart (for a sphere in fly
+/// mode the planner's own measure).
+struct PlanRefinementInfo {
+  double length_m = 0.0;
+  double min_clearance_m = 0.0;
+  double mean_clearance_m = 0.0;
+  map::Polyline path;
+  std::string outcome, message;
+  double time_s = 0.0;
+  int iterations = 0;
+};
+
+nlohmann::ordered_json planJson(const global::GlobalPlanResult& r, const PlanRefinementInfo* refinement = nullptr);
 /// JSON or CSV by extension, atomically. CSV: "label,x,y,z" rows (start, A, B, ..., goal).
-Status writePlan(const global::GlobalPlanResult& r, const std::string& path);
+Status writePlan(const global::GlobalPlanResult& r, const std::string& path,
+                 const PlanRefinementInfo* refinement = nullptr);
 
 /// Break-point labels: A, B, ..., Z, AA, AB, ...
 std::string breakPointLabel(std::size_t index);
 
 /// Top view with the path, break points, start and goal, blocked roadways, and a side profile
-/// (path height, floor and roof along it).
+/// (path height, floor and roof along it). `unrefined`, when given, is drawn dashed under the path.
 Status drawPlan(const map::OccupancyMap& map, const global::RoadwayGraph& graph, const global::GlobalPlanResult& r,
-                const map::Vec3& start, const map::Vec3& goal, const std::string& title, const std::string& path);
+                const map::Vec3& start, const map::Vec3& goal, const std::string& title, const std::string& path,
+                const map::Polyline* unrefined = nullptr);
 
 }  // namespace adit::tools
