@@ -66,6 +66,7 @@ const char* outcomeName(Outcome o) {
     case Outcome::kCollision: return "collision";
     case Outcome::kStuck: return "stuck";
     case Outcome::kTimeout: return "timeout";
+    case Outcome::kNoRoute: return "no_route";
   }
   return "?";
 }
@@ -116,6 +117,9 @@ double percentile(std::vector<double> v, double q) {
 
 StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) {
   ADIT_RETURN_IF_ERROR(sc.validate());
+  if (sc.needsNavigator())
+    return invalidArgument(sc.file + ": expected_path: plan, robot.sensor_range and events need the navigator "
+                           "(adit::fusion::simulateNavigated)");
   const double r = sc.params.robot.radius_m;
   if (env.field()) {
     if (!env.field()->isFree(sc.start)) return invalidArgument(sc.file + ": start: inside rock");

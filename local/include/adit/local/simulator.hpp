@@ -54,7 +54,8 @@ class Environment {
   std::unique_ptr<Impl> impl_;
 };
 
-enum class Outcome { kArrived, kCollision, kStuck, kTimeout };
+/// kNoRoute (issue 8, the navigator's runs): every roadway to the goal is sealed; the robot stopped.
+enum class Outcome { kArrived, kCollision, kStuck, kTimeout, kNoRoute };
 const char* outcomeName(Outcome o);
 
 struct TrajectorySample {
@@ -93,7 +94,8 @@ struct SimulationResult {
 };
 
 /// Runs the scenario to arrival, a stuck verdict, or t_max. Errors: a scenario that fails
-/// validate(), a start or goal inside rock or overlapping an obstacle.
+/// validate(), a start or goal inside rock or overlapping an obstacle, a scenario that
+/// needsNavigator() (run those with adit::fusion::simulateNavigated).
 StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment& environment);
 
 }  // namespace adit::local
