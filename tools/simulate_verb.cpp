@@ -76,6 +76,7 @@ void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const fusio
   };
   j["replans"] = n.replans;
   j["max_replan_time"] = n.max_replan_time_s;
+  j["max_cycle_time"] = n.max_cycle_time_s;
   j["min_fall_clearance"] = std::isfinite(n.min_fall_clearance_m) ? nlohmann::ordered_json(n.min_fall_clearance_m)
                                                                   : nlohmann::ordered_json(nullptr);
   j["end_time"] = n.end_time_s;

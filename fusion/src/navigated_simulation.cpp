@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <sstream>
 
 #include "adit/map/collision.hpp"
 #include "adit/map/distance_field.hpp"
@@ -108,11 +107,6 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   std::size_t next_event = 0;
   std::vector<double> cycle_us;
   const auto max_steps = std::size_t(std::ceil(sc.t_max_s / sc.dt_s - 1e-9));
-  double min_radius = r;
-  for (const auto& m : sc.moving_obstacles)
-    min_radius = std::min(min_radius, m.obstacle.shape.type == map::ShapeType::kBox ? 0.5 * m.obstacle.shape.size.minCoeff()
-                                                                                     : m.obstacle.shape.radius);
-  const double sample_step = 0.25 * std::max(min_radius, 0.01);
 
   local::RobotState state;
   state.position = sc.start;
@@ -141,52 +135,27 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
     const NavigatorCycle c = nav.cycle(t, state, sensed, tracks, sc.dt_s);
     ++res.steps;
     if (c.replanned) out.max_replan_time_s = std::max(out.max_replan_time_s, c.replan_time_s);
-    else cycle_us.push_back(c.cycle_time_s * 1e6);
+    else {
+      cycle_us.push_back(c.cycle_time_s * 1e6);
+      out.max_cycle_time_s = std::max(out.max_cycle_time_s, c.cycle_time_s);
+    }
     res.escapes = std::max(res.escapes, c.command.escapes);
     last = c.status;
     if (c.status != NavigatorStatus::kDriving) {
       if (c.status != NavigatorStatus::kArrived) res.message = c.command.message;
       break;
     }
-    // The robot follows the set-points; the referee samples the period against the true world.
-    const Vec3 p0 = state.position, v0 = state.velocity, acc = c.command.acceleration;
-    const double dt = sc.dt_s;
-    // Sub-samples so that no relative motion within one exceeds sample_step.
-    const double reach = v0.norm() * dt + 0.5 * acc.norm() * dt * dt;
-    double ob_reach = 0.0;
-    for (const local::NamedObstacle& m : sc.moving_obstacles)
-      ob_reach = std::max(ob_reach, m.obstacle.velocityAt(t).norm() * dt + 0.5 * m.obstacle.acceleration.norm() * dt * dt);
-    const int subs = int(std::clamp(std::ceil((reach + ob_reach) / sample_step), 1.0, 1000.0));
-    bool hit = false;
-    for (int s = 1; s <= subs; ++s) {
-      const double tau = dt * double(s) / double(subs);
-      const Vec3 p = p0 + v0 * tau + 0.5 * acc * tau * tau;
-      double d = rockDistance(p);
-      std::string what = "rock";
-      for (const Fall& f : falls) {
-        const double df = std::max(0.0, (p - f.event.center).norm() - f.event.radius_m - r);
-        out.min_fall_clearance_m = std::min(out.min_fall_clearance_m, df);
-        if (df < d) { d = df; what = "roof fall"; }
-      }
-      for (std::size_t i = 0; i < nm; ++i) {
-        const map::ShapeDistance sd = map::obstacleDistance(robot, at(p), sc.moving_obstacles[i].obstacle, t + tau);
-        const double dm = sd.collision ? 0.0 : sd.distance_m;
-        if (dm < res.closest[i].distance_m) res.closest[i] = {res.closest[i].name, dm, t + tau};
-        if (dm < d) { d = dm; what = sc.moving_obstacles[i].name; }
-      }
-      res.min_clearance_m = std::min(res.min_clearance_m, d);
-      if (d <= 0.0 && !hit && res.collisions == 0) {
-        res.first_collision_t_s = t + tau;
-        res.first_collision_with = what;
-      }
-      hit = hit || d <= 0.0;
-    }
-    if (hit) ++res.collisions;
-    state.position = p0 + v0 * dt + 0.5 * acc * dt * dt;
-    state.velocity = v0 + acc * dt;
-    state.acceleration = acc;
-    res.path_length_m += (state.position - p0).norm();
-    t = double(k + 1) * dt;
+    // The robot follows the set-points; the referee samples the period against the true world:
+    // the map, and the roof falls that have happened.
+    local::refereePeriod(sc, truth, c.command.acceleration, t, state, res,
+                         [&](const Vec3& p, double, double& d, std::string& what) {
+                           for (const Fall& f : falls) {
+                             const double df = std::max(0.0, (p - f.event.center).norm() - f.event.radius_m - r);
+                             out.min_fall_clearance_m = std::min(out.min_fall_clearance_m, df);
+                             if (df < d) { d = df; what = "roof fall"; }
+                           }
+                         });
+    t = double(k + 1) * sc.dt_s;
     res.trajectory.push_back({t, state.position, state.velocity, c.command.status});
   }
   res.final_goal_distance_m = (state.position - sc.goal).norm();
@@ -197,12 +166,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   out.final_path = nav.expectedPath();
   out.end_time_s = t;
   // The verdict is the referee's.
-  if (res.collisions > 0) {
-    res.outcome = Outcome::kCollision;
-    std::ostringstream os;
-    os << "the robot overlapped " << res.first_collision_with << " at t = " << res.first_collision_t_s << " s ("
-       << res.collisions << " periods in contact)";
-    res.message = os.str();
+  if (local::collisionVerdict(res)) {
   } else if (last == NavigatorStatus::kArrived && res.final_goal_distance_m <= res.arrival_tolerance_m) {
     res.outcome = Outcome::kArrived;
     res.arrival_time_s = t;

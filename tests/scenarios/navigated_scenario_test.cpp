@@ -26,10 +26,10 @@ NavigatedRun run(const std::string& name) {
   if (!r.ok()) return {};
   const local::SimulationResult& x = r->run;
   std::printf("[%s] %s t=%.1f s (end %.1f s), path %.1f m, min clearance %.3f m, fall clearance %.3f m, "
-              "%d collisions, %d replans (longest %.3f s), cycle p50 %.1f us p99 %.1f us, wall %.2f s\n",
+              "%d collisions, %d replans (longest %.3f s), cycle p50 %.1f us p99 %.1f us max %.1f us, wall %.2f s\n",
               sc->name.c_str(), local::outcomeName(x.outcome), x.arrival_time_s, r->end_time_s, x.path_length_m,
               x.min_clearance_m, r->min_fall_clearance_m, x.collisions, r->replans, r->max_replan_time_s,
-              x.step_time_p50_us, x.step_time_p99_us, r->wall_time_s);
+              x.step_time_p50_us, x.step_time_p99_us, r->max_cycle_time_s * 1e6, r->wall_time_s);
   for (const NavigatorEvent& e : r->events) std::printf("    t=%.1f %s: %s\n", e.t_s, e.type.c_str(), e.reason.c_str());
   return *r;
 }

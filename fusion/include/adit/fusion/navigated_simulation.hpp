@@ -45,6 +45,8 @@ struct NavigatedRun {
   map::Polyline initial_path;          ///< the expected path at t = 0
   map::Polyline final_path;            ///< the expected path at the end
   double max_replan_time_s = 0.0;
+  /// Longest cycle that did not replan (a map transaction with a field update included) [s].
+  double max_cycle_time_s = 0.0;
   /// Smallest distance from the robot's surface to any roof-fall ball over the run (inf without).
   double min_fall_clearance_m = std::numeric_limits<double>::infinity();
   double end_time_s = 0.0;             ///< simulated time when the run ended
