@@ -51,7 +51,11 @@ if [ "$mode" = run ]; then
   echo "== adit plan --map maps/district.yaml --farthest-ends --out out/district_plan.json --picture out/district_plan.png" >&2
   "$BUILD_DIR/bin/adit" plan --map maps/district.yaml --farthest-ends --out out/district_plan.json \
       --picture out/district_plan.png
-  echo "== done: the top view is out/district_top.png, the planned path out/district_plan.png" >&2
+  echo "== adit simulate maps/scenarios/district_rescue.yaml --out out/rescue.json --picture out/rescue.png --html out/rescue.html" >&2
+  "$BUILD_DIR/bin/adit" simulate maps/scenarios/district_rescue.yaml --out out/rescue.json \
+      --picture out/rescue.png --html out/rescue.html
+  echo "== done: the top view is out/district_top.png, the planned path out/district_plan.png," \
+       "the rescue run out/rescue.png and out/rescue.html" >&2
 else
   ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
 fi

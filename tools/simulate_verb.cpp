@@ -1,13 +1,17 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // `adit simulate SCENARIO.yaml`: run a scenario through the local planner and report the run.
-// Thin: load, call adit::local::simulate, write JSON / picture / page.
+// Thin: load, call adit::local::simulate (or adit::fusion::simulateNavigated for scenarios with
+// `expected_path: plan`, `robot.sensor_range` or `events`), write JSON / picture / page.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <iostream>
 
+#include "adit/fusion/navigated_simulation.hpp"
 #include "adit/local/simulator.hpp"
 #include "adit/map/map_io.hpp"
 #include "common/animation_page.hpp"
@@ -63,11 +67,47 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
   return j;
 }
 
+// What the navigator adds to the JSON: replans, the world's and the navigator's events, paths.
+void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const fusion::NavigatedRun& n) {
+  auto pathJson = [](const map::Polyline& p) {
+    auto a = nlohmann::ordered_json::array();
+    for (const Vec3& q : p.points) a.push_back({q.x(), q.y(), q.z()});
+    return a;
+  };
+  j["replans"] = n.replans;
+  j["max_replan_time"] = n.max_replan_time_s;
+  j["max_cycle_time"] = n.max_cycle_time_s;
+  j["min_fall_clearance"] = std::isfinite(n.min_fall_clearance_m) ? nlohmann::ordered_json(n.min_fall_clearance_m)
+                                                                  : nlohmann::ordered_json(nullptr);
+  j["end_time"] = n.end_time_s;
+  j["wall_time"] = n.wall_time_s;
+  auto events = nlohmann::ordered_json::array();
+  for (const ScenarioEvent& e : sc.events)
+    if (e.t_s <= n.end_time_s + 1e-9)
+      events.push_back({{"t", e.t_s}, {"type", e.type}, {"what", "the ball became rock (true world)"},
+                        {"center", {e.center.x(), e.center.y(), e.center.z()}}, {"radius", e.radius_m}});
+  for (const fusion::NavigatorEvent& e : n.events) {
+    nlohmann::ordered_json ev{{"t", e.t_s}, {"type", e.type}, {"reason", e.reason}};
+    if (e.type != "map_update_failed") ev["replan_time"] = e.replan_time_s;
+    if (!e.route.empty()) ev["route"] = e.route;
+    if (!e.message.empty()) ev["message"] = e.message;
+    events.push_back(ev);
+  }
+  std::stable_sort(events.begin(), events.end(), [](const auto& a, const auto& b) {
+    return a["t"].template get<double>() < b["t"].template get<double>();
+  });
+  j["events"] = events;
+  j["initial_path"] = pathJson(n.initial_path);
+  j["final_path"] = pathJson(n.final_path);
+}
+
 // The run drawn on the map (or open space): static obstacles, moving-obstacle tracks, the
 // expected path and the trajectory coloured by time.
 // `mover_ends` marks where each mover was last seen near the run (the still picture); the page
 // animates the movers itself and leaves them out.
-Figure runFigure(const Scenario& sc, const Environment& env, const SimulationResult& r, bool mover_ends) {
+// `replanned`: the navigator's last expected path when it differs from the first (drawn dashed).
+Figure runFigure(const Scenario& sc, const Environment& env, const SimulationResult& r, bool mover_ends,
+                 const map::Polyline* replanned = nullptr) {
   TopViewOptions opt;
   opt.title = sc.name + " (" + methodName(sc.params.method) + "): " + outcomeName(r.outcome);
   Figure fig(opt);
@@ -103,7 +143,16 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
     d.radius_m = s.radius;
     fig.addDisc(d);
   }
+  for (const ScenarioEvent& e : sc.events) {
+    FigureDisc d;
+    d.center = e.center;
+    d.radius_m = e.radius_m;
+    d.fill = d.stroke = kFigureBlocked;
+    d.label = "roof fall t=" + std::to_string(int(e.t_s)) + " s";
+    fig.addDisc(d);
+  }
   fig.addLine({sc.expected_path.points, kFigurePath, 2.0, true, {}, "expected path", ""});
+  if (replanned) fig.addLine({replanned->points, kFigureMoving, 2.0, true, {}, "replanned path", ""});
   FigureLine traj{{}, kFigureTrajectory, 2.5, false, {}, "trajectory", "time [s]"};
   for (const TrajectorySample& s : r.trajectory) {
     traj.points.push_back(s.position);
@@ -157,10 +206,24 @@ int run(const SimulateArgs& a) {
   if (!a.quiet) std::fprintf(stderr, "adit: simulating %s with %s\n", sc->name.c_str(), methodName(sc->params.method));
   StatusOr<Environment> env = Environment::load(*sc);
   if (!env.ok()) return report(env.status());
-  StatusOr<SimulationResult> r = simulate(*sc, *env);
+  std::optional<fusion::NavigatedRun> nav;
+  StatusOr<SimulationResult> r = internalError("not run");
+  if (sc->needsNavigator()) {
+    StatusOr<fusion::NavigatedRun> n = fusion::simulateNavigated(*sc, *env);
+    if (!n.ok()) return report(n.status());
+    nav = std::move(n).value();
+    r = nav->run;
+    // Drawn and exported: the path the run started with.
+    sc->expected_path = nav->initial_path;
+  } else {
+    r = simulate(*sc, *env);
+  }
   if (!r.ok()) return report(r.status());
+  const map::Polyline* replanned = nav && nav->replans > 0 ? &nav->final_path : nullptr;
 
-  const std::string json = toJson(*sc, *r).dump(2) + "\n";
+  nlohmann::ordered_json j = toJson(*sc, *r);
+  if (nav) addNavigatorJson(j, *sc, *nav);
+  const std::string json = j.dump(2) + "\n";
   if (!a.out.empty()) {
     Status s = map::writeFileAtomically(a.out, [&](std::ostream& os) { return bool(os << json); });
     if (!s.ok()) return report(s);
@@ -168,12 +231,13 @@ int run(const SimulateArgs& a) {
     std::fwrite(json.data(), 1, json.size(), stdout);
   }
   if (!a.picture.empty())
-    if (Status s = runFigure(*sc, *env, *r, true).render(a.picture); !s.ok()) return report(s);
+    if (Status s = runFigure(*sc, *env, *r, true, replanned).render(a.picture); !s.ok()) return report(s);
   if (!a.html.empty())
-    if (Status s = writePage(*sc, runFigure(*sc, *env, *r, false), *r, a.html); !s.ok()) return report(s);
+    if (Status s = writePage(*sc, runFigure(*sc, *env, *r, false, replanned), *r, a.html); !s.ok()) return report(s);
   if (!a.quiet) {
     std::fprintf(stderr, "adit: %s: %s", sc->name.c_str(), outcomeName(r->outcome));
     if (r->arrived()) std::fprintf(stderr, " at t = %.1f s", r->arrival_time_s);
+    if (nav) std::fprintf(stderr, ", %d replans (longest %.3f s)", nav->replans, nav->max_replan_time_s);
     std::fprintf(stderr, ", path %.2f m, min clearance %.3f m, %d collisions, %d steps (p50 %.1f us)\n",
                  r->path_length_m, r->min_clearance_m, r->collisions, r->steps, r->step_time_p50_us);
   }
@@ -187,7 +251,7 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   CLI::App* cmd = app.add_subcommand(
       "simulate",
       "Run a scenario (YAML) through the local planner. JSON on stdout or --out; exit 0 arrived, "
-      "1 collision/stuck/timeout, 2 bad scenario");
+      "1 collision/stuck/timeout/no_route, 2 bad scenario");
   cmd->add_option("SCENARIO", args->scenario, "Scenario file (.yaml)")->required();
   cmd->add_option("--out", args->out, "Write the JSON here instead of stdout (atomically)");
   cmd->add_option("--picture", args->picture, "Top view of the run (.png or .svg)");

@@ -3,6 +3,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <initializer_list>
@@ -119,7 +120,7 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
   Scenario s;
   if (!root.IsMap()) r.fail(root, "(document)", "a scenario is a YAML mapping");
   r.onlyKeys(root, "", {"name", "description", "map", "start", "goal", "expected_path", "robot",
-                        "static_obstacles", "moving_obstacles", "method", "params", "dt", "t_max", "seed"});
+                        "static_obstacles", "moving_obstacles", "method", "params", "dt", "t_max", "seed", "events"});
   s.file = r.file();
   s.name = root["name"] ? root["name"].as<std::string>() : fs::path(r.file()).stem().string();
   if (root["description"]) s.description = root["description"].as<std::string>();
@@ -140,7 +141,11 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
     if (!root[k]) r.fail(root, k, "missing");
   s.start = r.vec3(root["start"], "start");
   s.goal = r.vec3(root["goal"], "goal");
-  if (const YAML::Node p = root["expected_path"]) {
+  if (const YAML::Node p = root["expected_path"]; p && p.IsScalar()) {
+    if (p.Scalar() != "plan") r.fail(p, "expected_path", "must be a list of points or 'plan' (got '" + p.Scalar() + "')");
+    s.plan_expected_path = true;
+    s.expected_path.points = {s.start, s.goal};
+  } else if (p) {
     if (!p.IsSequence() || p.size() < 1) r.fail(p, "expected_path", "must be a list of at least one point");
     for (std::size_t i = 0; i < p.size(); ++i)
       s.expected_path.points.push_back(r.vec3(p[i], "expected_path[" + std::to_string(i) + "]"));
@@ -151,7 +156,8 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
   }
 
   if (const YAML::Node rb = root["robot"]) {
-    r.onlyKeys(rb, "robot", {"radius", "v_max", "a_max"});
+    r.onlyKeys(rb, "robot", {"radius", "v_max", "a_max", "sensor_range"});
+    if (rb["sensor_range"]) s.sensor_range_m = r.positive(rb["sensor_range"], "robot.sensor_range");
     if (rb["radius"]) s.params.robot.radius_m = r.positive(rb["radius"], "robot.radius");
     if (rb["v_max"]) s.params.robot.v_max_mps = r.positive(rb["v_max"], "robot.v_max");
     if (rb["a_max"]) s.params.robot.a_max_mps2 = r.positive(rb["a_max"], "robot.a_max");
@@ -215,6 +221,25 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
       if (!set.found)
         r.fail(kv.first, "params." + key, std::string("unknown field for method ") + methodName(s.params.method));
     }
+  }
+  if (const YAML::Node list = root["events"]) {
+    if (!list.IsSequence()) r.fail(list, "events", "must be a list");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string f = "events[" + std::to_string(i) + "]";
+      const YAML::Node e = list[i];
+      r.onlyKeys(e, f, {"t", "type", "center", "radius"});
+      for (const char* k : {"t", "type", "center", "radius"})
+        if (!e[k]) r.fail(e, f + "." + k, "missing");
+      ScenarioEvent ev;
+      ev.t_s = r.nonNegative(e["t"], f + ".t");
+      ev.type = e["type"].as<std::string>();
+      if (ev.type != "roof_fall") r.fail(e["type"], f + ".type", "unknown event type '" + ev.type + "' (roof_fall)");
+      ev.center = r.vec3(e["center"], f + ".center");
+      ev.radius_m = r.positive(e["radius"], f + ".radius");
+      s.events.push_back(ev);
+    }
+    std::stable_sort(s.events.begin(), s.events.end(),
+                     [](const ScenarioEvent& a, const ScenarioEvent& b) { return a.t_s < b.t_s; });
   }
   if (root["dt"]) s.dt_s = r.positive(root["dt"], "dt");
   if (root["t_max"]) s.t_max_s = r.positive(root["t_max"], "t_max");

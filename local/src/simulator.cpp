@@ -66,6 +66,7 @@ const char* outcomeName(Outcome o) {
     case Outcome::kCollision: return "collision";
     case Outcome::kStuck: return "stuck";
     case Outcome::kTimeout: return "timeout";
+    case Outcome::kNoRoute: return "no_route";
   }
   return "?";
 }
@@ -114,8 +115,72 @@ double percentile(std::vector<double> v, double q) {
 
 }  // namespace
 
+void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, double t, RobotState& state, SimulationResult& res, const ExtraDistanceFn& extra) {
+  const Referee referee(sc, env);
+  const std::size_t nm = sc.moving_obstacles.size();
+  double min_obstacle_radius = sc.params.robot.radius_m;
+  for (const auto& m : sc.moving_obstacles)
+    min_obstacle_radius = std::min(min_obstacle_radius, m.obstacle.shape.type == map::ShapeType::kBox
+                                                            ? 0.5 * m.obstacle.shape.size.minCoeff()
+                                                            : m.obstacle.shape.radius);
+  const double sample_step = 0.25 * std::max(min_obstacle_radius, 0.01);
+  // The robot follows the set-points: constant acceleration over the period.
+  const Vec3 p0 = state.position, v0 = state.velocity;
+  const double dt = sc.dt_s;
+  // Sub-samples so that no relative motion within one exceeds sample_step.
+  double reach = v0.norm() * dt + 0.5 * acc.norm() * dt * dt;
+  double ob_reach = 0.0;
+  for (std::size_t i = 0; i < nm; ++i) {
+    const map::MovingObstacle& m = sc.moving_obstacles[i].obstacle;
+    ob_reach = std::max(ob_reach, m.velocityAt(t).norm() * dt + 0.5 * m.acceleration.norm() * dt * dt);
+  }
+  const int subs = int(std::clamp(std::ceil((reach + ob_reach) / sample_step), 1.0, 1000.0));
+  bool hit = false;
+  for (int s = 1; s <= subs; ++s) {
+    const double tau = dt * double(s) / double(subs);
+    const Vec3 p = p0 + v0 * tau + 0.5 * acc * tau * tau;
+    // Nearest thing to the robot at this instant, and what it is.
+    double d = referee.rockDistance(p);
+    std::string what = "rock";
+    if (extra) extra(p, t + tau, d, what);
+    for (std::size_t i = 0; i < sc.static_obstacles.size(); ++i) {
+      const double ds = referee.staticDistance(p, i);
+      if (ds < d) { d = ds; what = "static obstacle " + std::to_string(i + 1); }
+    }
+    for (std::size_t i = 0; i < nm; ++i) {
+      const double dm = referee.movingDistance(p, i, t + tau);
+      if (dm < res.closest[i].distance_m) res.closest[i] = {res.closest[i].name, dm, t + tau};
+      if (dm < d) { d = dm; what = sc.moving_obstacles[i].name; }
+    }
+    res.min_clearance_m = std::min(res.min_clearance_m, d);
+    if (d <= 0.0 && !hit && res.collisions == 0) {
+      res.first_collision_t_s = t + tau;
+      res.first_collision_with = what;
+    }
+    hit = hit || d <= 0.0;
+  }
+  if (hit) ++res.collisions;
+  state.position = p0 + v0 * dt + 0.5 * acc * dt * dt;
+  state.velocity = v0 + acc * dt;
+  state.acceleration = acc;
+  res.path_length_m += (state.position - p0).norm();
+}
+
+bool collisionVerdict(SimulationResult& res) {
+  if (res.collisions == 0) return false;
+  res.outcome = Outcome::kCollision;
+  std::ostringstream os;
+  os << "the robot overlapped " << res.first_collision_with << " at t = " << res.first_collision_t_s << " s ("
+     << res.collisions << " periods in contact)";
+  res.message = os.str();
+  return true;
+}
+
 StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) {
   ADIT_RETURN_IF_ERROR(sc.validate());
+  if (sc.needsNavigator())
+    return invalidArgument(sc.file + ": expected_path: plan, robot.sensor_range and events need the navigator "
+                           "(adit::fusion::simulateNavigated)");
   const double r = sc.params.robot.radius_m;
   if (env.field()) {
     if (!env.field()->isFree(sc.start)) return invalidArgument(sc.file + ": start: inside rock");
@@ -147,12 +212,6 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) 
   state.position = sc.start;
   double t = 0.0;
   res.trajectory.push_back({0.0, state.position, state.velocity, StepStatus::kFollowing});
-  double min_obstacle_radius = r;
-  for (const auto& m : sc.moving_obstacles)
-    min_obstacle_radius = std::min(min_obstacle_radius, m.obstacle.shape.type == map::ShapeType::kBox
-                                                            ? 0.5 * m.obstacle.shape.size.minCoeff()
-                                                            : m.obstacle.shape.radius);
-  const double sample_step = 0.25 * std::max(min_obstacle_radius, 0.01);
   bool stuck = false;
   StepStatus last = StepStatus::kFollowing;
 
@@ -176,46 +235,8 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) 
       res.message = c.message;
       break;
     }
-    // The robot follows the set-points: constant acceleration over the period.
-    const Vec3 p0 = state.position, v0 = state.velocity, acc = c.acceleration;
-    const double dt = sc.dt_s;
-    // Sub-samples so that no relative motion within one exceeds sample_step.
-    double reach = v0.norm() * dt + 0.5 * acc.norm() * dt * dt;
-    double ob_reach = 0.0;
-    for (std::size_t i = 0; i < nm; ++i) {
-      const map::MovingObstacle& m = sc.moving_obstacles[i].obstacle;
-      ob_reach = std::max(ob_reach, m.velocityAt(t).norm() * dt + 0.5 * m.acceleration.norm() * dt * dt);
-    }
-    const int subs = int(std::clamp(std::ceil((reach + ob_reach) / sample_step), 1.0, 1000.0));
-    bool hit = false;
-    for (int s = 1; s <= subs; ++s) {
-      const double tau = dt * double(s) / double(subs);
-      const Vec3 p = p0 + v0 * tau + 0.5 * acc * tau * tau;
-      // Nearest thing to the robot at this instant, and what it is.
-      double d = referee.rockDistance(p);
-      std::string what = "rock";
-      for (std::size_t i = 0; i < sc.static_obstacles.size(); ++i) {
-        const double ds = referee.staticDistance(p, i);
-        if (ds < d) { d = ds; what = "static obstacle " + std::to_string(i + 1); }
-      }
-      for (std::size_t i = 0; i < nm; ++i) {
-        const double dm = referee.movingDistance(p, i, t + tau);
-        if (dm < res.closest[i].distance_m) res.closest[i] = {res.closest[i].name, dm, t + tau};
-        if (dm < d) { d = dm; what = sc.moving_obstacles[i].name; }
-      }
-      res.min_clearance_m = std::min(res.min_clearance_m, d);
-      if (d <= 0.0 && !hit && res.collisions == 0) {
-        res.first_collision_t_s = t + tau;
-        res.first_collision_with = what;
-      }
-      hit = hit || d <= 0.0;
-    }
-    if (hit) ++res.collisions;
-    state.position = p0 + v0 * dt + 0.5 * acc * dt * dt;
-    state.velocity = v0 + acc * dt;
-    state.acceleration = acc;
-    res.path_length_m += (state.position - p0).norm();
-    t = double(k + 1) * dt;
+    refereePeriod(sc, env, c.acceleration, t, state, res);
+    t = double(k + 1) * sc.dt_s;
     res.trajectory.push_back({t, state.position, state.velocity, c.status});
   }
   res.final_goal_distance_m = (state.position - sc.goal).norm();
@@ -223,12 +244,7 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) 
   res.step_time_p99_us = percentile(step_us, 0.99);
   // The verdict is the referee's, not the planner's.
   const bool within = res.final_goal_distance_m <= res.arrival_tolerance_m;
-  if (res.collisions > 0) {
-    res.outcome = Outcome::kCollision;
-    std::ostringstream os;
-    os << "the robot overlapped " << res.first_collision_with << " at t = " << res.first_collision_t_s << " s ("
-       << res.collisions << " periods in contact)";
-    res.message = os.str();
+  if (collisionVerdict(res)) {
   } else if (last == StepStatus::kArrived && within) {
     res.outcome = Outcome::kArrived;
     res.arrival_time_s = t;

@@ -218,7 +218,14 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
   return out;
 }
 
-Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) {
+Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) { return update(map, changed, nullptr); }
+
+Status DistanceField::update(const OccupancyMap& map, const Aabb& changed, DistanceFieldUpdateReport* report) {
+  const auto t0 = std::chrono::steady_clock::now();
+  DistanceFieldUpdateReport local;
+  DistanceFieldUpdateReport& rep = report ? *report : local;
+  rep = DistanceFieldUpdateReport();
+  auto finish = [&] { rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   Impl& m = *impl_;
   if (std::abs(map.resolution() - m.res) > 1e-12) return invalidArgument("distance field update: map resolution differs");
   if (changed.empty() || !allFinite(changed.min) || !allFinite(changed.max))
@@ -237,6 +244,9 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) {
     StatusOr<DistanceField> fresh = build(map);
     if (!fresh.ok()) return fresh.status();
     *this = std::move(fresh).value();
+    rep.full_rebuild = true;
+    rep.voxels_recomputed = impl_->stats.blocks * std::uint64_t(kBlockVoxels);
+    finish();
     return {};
   }
   // Re-read the changed voxels; new free space outside the tiles gets tiles.
@@ -283,9 +293,15 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) {
     const double volume = double(r.hi[0] - r.lo[0] + 1) * double(r.hi[1] - r.lo[1] + 1) * double(r.hi[2] - r.lo[2] + 1);
     if (volume > 2e8) {  // the window grew to most of a large map: a full pass is cheaper
       m.transformAll({});
+      rep.full_transform = true;
+      rep.voxels_recomputed = m.blocks.size() * std::uint64_t(kBlockVoxels);
       break;
     }
     worst = m.transformBox(r, write);
+    rep.recomputed = Aabb(Vec3(centreOf(write.lo[0], m.res), centreOf(write.lo[1], m.res), centreOf(write.lo[2], m.res)),
+                          Vec3(centreOf(write.hi[0], m.res), centreOf(write.hi[1], m.res), centreOf(write.hi[2], m.res)));
+    rep.voxels_recomputed = std::uint64_t(double(write.hi[0] - write.lo[0] + 1) * double(write.hi[1] - write.lo[1] + 1) *
+                                          double(write.hi[2] - write.lo[2] + 1));
     if (worst <= margin || whole) break;
     margin *= 2;
   }
@@ -294,6 +310,7 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) {
   m.refreshMemoryStats();
   m.stats.free_voxels = std::uint64_t(std::int64_t(m.stats.free_voxels) + free_delta);
   if (std::isfinite(worst)) m.stats.max_distance_m = std::max(m.stats.max_distance_m, worst * m.res);
+  finish();
   return {};
 }
 

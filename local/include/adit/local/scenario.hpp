@@ -17,6 +17,12 @@
 ///   t_max: 300
 ///   seed: 1
 ///
+/// Issue 8 (run by adit::fusion::simulateNavigated, not by simulate() below):
+///
+///   expected_path: plan          # plan it with the global layer on the scenario's map
+///   robot: {sensor_range: 8}     # rock within this range of the robot is sensed [m]
+///   events: [{t: 10, type: roof_fall, center: [90, 20, -3], radius: 3}]
+///
 /// Extensions: `name`, `description`; a moving obstacle may have `name`, `shape: sphere | box |
 /// cylinder` with `size: [x, y, z]` (box) or `length` (cylinder, along z).
 ///
@@ -40,6 +46,15 @@ struct NamedObstacle {
   map::MovingObstacle obstacle;  ///< position/velocity/acceleration at t = 0
 };
 
+/// Something that happens to the true world during the run (issue 8). Only `roof_fall`: at t_s the
+/// ball becomes rock; the robot learns it only through its sensor.
+struct ScenarioEvent {
+  double t_s = 0.0;
+  std::string type = "roof_fall";
+  Vec3 center = Vec3::Zero();
+  double radius_m = 1.0;
+};
+
 struct Scenario {
   std::string name;         ///< `name`, else the file's stem
   std::string description;
@@ -54,6 +69,11 @@ struct Scenario {
   double dt_s = 0.1;
   double t_max_s = 300.0;
   std::uint64_t seed = 1;
+  bool plan_expected_path = false;        ///< `expected_path: plan` (expected_path is then [start, goal])
+  std::optional<double> sensor_range_m;   ///< `robot.sensor_range`
+  std::vector<ScenarioEvent> events;      ///< `events`, sorted by time
+  /// The run needs the navigator (adit::fusion): a planned path, a sensor or events.
+  bool needsNavigator() const { return plan_expected_path || sensor_range_m.has_value() || !events.empty(); }
 
   /// Range checks that need no map (the loader calls it; code that builds a Scenario should too).
   Status validate() const;

@@ -14,6 +14,7 @@
 ///   StatusOr<SimulationResult> run = simulate(*sc, *env);
 ///   std::cout << outcomeName(run->outcome) << " in " << run->arrival_time_s << " s\n";
 
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -54,7 +55,8 @@ class Environment {
   std::unique_ptr<Impl> impl_;
 };
 
-enum class Outcome { kArrived, kCollision, kStuck, kTimeout };
+/// kNoRoute (issue 8, the navigator's runs): every roadway to the goal is sealed; the robot stopped.
+enum class Outcome { kArrived, kCollision, kStuck, kTimeout, kNoRoute };
 const char* outcomeName(Outcome o);
 
 struct TrajectorySample {
@@ -92,8 +94,19 @@ struct SimulationResult {
   bool arrived() const { return outcome == Outcome::kArrived; }
 };
 
+/// The referee's part of one period, shared with the navigator's runs (adit::fusion): the robot
+/// moves from `state` under `acceleration` for sc.dt_s from time t_s; the period is sub-sampled
+/// against rock, static and moving obstacles and `extra` (which may lower the distance `d` and
+/// name `what`, e.g. a roof fall); `result` gains clearances, closest approaches, collisions and
+/// path length (the caller appends the trajectory sample).
+using ExtraDistanceFn = std::function<void(const Vec3& p, double t_s, double& d, std::string& what)>;
+void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acceleration, double t_s, RobotState& state, SimulationResult& result, const ExtraDistanceFn& extra = {});
+/// Sets outcome kCollision and its message when the run collided; false otherwise.
+bool collisionVerdict(SimulationResult& result);
+
 /// Runs the scenario to arrival, a stuck verdict, or t_max. Errors: a scenario that fails
-/// validate(), a start or goal inside rock or overlapping an obstacle.
+/// validate(), a start or goal inside rock or overlapping an obstacle, a scenario that
+/// needsNavigator() (run those with adit::fusion::simulateNavigated).
 StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment& environment);
 
 }  // namespace adit::local

@@ -56,6 +56,15 @@ struct DistanceFieldStats {
   }
 };
 
+/// What DistanceField::update() recomputed (the navigator reports it per map transaction).
+struct DistanceFieldUpdateReport {
+  bool full_rebuild = false;     ///< the window was too large: the field was rebuilt from the map
+  bool full_transform = false;   ///< the transform ran over every tile (window grew to most of the map)
+  Aabb recomputed;               ///< the box whose transform was recomputed (world coordinates)
+  std::uint64_t voxels_recomputed = 0;  ///< voxels in that box
+  double seconds = 0.0;
+};
+
 class DistanceField {
  public:
   /// Builds the field from the map under its unknown-space policy. Refuses maps whose free space
@@ -81,6 +90,8 @@ class DistanceField {
   /// the field exact again by recomputing the transform over `changed` grown by the largest
   /// clearance, with a margin that doubles until every result is provably exact.
   Status update(const OccupancyMap& map, const Aabb& changed);
+  /// The same, saying what it recomputed (`report` may be null).
+  Status update(const OccupancyMap& map, const Aabb& changed, DistanceFieldUpdateReport* report);
 
   double resolution() const;
   const DistanceFieldStats& stats() const;

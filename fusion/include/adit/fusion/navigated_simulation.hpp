@@ -1,0 +1,61 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// The scenario simulator for runs that need the Navigator (issue 8): `expected_path: plan`,
+/// `robot.sensor_range` and `events` (roof falls). It keeps two worlds apart:
+///
+/// - the TRUE world: the scenario's map as loaded into the local::Environment, plus every roof
+///   fall that has happened (a ball of rock). The referee measures the robot's sphere against it:
+///   against the map exactly (CollisionChecker, FCL), against a fall ball in closed form, against
+///   moving obstacles with map::obstacleDistance, sub-sampled within each period as
+///   local::simulate() does;
+/// - the BELIEVED world: the Navigator's own copy of the map (loaded separately, so it shares no
+///   octree with the true one). It learns a fall only through the sensor: every period the
+///   fall's voxels that were free roadway in the true map and lie within `robot.sensor_range` of
+///   the robot are handed to Navigator::cycle() as sensed rock points (the sensor sees through
+///   dust and round corners: there is no line-of-sight test).
+///
+/// A run ends in arrival, collision, no_route (the navigator found every roadway sealed and
+/// stopped), stuck, or t_max.
+///
+///   StatusOr<local::Scenario> sc = local::loadScenario("maps/scenarios/district_rescue.yaml");
+///   StatusOr<local::Environment> truth = local::Environment::load(*sc);
+///   StatusOr<NavigatedRun> run = simulateNavigated(*sc, *truth);
+///   std::cout << run->replans << " replans, " << local::outcomeName(run->run.outcome) << "\n";
+
+#include <limits>
+#include <vector>
+
+#include "adit/fusion/navigator.hpp"
+#include "adit/local/scenario.hpp"
+#include "adit/local/simulator.hpp"
+#include "adit/status.hpp"
+
+namespace adit::fusion {
+
+/// Sensor range when the scenario gives none [m].
+inline constexpr double kDefaultSensorRangeM = 10.0;
+
+struct NavigatedRun {
+  /// Outcome (kNoRoute included), trajectory, clearances; step_time_* are the navigator's cycle
+  /// times in cycles that did not replan.
+  local::SimulationResult run;
+  int replans = 0;
+  std::vector<NavigatorEvent> events;  ///< the navigator's decisions
+  map::Polyline initial_path;          ///< the expected path at t = 0
+  map::Polyline final_path;            ///< the expected path at the end
+  double max_replan_time_s = 0.0;
+  /// Longest cycle that did not replan (a map transaction with a field update included) [s].
+  double max_cycle_time_s = 0.0;
+  /// Smallest distance from the robot's surface to any roof-fall ball over the run (inf without).
+  double min_fall_clearance_m = std::numeric_limits<double>::infinity();
+  double end_time_s = 0.0;             ///< simulated time when the run ended
+  double wall_time_s = 0.0;            ///< the whole simulation, map loading included
+};
+
+/// Runs the scenario (its map is required: the navigator plans on it). Errors: those of
+/// local::simulate() for bad input, a scenario without a map, static_obstacles (not supported by
+/// the navigator).
+StatusOr<NavigatedRun> simulateNavigated(const local::Scenario& scenario, const local::Environment& truth);
+
+}  // namespace adit::fusion

@@ -1,0 +1,121 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// Navigator: the library a robot links. It holds the robot's believed map, its distance field,
+/// the roadway graph (inside the GlobalPlanner), the expected path and the LocalPlanner. Every
+/// control period cycle() takes the robot state, the rock points its sensor returns and the
+/// moving-obstacle tracks, and returns the command:
+///
+///   1. map transaction: sensed rock points that the map still holds free are written with
+///      OccupancyMap::setVoxels and the field is made exact again with DistanceField::update over
+///      the changed box; the cycle report says what the update recomputed and whether it fell back
+///      to a full rebuild;
+///   2. if the remaining expected path now passes closer to rock than the robot's radius (a roof
+///      fall on it), or the local layer said kStuck, the roadway graph re-checks its edges in the
+///      changed window (RoadwayGraph::refreshBlocked through GlobalPlanner::mapChanged) and the
+///      global layer replans from where the robot is; the event (time, reason, route, replan time)
+///      is recorded. No route: the command is zero and the status kNoRoute, for good;
+///   3. the local step (LocalPlanner::step) along the expected path.
+///
+/// Time per cycle is bounded by the sensed points (each inserted once) and the local step, except
+/// in a cycle that replans; the report gives both times.
+///
+/// One writer, concurrent readers: the navigator is the single writer of map, field and graph, and
+/// writes only inside cycle() (and plan()), under an exclusive lock. Any other thread (a viewer, a
+/// logger, a planner of one's own) reads only through read(), which holds the shared lock for the
+/// duration of its callback: it sees the world before or after a transaction, never half of one.
+/// The navigator replans on the cycle's own thread, inside the exclusive lock, so a replan needs
+/// no snapshot. The navigator is not copyable; calls to cycle() must come from one thread.
+///
+///   StatusOr<Navigator> nav = Navigator::create(std::move(loaded), params, goal);
+///   ADIT_RETURN_IF_ERROR(nav->plan(start));
+///   for (;;) {
+///     NavigatorCycle c = nav->cycle(t, state, lidar_rock_points, tracks, 0.1);
+///     if (c.status == NavigatorStatus::kNoRoute) break;   // command is zero: stay put
+///     send(c.command.velocity, c.command.acceleration);
+///   }
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "adit/global/global_planner.hpp"
+#include "adit/local/local_planner.hpp"
+#include "adit/map/distance_field.hpp"
+#include "adit/map/map_io.hpp"
+#include "adit/status.hpp"
+
+namespace adit::fusion {
+
+using map::Vec3;
+
+struct NavigatorParams {
+  global::GlobalPlannerParams global;  ///< robot shape taken from `local.robot.radius_m`
+  local::LocalParams local = local::LocalParams::preset(local::Method::kTian2016);
+  /// Replans allowed for kStuck verdicts (a blocked path always replans); beyond, the navigator
+  /// reports kStuck instead of replanning forever.
+  int max_stuck_replans = 3;
+  Status validate() const;
+};
+
+enum class NavigatorStatus { kDriving, kArrived, kStuck, kNoRoute, kRefused };
+const char* navigatorStatusName(NavigatorStatus s);
+
+/// Something the navigator decided: a replan (and why) or the end of the road.
+struct NavigatorEvent {
+  double t_s = 0.0;
+  std::string type;     ///< "replan" | "no_route" | "map_update_failed"
+  std::string reason;   ///< "expected path blocked at (x, y, z)", "local planner stuck", ...
+  double replan_time_s = 0.0;
+  std::vector<std::string> route;  ///< roadways of the new route (replan)
+  std::string message;  ///< the global layer's message (no_route)
+};
+
+struct NavigatorCycle {
+  local::StepCommand command;     ///< zero set-points unless kDriving
+  NavigatorStatus status = NavigatorStatus::kDriving;
+  int inserted_points = 0;        ///< sensed rock voxels new to the map this cycle
+  bool field_updated = false;
+  map::DistanceFieldUpdateReport field_update;
+  bool replanned = false;
+  double replan_time_s = 0.0;
+  double cycle_time_s = 0.0;      ///< whole cycle, replan included
+};
+
+class Navigator {
+ public:
+  /// Takes over the believed map (with its survey: the roadway graph is exact then) and builds the
+  /// field and the planners. The goal is fixed for the navigator's life.
+  static StatusOr<Navigator> create(map::LoadedMap loaded, const NavigatorParams& params, const Vec3& goal);
+  Navigator(Navigator&&) noexcept;
+  Navigator& operator=(Navigator&&) noexcept;
+  ~Navigator();
+
+  /// Plans the expected path from `start` with the global layer. Error: failedPrecondition with
+  /// the planner's message when there is no route.
+  Status plan(const Vec3& start);
+  /// Uses `path` (ending at the goal) instead of planning.
+  Status setExpectedPath(map::Polyline path);
+
+  /// One control period at time t_s (see the file comment). Never throws; non-finite input gives
+  /// kRefused with a zero command.
+  NavigatorCycle cycle(double t_s, const local::RobotState& state, const std::vector<Vec3>& sensed_rock,
+                       const std::vector<map::MovingObstacle>& tracks, double dt_s);
+
+  /// Runs `fn` on the believed map and field under the shared lock (the readers' side of the
+  /// one-writer rule).
+  void read(const std::function<void(const map::OccupancyMap&, const map::DistanceField&)>& fn) const;
+
+  map::Polyline expectedPath() const;  ///< a copy, under the shared lock
+  const std::vector<NavigatorEvent>& events() const;
+  int replans() const;
+  const global::GlobalPlanner& globalPlanner() const;
+
+ private:
+  struct Impl;
+  explicit Navigator(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace adit::fusion

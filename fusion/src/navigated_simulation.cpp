@@ -1,0 +1,186 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/fusion/navigated_simulation.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "adit/map/collision.hpp"
+#include "adit/map/distance_field.hpp"
+#include "adit/map/map_io.hpp"
+#include "adit/map/occupancy_map.hpp"
+
+namespace adit::fusion {
+
+namespace {
+
+using local::Outcome;
+using local::Scenario;
+using local::ScenarioEvent;
+
+Eigen::Isometry3d at(const Vec3& p) {
+  Eigen::Isometry3d x = Eigen::Isometry3d::Identity();
+  x.translation() = p;
+  return x;
+}
+
+// A roof fall that has happened: its ball, and the voxels of it the robot has not sensed yet.
+struct Fall {
+  ScenarioEvent event;
+  std::vector<Vec3> unseen;
+};
+
+// The voxel centres inside the ball that were free roadway in the true map: what a sensor can see.
+std::vector<Vec3> fallVoxels(const ScenarioEvent& e, const map::OccupancyMap& truth) {
+  const double res = truth.resolution();
+  std::vector<Vec3> out;
+  const int n = int(std::ceil(e.radius_m / res)) + 1;
+  auto centre = [res](double c) { return (std::floor(c / res) + 0.5) * res; };
+  const Vec3 c0(centre(e.center.x()), centre(e.center.y()), centre(e.center.z()));
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j)
+      for (int k = -n; k <= n; ++k) {
+        const Vec3 p = c0 + res * Vec3(i, j, k);
+        if ((p - e.center).norm() <= e.radius_m && truth.isFree(p)) out.push_back(p);
+      }
+  return out;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  const std::size_t k = std::min(v.size() - 1, std::size_t(q * double(v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Environment& truth) {
+  const auto wall0 = std::chrono::steady_clock::now();
+  ADIT_RETURN_IF_ERROR(sc.validate());
+  if (!sc.map_path || !truth.map() || !truth.checker())
+    return invalidArgument(sc.file + ": map: the navigator needs a map to plan on");
+  if (!sc.static_obstacles.empty())
+    return invalidArgument(sc.file + ": static_obstacles: not supported with the navigator (write them into the map)");
+  const double r = sc.params.robot.radius_m;
+  const map::RobotShape robot = map::RobotShape::sphere(r);
+  auto rockDistance = [&](const Vec3& p) {
+    const map::ShapeDistance d = truth.checker()->distance(robot, at(p), 10.0);
+    return d.collision ? 0.0 : d.distance_m;
+  };
+  if (!truth.field()->isFree(sc.start) || rockDistance(sc.start) <= 0.0)
+    return invalidArgument(sc.file + ": start: the robot (radius " + std::to_string(r) + " m) overlaps rock");
+  if (!truth.field()->isFree(sc.goal)) return invalidArgument(sc.file + ": goal: inside rock");
+
+  // The believed world: its own copy of the map, sharing nothing with the true one.
+  ADIT_ASSIGN_OR_RETURN(map::LoadedMap believed, map::loadMapAndSurvey(*sc.map_path));
+  NavigatorParams np;
+  np.local = sc.params;
+  np.global.seed = std::uint32_t(sc.seed);
+  ADIT_ASSIGN_OR_RETURN(Navigator nav, Navigator::create(std::move(believed), np, sc.goal));
+
+  NavigatedRun out;
+  local::SimulationResult& res = out.run;
+  res.arrival_tolerance_m = sc.params.monitor.arrival_tolerance_m;
+  if (sc.plan_expected_path) {
+    if (Status s = nav.plan(sc.start); !s.ok()) {
+      // No route at all from the start: a valid run that ends at once.
+      res.outcome = Outcome::kNoRoute;
+      res.message = s.message();
+      res.final_goal_distance_m = (sc.start - sc.goal).norm();
+      res.trajectory.push_back({0.0, sc.start, Vec3::Zero(), local::StepStatus::kRefused});
+      out.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+      return out;
+    }
+  } else {
+    ADIT_RETURN_IF_ERROR(nav.setExpectedPath(sc.expected_path));
+  }
+  out.initial_path = nav.expectedPath();
+
+  const double range = sc.sensor_range_m.value_or(kDefaultSensorRangeM);
+  const std::size_t nm = sc.moving_obstacles.size();
+  res.closest.resize(nm);
+  for (std::size_t i = 0; i < nm; ++i) res.closest[i].name = sc.moving_obstacles[i].name;
+  std::vector<map::MovingObstacle> tracks(nm);
+  std::vector<Vec3> sensed;
+  std::vector<Fall> falls;
+  std::size_t next_event = 0;
+  std::vector<double> cycle_us;
+  const auto max_steps = std::size_t(std::ceil(sc.t_max_s / sc.dt_s - 1e-9));
+
+  local::RobotState state;
+  state.position = sc.start;
+  double t = 0.0;
+  res.trajectory.push_back({0.0, state.position, state.velocity, local::StepStatus::kFollowing});
+  NavigatorStatus last = NavigatorStatus::kDriving;
+  for (std::size_t k = 0; k < max_steps; ++k) {
+    // The true world changes; the robot senses what of it is in range.
+    while (next_event < sc.events.size() && sc.events[next_event].t_s <= t + 1e-9) {
+      falls.push_back({sc.events[next_event], fallVoxels(sc.events[next_event], *truth.map())});
+      ++next_event;
+    }
+    sensed.clear();
+    for (Fall& f : falls) {
+      auto seen = std::partition(f.unseen.begin(), f.unseen.end(),
+                                 [&](const Vec3& p) { return (p - state.position).norm() > range; });
+      sensed.insert(sensed.end(), seen, f.unseen.end());
+      f.unseen.erase(seen, f.unseen.end());
+    }
+    for (std::size_t i = 0; i < nm; ++i) {
+      const map::MovingObstacle& m = sc.moving_obstacles[i].obstacle;
+      tracks[i] = m;
+      tracks[i].position = m.positionAt(t);
+      tracks[i].velocity = m.velocityAt(t);
+    }
+    const NavigatorCycle c = nav.cycle(t, state, sensed, tracks, sc.dt_s);
+    ++res.steps;
+    if (c.replanned) out.max_replan_time_s = std::max(out.max_replan_time_s, c.replan_time_s);
+    else {
+      cycle_us.push_back(c.cycle_time_s * 1e6);
+      out.max_cycle_time_s = std::max(out.max_cycle_time_s, c.cycle_time_s);
+    }
+    res.escapes = std::max(res.escapes, c.command.escapes);
+    last = c.status;
+    if (c.status != NavigatorStatus::kDriving) {
+      if (c.status != NavigatorStatus::kArrived) res.message = c.command.message;
+      break;
+    }
+    // The robot follows the set-points; the referee samples the period against the true world:
+    // the map, and the roof falls that have happened.
+    local::refereePeriod(sc, truth, c.command.acceleration, t, state, res,
+                         [&](const Vec3& p, double, double& d, std::string& what) {
+                           for (const Fall& f : falls) {
+                             const double df = std::max(0.0, (p - f.event.center).norm() - f.event.radius_m - r);
+                             out.min_fall_clearance_m = std::min(out.min_fall_clearance_m, df);
+                             if (df < d) { d = df; what = "roof fall"; }
+                           }
+                         });
+    t = double(k + 1) * sc.dt_s;
+    res.trajectory.push_back({t, state.position, state.velocity, c.command.status});
+  }
+  res.final_goal_distance_m = (state.position - sc.goal).norm();
+  res.step_time_p50_us = percentile(cycle_us, 0.5);
+  res.step_time_p99_us = percentile(cycle_us, 0.99);
+  out.replans = nav.replans();
+  out.events = nav.events();
+  out.final_path = nav.expectedPath();
+  out.end_time_s = t;
+  // The verdict is the referee's.
+  if (local::collisionVerdict(res)) {
+  } else if (last == NavigatorStatus::kArrived && res.final_goal_distance_m <= res.arrival_tolerance_m) {
+    res.outcome = Outcome::kArrived;
+    res.arrival_time_s = t;
+  } else if (last == NavigatorStatus::kNoRoute) {
+    res.outcome = Outcome::kNoRoute;
+    if (!out.events.empty()) res.message = out.events.back().message;
+  } else if (last == NavigatorStatus::kStuck || last == NavigatorStatus::kRefused) {
+    res.outcome = Outcome::kStuck;
+  } else {
+    res.outcome = Outcome::kTimeout;
+    res.message = "t_max reached";
+  }
+  out.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  return out;
+}
+
+}  // namespace adit::fusion
