@@ -22,7 +22,7 @@ PKGS=(cmake g++ make pkg-config
       liboctomap-dev libfcl-dev libccd-dev libeigen3-dev
       libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
       libgtest-dev libgmock-dev libbenchmark-dev
-      libopen3d-dev libassimp-dev libdxflib-dev)
+      libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev)
 
 missing=()
 for p in "${PKGS[@]}"; do

@@ -19,7 +19,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!dxf->faces.triangles.empty()) adit::fuzz::checkGeometry(dxf->faces);
   if (dxf->polylines.empty()) return 0;
   adit::StatusOr<SurveyNetwork> net = dxfToSurvey(*dxf, DxfSections{}, CrossSection::rectangle(4.0, 3.0), 1.0);
-  if (!net.ok() || estimateVoxelizeBytes(*net) > 2.0 * (1 << 20)) return 0;  // keeps executions fast
+  if (!net.ok() || estimateVoxelizeBytes(*net) > 256.0 * 1024) return 0;  // keeps executions fast
   (void)voxelize(*net);
   return 0;
 }

@@ -23,7 +23,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (c != -1 && c != 0 && c != 100) adit::fuzz::broken("cell neither unknown, free nor occupied");
   ExtrudeOptions o;
   o.height_m = 1.0;
-  o.max_voxels = 20'000;  // keeps executions fast
+  o.max_voxels = 2'000;  // keeps executions fast
   (void)extrudeRosMap(m, o);
   return 0;
 }

@@ -9,10 +9,10 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string bytes(reinterpret_cast<const char*>(data), size);
-  adit::StatusOr<std::vector<adit::Vec3>> poses = adit::map::parseTrajectory(bytes, "fuzz_trajectory.csv");
+  adit::StatusOr<std::vector<adit::map::Vec3>> poses = adit::map::parseTrajectory(bytes, "fuzz_trajectory.csv");
   if (!poses.ok()) return 0;
   if (poses->empty()) adit::fuzz::broken("trajectory parsed ok without poses");
-  for (const adit::Vec3& p : *poses)
+  for (const adit::map::Vec3& p : *poses)
     if (!p.allFinite()) adit::fuzz::broken("non-finite pose in an ok result");
   return 0;
 }

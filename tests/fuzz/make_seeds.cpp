@@ -2,7 +2,8 @@
 // Writes the fuzzers' seed corpora from the repository's own data: small .bt/.ot maps voxelized
 // from the test surveys and cut from maps/district.bt, the survey YAML files, the points CSVs;
 // for the import readers, small files of every format written here (Open3D writes the PCD, PLY
-// and PNG variants, the rest is spelled out byte by byte) plus the tests/tools/data fixtures.
+// and PNG variants, tests/support's encoders LAS, STL and OBJ, the rest is spelled out here) plus
+// the tests/tools/data fixtures.
 // Usage: adit_fuzz_seeds MAPS_DIR TOOLS_DATA_DIR OUT_DIR  (writes OUT_DIR/<fuzzer>/...)
 #include <open3d/geometry/Image.h>
 #include <open3d/geometry/PointCloud.h>
@@ -23,9 +24,11 @@
 #include "adit/map/map_io.hpp"
 #include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
+#include "support/synthetic_scan.hpp"
 
 namespace fs = std::filesystem;
 using namespace adit::map;
+namespace test = adit::test;
 
 namespace {
 
@@ -59,39 +62,12 @@ std::string slurp(const fs::path& file) {
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-template <class T>
-void putLE(std::string* b, std::size_t off, T v) {
-  std::memcpy(&(*b)[off], &v, sizeof(T));
-}
-
 // A short roadway scan: two rings of 8 points around the x axis, 1 m apart.
 std::vector<Vec3> ringScan() {
   std::vector<Vec3> pts;
   for (int x = 0; x < 2; ++x)
     for (int k = 0; k < 8; ++k) pts.emplace_back(x, 1.5 * std::cos(k * M_PI / 4), 1.5 + 1.5 * std::sin(k * M_PI / 4));
   return pts;
-}
-
-// LAS 1.<minor> with point format `format` (record `record_len` bytes), header of `header_size`.
-std::string las(int minor, int format, std::uint16_t header_size, std::uint16_t record_len, const std::vector<Vec3>& pts) {
-  std::string b(header_size, '\0');
-  b.replace(0, 4, "LASF");
-  b[24] = 1;
-  b[25] = char(minor);
-  putLE<std::uint16_t>(&b, 94, header_size);
-  putLE<std::uint32_t>(&b, 96, header_size);
-  b[104] = char(format);
-  putLE<std::uint16_t>(&b, 105, record_len);
-  putLE<std::uint32_t>(&b, 107, minor >= 4 ? 0u : std::uint32_t(pts.size()));
-  for (int i = 0; i < 3; ++i) putLE<double>(&b, 131 + 8 * i, 0.001);
-  putLE<double>(&b, 155, 1000.0);  // an x offset, as survey grids have
-  if (minor >= 4) putLE<std::uint64_t>(&b, 247, pts.size());
-  for (const Vec3& p : pts) {
-    std::string rec(record_len, '\0');
-    for (int i = 0; i < 3; ++i) putLE<std::int32_t>(&rec, 4 * i, std::int32_t(std::lround(p[i] * 1000)));
-    b += rec;
-  }
-  return b;
 }
 
 // Seeds for the import readers, in OUT/<fuzzer>/; `data` is tests/tools/data.
@@ -150,22 +126,14 @@ bool writeReaderSeeds(const fs::path& data, const fs::path& out) {
   both("xyz", "tube_utm.csv", head(data / "tube_utm.csv", 40), 3);
   for (const char* f : {"points.csv", "bom_points.csv", "bad_points.csv"}) both("xyz", f, head(data / f, 100), 3);
 
-  both("las", "ring_1_2_format0.las", las(2, 0, 227, 20, scan), 4);
-  both("las", "ring_1_4_format6.las", las(4, 6, 375, 30, scan), 4);
-  both("las", "ring_1_0_format1_extra.las", las(0, 1, 227, 32, scan), 4);
+  both("las", "ring_1_2.las", test::las(scan, 2), 4);
+  both("las", "ring_1_4_utm.las", test::las(scan, 4, Vec3(500000, 4000000, 0)), 4);
   both("las", "scan.laz", slurp(data / "scan.laz"), 5);
 
   // Meshes: the first byte is fuzz_mesh's format selector (0 stl, 1 obj, 2 ply, 3 dae).
-  const std::string stl_ascii = "solid wall\nfacet normal 0 -1 0\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 1 0 1\n"
-                                "endloop\nendfacet\nfacet normal 0 -1 0\nouter loop\nvertex 0 0 0\nvertex 1 0 1\n"
-                                "vertex 0 0 1\nendloop\nendfacet\nendsolid wall\n";
-  std::string stl_binary(84, '\0');
-  putLE<std::uint32_t>(&stl_binary, 80, 2);
-  const float tri[2][12] = {{0, -1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 1}, {0, -1, 0, 0, 0, 0, 1, 0, 1, 0, 0, 1}};
-  for (const auto& t : tri) {
-    stl_binary.append(reinterpret_cast<const char*>(t), sizeof t);
-    stl_binary.append(2, '\0');
-  }
+  test::TubeScan tube;
+  tube.length = 2.0;
+  const Geometry tube_mesh = tube.mesh();
   const std::string obj = "# wall patch\no patch\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nvn 0 -1 0\nf 1//1 2//1 3//1 4//1\n";
   const std::string dae =
       "<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" version=\"1.4.1\">\n"
@@ -181,8 +149,12 @@ bool writeReaderSeeds(const fs::path& data, const fs::path& out) {
       "<instance_geometry url=\"#g\"/></node></visual_scene></library_visual_scenes>\n"
       "<scene><instance_visual_scene url=\"#s\"/></scene>\n</COLLADA>\n";
   const std::pair<const char*, std::pair<int, std::string>> meshes[] = {
-      {"wall_ascii.stl", {0, stl_ascii}}, {"wall_binary.stl", {0, stl_binary}}, {"wall.obj", {1, obj}},
-      {"wall.ply", {2, ply_mesh}},        {"wall.dae", {3, dae}}};
+      {"tube_ascii.stl", {0, test::stlAscii(tube_mesh)}},
+      {"tube_binary.stl", {0, test::stlBinary(tube_mesh)}},
+      {"tube.obj", {1, test::objText(tube_mesh)}},
+      {"wall_quad.obj", {1, obj}},
+      {"wall.ply", {2, ply_mesh}},
+      {"wall.dae", {3, dae}}};
   const int mesh_ext[] = {6, 7, 1, 8};  // the same files behind fuzz_geometry's .stl/.obj/.ply/.dae
   for (const auto& [file, m] : meshes) {
     writeBytes(out / "mesh" / file, std::string(1, char(m.first)) + m.second);
