@@ -98,14 +98,15 @@ TEST(FuzzRegressions, PlyMeshBodyMustMatchItsHeader) {
       << g.status().message();
 }
 
-// One triangle in COLLADA; `count` is the float_array's count attribute ("" leaves it out).
-std::string dae(const std::string& count) {
+// One triangle in COLLADA; `count` is the float_array's count attribute ("" leaves it out), `p`
+// the triangle's indices.
+std::string dae(const std::string& count, const std::string& p = "0 1 2") {
   return "<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" version=\"1.4.1\">\n"
          "<library_geometries><geometry id=\"g\"><mesh>\n<source id=\"p\"><float_array id=\"pa\"" + count +
          ">0 0 0 1 0 0 1 0 1</float_array>\n<technique_common><accessor source=\"#pa\" count=\"3\" stride=\"3\">"
          "<param name=\"X\" type=\"float\"/><param name=\"Y\" type=\"float\"/><param name=\"Z\" type=\"float\"/>"
          "</accessor></technique_common></source>\n<vertices id=\"v\"><input semantic=\"POSITION\" source=\"#p\"/></vertices>\n"
-         "<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>\n"
+         "<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>" + p + "</p></triangles>\n"
          "</mesh></geometry></library_geometries>\n<library_visual_scenes><visual_scene id=\"s\"><node id=\"n\">"
          "<instance_geometry url=\"#g\"/></node></visual_scene></library_visual_scenes>\n"
          "<scene><instance_visual_scene url=\"#s\"/></scene>\n</COLLADA>\n";
@@ -124,6 +125,21 @@ TEST(FuzzRegressions, DaeAccessorPastItsArrayIsRefused) {
         << g.status().message();
   }
   EXPECT_FALSE(parseMesh("<COLLADA><unclosed", "bad.dae", "dae").ok());
+}
+
+// fuzz_mesh: <triangles count="1"> whose <p> held "0 \x11 2"; Assimp's index parser stalled on
+// the token and allocated 4.8 GB. The indices must be integers, as many as the element announces.
+TEST(FuzzRegressions, DaePrimitiveIndicesMustMatchTheirCount) {
+  const std::pair<const char*, const char*> bad[] = {
+      {"0 \x11 2", "<triangles> <p> holds something other than vertex indices"},
+      {"0 -1 2", "<triangles> <p> holds something other than vertex indices"},
+      {"0 2", "<triangles> announces 3 indices, its <p> holds 2"},
+      {"0 1 2 0", "<triangles> announces 3 indices, its <p> holds 4"}};
+  for (const auto& [p, message] : bad) {
+    StatusOr<Geometry> g = parseMesh(dae(" count=\"9\"", p), "prim.dae", "dae");
+    ASSERT_FALSE(g.ok()) << p;
+    EXPECT_NE(g.status().message().find(message), std::string::npos) << g.status().message();
+  }
 }
 
 }  // namespace

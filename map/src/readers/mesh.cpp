@@ -10,6 +10,8 @@
 #include <cmath>
 #include <iterator>
 #include <map>
+#include <optional>
+#include <sstream>
 
 #include "adit/map/map_io.hpp"
 #include "common.hpp"
@@ -62,6 +64,46 @@ Status checkDae(const std::string& b, const std::string& name) {
       return invalidArgument(at(name, std::uint64_t(std::max<std::ptrdiff_t>(acc.offset_debug(), 0))) + ": accessor of '" +
                              source + "' reads " + std::to_string(count) + " x " + std::to_string(stride) + " values from offset " +
                              std::to_string(offset) + " but the array holds " + std::to_string(it->second));
+  }
+  // Primitives: <p> must hold exactly the indices the element announces (Assimp allocated
+  // gigabytes for a <triangles count="1"> with two indices). Each vertex takes one index per
+  // input offset; triangles take 3 vertices, lines 2, a polylist its <vcount>s.
+  for (const pugi::xpath_node& n : doc.select_nodes(
+           "//triangles | //lines | //polylist | //polygons | //trifans | //tristrips | //linestrips")) {
+    const pugi::xml_node prim = n.node();
+    std::uint64_t inputs = 1;
+    for (const pugi::xml_node& in : prim.children("input"))
+      inputs = std::max<std::uint64_t>(inputs, std::uint64_t(in.attribute("offset").as_uint()) + 1);
+    // Index count of a <p>, or none when a token is not a non-negative integer (Assimp's
+    // parser stalls on such a token and sizes its buffers from garbage).
+    const auto tokens = [](const pugi::xml_node& node) -> std::optional<std::uint64_t> {
+      std::istringstream is(node.child_value());
+      std::uint64_t k = 0;
+      for (std::string t; is >> t; ++k)
+        if (t.size() > 10 || t.find_first_not_of("0123456789") != std::string::npos) return std::nullopt;
+      return k;
+    };
+    const std::string kind = prim.name();
+    std::uint64_t expected = 0;
+    if (kind == "triangles" || kind == "lines")
+      expected = std::uint64_t(prim.attribute("count").as_uint()) * (kind == "lines" ? 2 : 3) * inputs;
+    if (kind == "polylist") {
+      std::istringstream is(prim.child("vcount").child_value());
+      for (std::uint64_t v; is >> v;) expected += v * inputs;
+    }
+    std::uint64_t given = 0;
+    for (const pugi::xml_node& p : prim.children("p")) {
+      const std::optional<std::uint64_t> k = tokens(p);
+      const std::string where = at(name, std::uint64_t(std::max<std::ptrdiff_t>(p.offset_debug(), 0))) + ": <" + kind + "> <p>";
+      if (!k) return invalidArgument(where + " holds something other than vertex indices");
+      if (*k % inputs != 0 || (expected == 0 && *k < 2 * inputs))
+        return invalidArgument(where + " holds " + std::to_string(*k) + " indices, not whole vertices of " +
+                               std::to_string(inputs) + " inputs");
+      given += *k;
+    }
+    if (expected != 0 && given != expected)
+      return invalidArgument(at(name, std::uint64_t(std::max<std::ptrdiff_t>(prim.offset_debug(), 0))) + ": <" + kind +
+                             "> announces " + std::to_string(expected) + " indices, its <p> holds " + std::to_string(given));
   }
   return {};
 }
