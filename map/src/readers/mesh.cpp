@@ -55,9 +55,9 @@ Status checkDae(const std::string& b, const std::string& name) {
     std::string source = acc.attribute("source").as_string();
     if (!source.empty() && source[0] == '#') source.erase(0, 1);
     const auto it = array_values.find(source);
-    if (it == array_values.end()) continue;  // Assimp refuses an unresolved reference itself
+    if (it == array_values.end()) continue;  // an unresolved reference is left to Assimp
     const std::uint64_t count = acc.attribute("count").as_uint(), offset = acc.attribute("offset").as_uint();
-    const auto params = acc.children("param");  // Assimp reads a component per param, even past the stride
+    const auto params = acc.children("param");  // Assimp reads a component per param, even past stride
     const std::uint64_t stride = std::max<std::uint64_t>(
         {acc.attribute("stride").as_uint(1), std::uint64_t(std::distance(params.begin(), params.end())), 1});
     if (count > 0 && offset + count * stride > it->second)
@@ -65,17 +65,16 @@ Status checkDae(const std::string& b, const std::string& name) {
                              source + "' reads " + std::to_string(count) + " x " + std::to_string(stride) + " values from offset " +
                              std::to_string(offset) + " but the array holds " + std::to_string(it->second));
   }
-  // Primitives: <p> must hold exactly the indices the element announces (Assimp allocated
-  // gigabytes for a <triangles count="1"> with two indices). Each vertex takes one index per
-  // input offset; triangles take 3 vertices, lines 2, a polylist its <vcount>s.
+  // Primitives: <p> must hold exactly the indices the element announces. Each vertex takes one
+  // index per input offset; triangles take 3 vertices, lines 2, a polylist its <vcount>s.
   for (const pugi::xpath_node& n : doc.select_nodes(
            "//triangles | //lines | //polylist | //polygons | //trifans | //tristrips | //linestrips")) {
     const pugi::xml_node prim = n.node();
     std::uint64_t inputs = 1;
     for (const pugi::xml_node& in : prim.children("input"))
       inputs = std::max<std::uint64_t>(inputs, std::uint64_t(in.attribute("offset").as_uint()) + 1);
-    // Index count of a <p>, or none when a token is not a non-negative integer (Assimp's
-    // parser stalls on such a token and sizes its buffers from garbage).
+    // Index count of a <p>, or none when a token is not a non-negative integer (on such a token
+    // Assimp allocated gigabytes).
     const auto tokens = [](const pugi::xml_node& node) -> std::optional<std::uint64_t> {
       std::istringstream is(node.child_value());
       std::uint64_t k = 0;
