@@ -13,11 +13,14 @@ namespace {
 int run(int argc, char** argv) {
   CLI::App app{"adit: path planning for underground mine roadways.\n"
                "Results go to stdout, logs and progress to stderr.\n"
-               "Exit codes: 0 success, 1 failure, 2 bad input."};
+               "Exit codes: 0 success, 1 failure, 2 bad input, 3 no path (plan)."};
   app.set_version_flag("--version", std::string(ADIT_VERSION));
   app.require_subcommand(1);
   int rc = adit::tools::kExitOk;
   adit::tools::registerMapVerbs(app, &rc);
+  adit::tools::registerPlanVerb(app, &rc);
+  adit::tools::registerBenchVerb(app, &rc);
+  adit::tools::registerSimulateVerb(app, &rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

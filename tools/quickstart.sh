@@ -16,11 +16,12 @@ cd "$(dirname "$0")/.."
 BUILD_DIR="${BUILD_DIR:-build}"
 JOBS="${JOBS:-$(nproc)}"
 
-# Debian 12 packages adit builds against. OMPL and its boost/ODE companions join with the
-# global planner.
+# Debian 12 packages adit builds against. OMPL's CMake config also needs its boost and ODE
+# companions (the global planner).
 PKGS=(cmake g++ make pkg-config
       liboctomap-dev libfcl-dev libccd-dev libeigen3-dev
       libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
+      libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev libode-dev
       libgtest-dev libgmock-dev libbenchmark-dev
       libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev)
 
@@ -47,7 +48,10 @@ if [ "$mode" = run ]; then
   "$BUILD_DIR/bin/adit" map info maps/district.yaml
   echo "== adit map slice maps/district.yaml --out out/district_top.png" >&2
   "$BUILD_DIR/bin/adit" map slice maps/district.yaml --out out/district_top.png
-  echo "== done: the top view is out/district_top.png" >&2
+  echo "== adit plan --map maps/district.yaml --farthest-ends --out out/district_plan.json --picture out/district_plan.png" >&2
+  "$BUILD_DIR/bin/adit" plan --map maps/district.yaml --farthest-ends --out out/district_plan.json \
+      --picture out/district_plan.png
+  echo "== done: the top view is out/district_top.png, the planned path out/district_plan.png" >&2
 else
   ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
 fi

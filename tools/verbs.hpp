@@ -9,5 +9,12 @@ namespace adit::tools {
 
 /// `adit map info|convert|query|slice`.
 void registerMapVerbs(CLI::App& app, int* rc);
+/// `adit plan`.
+void registerPlanVerb(CLI::App& app, int* rc);
+/// `adit bench global`.
+void registerBenchVerb(CLI::App& app, int* rc);
+
+/// `adit simulate SCENARIO.yaml`.
+void registerSimulateVerb(CLI::App& app, int* rc);
 
 }  // namespace adit::tools

@@ -2,10 +2,6 @@
 #include "adit/map/collision.hpp"
 
 #include <fcl/geometry/octree/octree.h>
-#include <fcl/geometry/shape/box.h>
-#include <fcl/geometry/shape/capsule.h>
-#include <fcl/geometry/shape/cylinder.h>
-#include <fcl/geometry/shape/sphere.h>
 #include <fcl/narrowphase/collision.h>
 #include <fcl/narrowphase/distance.h>
 #include <octomap/OcTree.h>
@@ -18,8 +14,14 @@
 #include <variant>
 #include <vector>
 
+#include "fcl_adapter.hpp"
+#include "shape_geometry.hpp"
+
 namespace adit::map {
 namespace {
+
+using namespace fclx;  // NOLINT(google-build-using-namespace): the checker is made of these
+using namespace geom;  // NOLINT(google-build-using-namespace)
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kHalfSqrt3 = 0.86602540378443864676;
@@ -28,242 +30,6 @@ constexpr double kHalfSqrt3 = 0.86602540378443864676;
 constexpr std::int64_t kMaxWindowVoxels = std::int64_t{1} << 24;
 // Slack on bounds that are mathematically tight but computed in floating point.
 constexpr double kBoundSlack = 1e-9;
-
-static_assert(std::is_same_v<fcl::Transform3d, Eigen::Isometry3d>,
-              "adit passes Eigen::Isometry3d to FCL unchanged");
-
-// The answer for a query that cannot be evaluated (see the header): reject the state.
-ShapeDistance invalidResult() {
-  ShapeDistance r;
-  r.collision = true;
-  r.exact = false;
-  return r;
-}
-
-ShapeDistance collisionAt(const Vec3& p, int checked) {
-  ShapeDistance r;
-  r.collision = true;
-  r.point_on_robot = r.point_on_obstacle = p;
-  r.candidates_checked = checked;
-  return r;
-}
-
-// One FCL primitive for a RobotShape, held by value so that a query allocates nothing for it.
-class FclShape {
- public:
-  explicit FclShape(const RobotShape& s) {
-    switch (s.type) {
-      case ShapeType::kSphere: geom_.emplace<fcl::Sphered>(s.radius); break;
-      case ShapeType::kBox: geom_.emplace<fcl::Boxd>(s.size.x(), s.size.y(), s.size.z()); break;
-      case ShapeType::kCylinder: geom_.emplace<fcl::Cylinderd>(s.radius, s.length); break;
-      case ShapeType::kCapsule: geom_.emplace<fcl::Capsuled>(s.radius, s.length); break;
-    }
-  }
-  const fcl::CollisionGeometryd* get() const {
-    return std::visit(
-        [](const auto& g) -> const fcl::CollisionGeometryd* {
-          if constexpr (std::is_same_v<std::decay_t<decltype(g)>, std::monostate>) return nullptr;
-          else return &g;
-        },
-        geom_);
-  }
-
- private:
-  std::variant<std::monostate, fcl::Sphered, fcl::Boxd, fcl::Cylinderd, fcl::Capsuled> geom_;
-};
-
-// FCL distance between two geometries, o1 being the robot. FCL's primitive distance reports -1
-// (or a meaningless value) on overlap, so anything <= 0 is settled by fcl::collide.
-ShapeDistance fclPairDistance(const fcl::CollisionGeometryd* robot, const Eigen::Isometry3d& tf_robot,
-                              const fcl::CollisionGeometryd* other, const Eigen::Isometry3d& tf_other) {
-  ShapeDistance out;
-  fcl::DistanceRequestd request(/*enable_nearest_points=*/true);
-  fcl::DistanceResultd result;
-  fcl::distance(robot, tf_robot, other, tf_other, request, result);
-  out.candidates_checked = 1;
-  if (result.min_distance > 0.0) {
-    out.distance_m = result.min_distance;
-    out.point_on_robot = result.nearest_points[0];
-    out.point_on_obstacle = result.nearest_points[1];
-    return out;
-  }
-  fcl::CollisionRequestd creq(/*num_max_contacts=*/1, /*enable_contact=*/true);
-  fcl::CollisionResultd cres;
-  fcl::collide(robot, tf_robot, other, tf_other, creq, cres);
-  out.candidates_checked = 2;
-  if (cres.isCollision()) {
-    out.collision = true;
-    out.point_on_robot = out.point_on_obstacle =
-        cres.numContacts() > 0 ? cres.getContact(0).pos : result.nearest_points[0];
-  } else {
-    // Touching (or GJK rounding at contact): distance 0 without overlap.
-    out.point_on_robot = result.nearest_points[0];
-    out.point_on_obstacle = result.nearest_points[1];
-  }
-  return out;
-}
-
-bool fclCollide(const fcl::CollisionGeometryd* a, const Eigen::Isometry3d& tf_a,
-                const fcl::CollisionGeometryd* b, const Eigen::Isometry3d& tf_b) {
-  fcl::CollisionRequestd request;
-  fcl::CollisionResultd result;
-  return fcl::collide(a, tf_a, b, tf_b, request, result) > 0;
-}
-
-// FCL throws from a few degenerate configurations (std::logic_error, FailedAtThisConfiguration
-// in its EPA). Queries never let that escape: `fn` runs under a catch, and a failure gives the
-// rejecting answer, as invalid input does.
-template <class Fn>
-ShapeDistance guarded(Fn&& fn) noexcept {
-  try {
-    return fn();
-  } catch (const std::exception&) {
-    return invalidResult();
-  }
-}
-template <class Fn>
-bool guardedCollide(Fn&& fn) noexcept {
-  try {
-    return fn();
-  } catch (const std::exception&) {
-    return true;
-  }
-}
-
-// World-frame bounding box of a posed shape (tighter than the bounding sphere's box).
-Aabb shapeAabb(const RobotShape& s, const Eigen::Isometry3d& pose) {
-  const Eigen::Matrix3d& r = pose.linear();
-  Vec3 half = Vec3::Zero();
-  switch (s.type) {
-    case ShapeType::kSphere: half = Vec3::Constant(s.radius); break;
-    case ShapeType::kBox: half = r.cwiseAbs() * (0.5 * s.size); break;
-    case ShapeType::kCylinder:
-    case ShapeType::kCapsule: {
-      const Vec3 axis = r.col(2);
-      for (int i = 0; i < 3; ++i) {
-        const double disc = s.type == ShapeType::kCapsule
-                                ? s.radius
-                                : s.radius * std::sqrt(std::max(0.0, 1.0 - axis[i] * axis[i]));
-        half[i] = std::abs(axis[i]) * 0.5 * s.length + disc;
-      }
-      break;
-    }
-  }
-  const Vec3 c = pose.translation();
-  return {c - half, c + half};
-}
-
-// Points strictly inside the shape where the nearest rock is looked up to seed the search: the
-// origin and, for elongated shapes, near the ends of the long axis (world frame).
-struct SeedPoints {
-  Vec3 points[3];
-  int count = 1;
-};
-SeedPoints seedPoints(const RobotShape& s, const Eigen::Isometry3d& pose) {
-  SeedPoints out;
-  out.points[0] = pose.translation();
-  Vec3 half_axis = Vec3::Zero();
-  switch (s.type) {
-    case ShapeType::kSphere: return out;
-    case ShapeType::kBox: {
-      Eigen::Index longest = 0;
-      s.size.maxCoeff(&longest);
-      half_axis[longest] = 0.5 * s.size[longest];
-      break;
-    }
-    case ShapeType::kCylinder:
-    case ShapeType::kCapsule: half_axis.z() = 0.5 * s.length; break;
-  }
-  if (half_axis.isZero()) return out;
-  half_axis *= 0.999;  // inside the box and the cylinder, not on their faces
-  out.points[1] = pose * half_axis;
-  out.points[2] = pose * Vec3(-half_axis);
-  out.count = 3;
-  return out;
-}
-
-// Radius of the largest origin-centred ball inside the shape.
-double inscribedRadius(const RobotShape& s) {
-  switch (s.type) {
-    case ShapeType::kSphere: return s.radius;
-    case ShapeType::kBox: return 0.5 * s.size.minCoeff();
-    case ShapeType::kCylinder: return std::min(s.radius, 0.5 * s.length);
-    case ShapeType::kCapsule: return s.radius;
-  }
-  return 0.0;
-}
-
-// Distance from a point to the axis-aligned cube of edge `edge` around `centre` (0 inside).
-double pointToCube(const Vec3& p, const Vec3& centre, double edge) {
-  return ((p - centre).cwiseAbs() - Vec3::Constant(0.5 * edge)).cwiseMax(0.0).norm();
-}
-
-// Nearest point of the solid shape to `q` (both in the shape's frame).
-Vec3 nearestOnShape(const RobotShape& s, const Vec3& q) {
-  const double half_len = 0.5 * s.length;
-  switch (s.type) {
-    case ShapeType::kSphere: {
-      const double n = q.norm();
-      return n > s.radius ? Vec3(q * (s.radius / n)) : q;
-    }
-    case ShapeType::kBox: return q.cwiseMax(-0.5 * s.size).cwiseMin(0.5 * s.size);
-    case ShapeType::kCylinder: {
-      const double rho = std::hypot(q.x(), q.y());
-      const double k = rho > s.radius ? s.radius / rho : 1.0;
-      return {q.x() * k, q.y() * k, std::clamp(q.z(), -half_len, half_len)};
-    }
-    case ShapeType::kCapsule: {
-      const Vec3 axis_point(0.0, 0.0, std::clamp(q.z(), -half_len, half_len));
-      const Vec3 d = q - axis_point;
-      const double n = d.norm();
-      return n > s.radius ? Vec3(axis_point + d * (s.radius / n)) : q;
-    }
-  }
-  return q;
-}
-
-// Distance from the posed shape to the cube of edge 2 * half around a voxel centre v, from below.
-// Three bounds, the largest wins:
-//  - separating plane: with p the shape's point nearest to v and n = (v - p) / |v - p|, the
-//    plane through p normal to n has the convex shape behind it, and the cube reaches at most
-//    half * |n|_1 towards it, so the distance is >= |v - p| - half * |n|_1. Near a wall the
-//    nearest cubes lie along an axis, |n|_1 ~ 1, and the bound is within half a voxel;
-//  - bounding sphere: |cube - origin| - boundingRadius(), exact for spheres;
-//  - the cube's gap to the shape's bounding box.
-class CubeLowerBound {
- public:
-  CubeLowerBound(const RobotShape& s, const Eigen::Isometry3d& pose, const Aabb& box, double edge)
-      : shape_(s), rot_(pose.linear()), origin_(pose.translation()), box_centre_(box.center()),
-        box_half_(0.5 * box.size()), half_(0.5 * edge), edge_(edge), radius_(s.boundingRadius()) {}
-
-  double radius() const { return radius_; }
-  /// The bounding-sphere and bounding-box bounds: a few flops, for every voxel of the window.
-  double coarse(const Vec3& v) const {
-    const Vec3 gap_v = ((v - box_centre_).cwiseAbs() - box_half_ - Vec3::Constant(half_)).cwiseMax(0.0);
-    return std::max({pointToCube(origin_, v, edge_) - radius_, gap_v.norm(), 0.0});
-  }
-  /// coarse(v) > reach, without square roots (the scan's inner loop).
-  bool coarseExceeds(const Vec3& v, double reach) const {
-    const Vec3 gap_v = ((v - box_centre_).cwiseAbs() - box_half_ - Vec3::Constant(half_)).cwiseMax(0.0);
-    if (gap_v.squaredNorm() > reach * reach) return true;
-    const double outer = radius_ + reach;
-    return ((v - origin_).cwiseAbs() - Vec3::Constant(half_)).cwiseMax(0.0).squaredNorm() > outer * outer;
-  }
-  /// All three, for the surface rock voxels that pass coarse().
-  double operator()(const Vec3& v) const {
-    const Vec3 q = rot_.transpose() * (v - origin_);
-    const Vec3 d = q - nearestOnShape(shape_, q);
-    const double dn = d.norm();
-    const double plane = dn > 0.0 ? dn - half_ * (rot_ * d).lpNorm<1>() / dn : 0.0;
-    return std::max(plane, coarse(v));
-  }
-
- private:
-  const RobotShape& shape_;
-  Eigen::Matrix3d rot_;
-  Vec3 origin_, box_centre_, box_half_;
-  double half_, edge_, radius_;
-};
 
 struct Candidate {
   double lower_bound;

@@ -3,13 +3,15 @@
 /// @file
 /// Exit codes and error reporting shared by every `adit` verb. Scripts rely on these codes:
 /// 0 success, 1 failure of a valid run (or an internal error), 2 bad input (usage, missing or
-/// malformed file, invalid value).
+/// malformed file, invalid value), 3 no path (`adit plan`: start and goal valid, but not
+/// connected, or nothing found within the budget).
 
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <string>
 
+#include "adit/map/types.hpp"
 #include "adit/status.hpp"
 
 namespace adit::tools {
@@ -17,6 +19,7 @@ namespace adit::tools {
 constexpr int kExitOk = 0;
 constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
+constexpr int kExitNoPath = 3;
 
 inline int exitCodeFor(const adit::Status& s) {
   using adit::StatusCode;

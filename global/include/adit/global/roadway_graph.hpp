@@ -1,0 +1,133 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// RoadwayGraph: the mine's roadway structure as a graph, the first thing the global planner
+/// consults. Nodes are survey stations and junctions; an edge is a piece of roadway between two
+/// nodes, with its corridor (an axis polyline at the roadway's mid-height and a radius that holds
+/// its whole cross-section). The planner routes start to goal on this graph (A*), then lets OMPL
+/// search only inside the corridor of that route, so a 2 km x 1 km district that is 99 % rock is
+/// never sampled as a box. The fusion layer reroutes through the same graph.
+///
+/// Built from the survey's centrelines and junctions when the map came from a survey YAML
+/// (fromSurvey: exact), or from the free space itself for .bt/.ot maps (fromFreeSpace: a coarse
+/// cell graph over the distance field, see its comment). Edges can be blocked, by hand or by
+/// re-checking their corridors against the map after a change (a roof fall): routing then takes
+/// another roadway, or reports at once that start and goal are disconnected.
+///
+///   StatusOr<RoadwayGraph> g = RoadwayGraph::fromSurvey(survey);
+///   g->refreshBlocked(field, /*required_clearance_m=*/0.7);
+///   StatusOr<Route> r = g->route(start, goal);
+///   if (!r.ok()) std::cerr << r.status().message();  // e.g. "... disconnected: ... blocked"
+
+#include <functional>
+#include <optional>
+#include <utility>
+#include <string>
+#include <vector>
+
+#include "adit/map/distance_field.hpp"
+#include "adit/map/occupancy_map.hpp"
+#include "adit/map/survey_network.hpp"
+#include "adit/map/types.hpp"
+#include "adit/status.hpp"
+
+namespace adit::global {
+
+using map::Vec3;
+
+struct RoadwayNode {
+  Vec3 position = Vec3::Zero();  ///< on the corridor axis (mid-height of the roadway)
+  std::string name;              ///< station name, or "junction-N" / "cell-N"
+};
+
+struct RoadwayEdge {
+  int from = -1, to = -1;        ///< node indices; axis runs from -> to
+  std::string roadway;           ///< survey roadway name (the route reports these)
+  map::Polyline axis;            ///< corridor axis, at the roadway's mid-height
+  double radius_m = 0.0;         ///< corridor radius around the axis: holds the whole section
+  double half_height_m = 0.0;    ///< axis height above the floor (0 when unknown)
+  double length_m = 0.0;
+  double max_slope_deg = 0.0;    ///< steepest axis segment (the floor's slope for survey edges)
+  bool blocked = false;
+  std::string blocked_reason;
+  /// Where along the axis it is blocked [m from `from`]: a robot on the edge can still leave it
+  /// on the side away from the blockage. Blocking by hand blocks the whole edge.
+  double blocked_from_m = 0.0, blocked_to_m = 0.0;
+};
+
+/// A route through the graph from a start to a goal point: the corridor OMPL searches.
+struct Route {
+  std::vector<int> edges;             ///< graph edges in order (the pieces start/goal sit on included)
+  std::vector<std::string> roadways;  ///< roadway names in order, consecutive repeats merged
+  map::Polyline axis;                 ///< start, axis points, goal
+  std::vector<double> radius_m;       ///< corridor radius per axis segment
+  double length_m = 0.0;              ///< along the axis
+};
+
+/// Which edges routing may use (e.g. only those a ground robot can climb). Empty = all unblocked.
+using EdgeFilter = std::function<bool(const RoadwayEdge&)>;
+
+class RoadwayGraph {
+ public:
+  /// From a survey: one edge per centreline segment between consecutive stations. A station that
+  /// lies on another roadway's segment (within that roadway's half-width), where a gate road
+  /// leaves a main, splits that segment into a junction.
+  static StatusOr<RoadwayGraph> fromSurvey(const map::SurveyNetwork& survey);
+
+  /// From the free space, for maps without a survey: the free space (the map's free leaves) is
+  /// cut into cubic cells of `cell_m`; a cell becomes a node at its point of largest clearance when that clearance is at
+  /// least `required_clearance_m`, and neighbouring cells (26-connected) are joined when the
+  /// straight segment between their nodes keeps that clearance. Chains of cells are then merged
+  /// into edges between junctions and ends, so it is a skeleton of the roadways at cell
+  /// resolution. Every edge's roadway name is "passage-N".
+  static StatusOr<RoadwayGraph> fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
+                                              double required_clearance_m, double cell_m);
+
+  const std::vector<RoadwayNode>& nodes() const { return nodes_; }
+  const std::vector<RoadwayEdge>& edges() const { return edges_; }
+  double totalLength() const;
+  /// Nodes with a single edge: the roadway ends (dead ends, faces, portals).
+  std::vector<int> ends() const;
+
+  /// The two roadway ends farthest apart (straight-line distance); for a graph without
+  /// degree-1 nodes (the free-space graph) the ends of its longest shortest path. Nullopt when
+  /// there are no two such nodes.
+  std::optional<std::pair<int, int>> farthestEnds() const;
+  /// A point on the corridor axis `inset_m` in from end node `node` (away from the rock face).
+  Vec3 pointNearEnd(int node, double inset_m) const;
+
+  void setBlocked(int edge, bool blocked, const std::string& reason = "blocked by hand");
+  /// Re-checks every edge whose corridor meets `window` (all edges when the window is empty):
+  /// an edge is blocked when some cross-section along it, sampled every voxel, holds no point of
+  /// clearance >= required_clearance_m; it is unblocked when every one does. Returns the number
+  /// of edges blocked afterwards.
+  int refreshBlocked(const map::DistanceField& field, double required_clearance_m,
+                     const map::Aabb& window = map::Aabb());
+
+  /// A* over the unblocked edges that pass `filter`, from the edge nearest to `start` (whose
+  /// corridor holds it) to the one nearest to `goal`. Start and goal may lie on a blocked edge:
+  /// they leave it on the side away from the blockage. Errors: kNotFound when start or goal lies
+  /// in no corridor, kFailedPrecondition when they are disconnected (the message names the
+  /// blocked edges that would have connected them).
+  StatusOr<Route> route(const Vec3& start, const Vec3& goal, const EdgeFilter& filter = {}) const;
+
+  int addNode(const Vec3& position, const std::string& name);
+  /// Adds an edge along `axis` (first point at node `from`, last at node `to`).
+  int addEdge(int from, int to, const std::string& roadway, map::Polyline axis, double radius_m,
+              double half_height_m);
+
+ private:
+  struct Attachment {
+    int edge = -1;
+    std::size_t segment = 0;
+    Vec3 point = Vec3::Zero();
+    double distance = 0.0;
+  };
+  int farthestAlongGraph(int from) const;
+  StatusOr<Attachment> attach(const Vec3& p, const char* what, const EdgeFilter& usable) const;
+  std::vector<RoadwayNode> nodes_;
+  std::vector<RoadwayEdge> edges_;
+  std::vector<std::vector<int>> incident_;  ///< edges per node
+};
+
+}  // namespace adit::global

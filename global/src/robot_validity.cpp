@@ -1,0 +1,184 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "robot_validity.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace adit::global {
+
+using map::RobotShape;
+using map::ShapeType;
+using map::Vec3;
+
+RobotValidity::RobotValidity(const map::DistanceField& field, const map::CollisionChecker& checker,
+                             const GlobalPlannerParams& params)
+    : field_(&field), checker_(&checker), params_(params) {
+  res_ = field.resolution();
+  step_ = params.motion_step_voxels * res_;
+  const RobotShape& r = params.robot;
+  double horizontal = r.radius;
+  switch (r.type) {
+    case ShapeType::kSphere: half_height_ = r.radius; break;
+    case ShapeType::kCapsule: half_height_ = r.radius + 0.5 * r.length; break;
+    case ShapeType::kCylinder:
+      half_height_ = 0.5 * r.length;
+      checked_ = r;
+      break;
+    case ShapeType::kBox:
+      horizontal = 0.5 * std::hypot(r.size.x(), r.size.y());
+      half_height_ = 0.5 * r.size.z();
+      checked_ = RobotShape::cylinder(horizontal, r.size.z());
+      break;
+  }
+  required_ = horizontal + params.safety_margin_m + 0.5 * res_;
+  // One voxel for the floor's quantisation under the footprint, one for the floor voxel itself.
+  lift_ = params.safety_margin_m + 2.0 * res_;
+}
+
+bool RobotValidity::bodyClear(const Vec3& c) const {
+  const RobotShape& r = params_.robot;
+  if (!map::allFinite(c)) return false;
+  switch (r.type) {
+    case ShapeType::kSphere: return field_->distance(c) >= required_;
+    case ShapeType::kCapsule: {
+      const double half = 0.5 * r.length;
+      const int n = std::max(1, int(std::ceil(r.length / step_)));
+      for (int k = 0; k <= n; ++k)
+        if (field_->distance(c + Vec3(0, 0, -half + r.length * k / n)) < required_) return false;
+      return true;
+    }
+    case ShapeType::kBox:
+    case ShapeType::kCylinder: {
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation() = c;
+      const map::ShapeDistance d = checker_->distance(checked_, pose, params_.safety_margin_m);
+      if (d.collision) return false;
+      return !d.exact || d.distance_m >= params_.safety_margin_m;
+    }
+  }
+  return false;
+}
+
+std::optional<double> RobotValidity::floorBelow(const Vec3& c, double depth) const {
+  if (!map::allFinite(c) || !field_->isFree(c)) return std::nullopt;
+  for (double dz = res_; dz <= depth + res_; dz += res_) {
+    const Vec3 p = c - Vec3(0, 0, dz);
+    if (!field_->isFree(p)) return (std::floor(p.z() / res_) + 1.0) * res_;
+  }
+  return std::nullopt;
+}
+
+std::optional<Vec3> RobotValidity::onFloor(const Vec3& c, double depth) const {
+  const std::optional<double> f = floorBelow(c, depth);
+  if (!f) return std::nullopt;
+  return Vec3(c.x(), c.y(), *f + half_height_);
+}
+
+bool RobotValidity::stateValid(const Vec3& c) const {
+  if (!ground()) return bodyClear(c);
+  const std::optional<double> f = groundFloor(c);
+  return f && bodyClear(Vec3(c.x(), c.y(), *f + half_height_ + lift_));
+}
+
+bool RobotValidity::motionValid(const Vec3& a, const Vec3& b) const { return motionValid(a, b, nullptr); }
+
+bool RobotValidity::motionValid(const Vec3& a, const Vec3& b, double* last_valid) const {
+  const double len = (b - a).norm();
+  const int n = std::max(1, int(std::ceil(len / step_)));
+  SlopeWindow slope(*this);
+  auto fail = [&](int k) {
+    if (last_valid) *last_valid = std::max(0.0, double(k - 1) / n);
+    return false;
+  };
+  const double run = (b - a).head<2>().norm();
+  for (int k = 0; k <= n; ++k) {
+    const Vec3 p = a + (b - a) * (double(k) / n);
+    if (!ground()) {
+      if (!bodyClear(p)) return fail(k);
+      continue;
+    }
+    const std::optional<double> f = groundFloor(p);
+    if (!f || !bodyClear(Vec3(p.x(), p.y(), *f + half_height_ + lift_))) return fail(k);
+    if (!slope.add(run * double(k) / n, *f)) return fail(k);
+  }
+  // Segments shorter than the baseline: their own slope, once they span a few voxels.
+  if (ground() && run < params_.slope_baseline_m && run >= 4 * res_ && !slope.steepnessOk(run, slope.first(), slope.last()))
+    return fail(n);
+  if (last_valid) *last_valid = 1.0;
+  return true;
+}
+
+std::optional<double> RobotValidity::groundFloor(const Vec3& p) const {
+  const std::optional<double> f =
+      floorBelow(p + Vec3(0, 0, params_.ground_tolerance_m), half_height_ + 2 * params_.ground_tolerance_m);
+  if (!f || std::abs(p.z() - (*f + half_height_)) > params_.ground_tolerance_m) return std::nullopt;
+  return f;
+}
+
+bool RobotValidity::SlopeWindow::steepnessOk(double run, double z0, double z1) const {
+  // One voxel of the difference is the floor's quantisation.
+  return (std::abs(z1 - z0) - v_.res_) / run <= tan_max_;
+}
+
+bool RobotValidity::SlopeWindow::add(double s, double floor) {
+  floors_.emplace_back(s, floor);
+  while (tail_ + 1 < floors_.size() && s - floors_[tail_ + 1].first >= v_.params_.slope_baseline_m) ++tail_;
+  const double run = s - floors_[tail_].first;
+  return run < v_.params_.slope_baseline_m || steepnessOk(run, floors_[tail_].second, floor);
+}
+
+bool RobotValidity::pathSlopeValid(const std::vector<Vec3>& path) const {
+  if (!ground()) return true;
+  SlopeWindow slope(*this);
+  double s = 0;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const double run = (path[i + 1] - path[i]).head<2>().norm();
+    const int n = std::max(1, int(std::ceil((path[i + 1] - path[i]).norm() / step_)));
+    for (int k = (i == 0 ? 0 : 1); k <= n; ++k) {
+      const std::optional<double> f = groundFloor(path[i] + (path[i + 1] - path[i]) * (double(k) / n));
+      if (!f || !slope.add(s + run * double(k) / n, *f)) return false;
+    }
+    s += run;
+  }
+  return true;
+}
+
+double RobotValidity::clearance(const Vec3& c) const {
+  const RobotShape& r = params_.robot;
+  const Vec3 body = ground() ? Vec3(c + Vec3(0, 0, lift_)) : c;
+  switch (r.type) {
+    case ShapeType::kSphere: return field_->distance(body) - r.radius;
+    case ShapeType::kCapsule: {
+      double best = field_->distance(body);
+      const int n = std::max(1, int(std::ceil(r.length / step_)));
+      for (int k = 0; k <= n; ++k)
+        best = std::min(best, field_->distance(body + Vec3(0, 0, -0.5 * r.length + r.length * k / n)));
+      return best - r.radius;
+    }
+    case ShapeType::kBox:
+    case ShapeType::kCylinder: {
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation() = body;
+      return checker_->distance(checked_, pose).distance_m;
+    }
+  }
+  return 0.0;
+}
+
+double RobotValidity::costFactor(const Vec3& c) const {
+  if (params_.clearance_weight <= 0) return 1.0;
+  const double extra = field_->distance(ground() ? Vec3(c + Vec3(0, 0, lift_)) : c) - required_;
+  return 1.0 + params_.clearance_weight * std::max(0.0, 1.0 - extra / params_.preferred_clearance_m);
+}
+
+double RobotValidity::segmentCost(const Vec3& a, const Vec3& b) const {
+  const double len = (b - a).norm();
+  if (params_.clearance_weight <= 0) return len;
+  // Midpoint rule over pieces of about a metre (at most 64): the penalty varies slowly.
+  const int n = std::clamp(int(std::ceil(len)), 1, 64);
+  double sum = 0;
+  for (int k = 0; k < n; ++k) sum += costFactor(a + (b - a) * ((k + 0.5) / n));
+  return len * sum / n;
+}
+
+}  // namespace adit::global

@@ -1,0 +1,86 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+// RobotValidity: is the robot clear of rock at a point, along a segment, on the floor? The one
+// place that turns a robot shape and the map layer into yes/no answers; OMPL's validity checker,
+// motion validator, adit's shortcutting and the final re-validation all call it, so they agree.
+//
+// Shapes: sphere and capsule read the distance field (capsules stand upright, the field is read
+// along their axis); box and cylinder go through CollisionChecker (exact FCL against the rock
+// voxels). A box is checked as the upright cylinder it sweeps when it turns about z, so a path is
+// valid at any heading. The field is conservative by half a voxel: required field distance is
+// radius + safety margin + resolution / 2.
+//
+// Ground mode: the state's z is the robot's centre, half_height above the floor. The body is
+// checked lifted by margin + two voxels so that the floor it stands on (quantised to voxels, one
+// voxel higher under part of the footprint on a slope) is not "rock in the way".
+#include <cmath>
+#include <optional>
+#include <vector>
+
+#include "adit/global/global_planner_params.hpp"
+#include "adit/map/collision.hpp"
+#include "adit/map/distance_field.hpp"
+#include "adit/map/occupancy_map.hpp"
+
+namespace adit::global {
+
+class RobotValidity {
+ public:
+  RobotValidity(const map::DistanceField& field, const map::CollisionChecker& checker,
+                const GlobalPlannerParams& params);
+
+  /// Field distance needed at the robot's reference point (horizontal radius + margin + res/2).
+  double requiredClearance() const { return required_; }
+  double halfHeight() const { return half_height_; }
+  double step() const { return step_; }
+  bool ground() const { return params_.mode == PlanMode::kGround; }
+
+  /// Fly: the body at `c` clears the rock. Ground: additionally c.z is within ground_tolerance_m
+  /// of floor + half_height.
+  bool stateValid(const map::Vec3& c) const;
+  /// Every sample of a-b (step() apart) is a valid state; ground mode also limits the slope.
+  bool motionValid(const map::Vec3& a, const map::Vec3& b) const;
+  /// Last valid sample fraction along a-b (for OMPL's lastValid); 1 when the whole motion is valid.
+  bool motionValid(const map::Vec3& a, const map::Vec3& b, double* last_valid_fraction) const;
+  /// Ground mode: the floor slope along the whole path, over slope_baseline_m windows, is within
+  /// max_slope_deg (a chain of short segments cannot sneak up a ramp). Always true when flying.
+  bool pathSlopeValid(const std::vector<map::Vec3>& path) const;
+  /// Distance from the robot's surface to rock at `c` [m] (ground mode: at the lifted body).
+  double clearance(const map::Vec3& c) const;
+  /// Top of the floor under `c` (searching down from c.z at most `depth` m), if any.
+  std::optional<double> floorBelow(const map::Vec3& c, double depth) const;
+  /// Ground mode: `c` moved to half_height above the floor under it (searched from c.z down).
+  std::optional<map::Vec3> onFloor(const map::Vec3& c, double depth) const;
+  /// Cost of a-b under the clearance-aware objective (length weighted by a clearance penalty).
+  double segmentCost(const map::Vec3& a, const map::Vec3& b) const;
+  /// Penalty weight at one point: 1 + w * max(0, 1 - extra / preferred).
+  double costFactor(const map::Vec3& c) const;
+
+ private:
+  // Floor heights along a walk, checked over a sliding baseline.
+  class SlopeWindow {
+   public:
+    explicit SlopeWindow(const RobotValidity& v)
+        : v_(v), tan_max_(std::tan(v.params_.max_slope_deg * 3.14159265358979323846 / 180.0)) {}
+    bool add(double s, double floor);
+    bool steepnessOk(double run, double z0, double z1) const;
+    double first() const { return floors_.front().second; }
+    double last() const { return floors_.back().second; }
+
+   private:
+    const RobotValidity& v_;
+    double tan_max_;
+    std::vector<std::pair<double, double>> floors_;  // (horizontal distance, floor height)
+    std::size_t tail_ = 0;
+  };
+  bool bodyClear(const map::Vec3& c) const;
+  /// Floor under p when p is at half-height above it (within the ground tolerance).
+  std::optional<double> groundFloor(const map::Vec3& p) const;
+  const map::DistanceField* field_;
+  const map::CollisionChecker* checker_;
+  GlobalPlannerParams params_;
+  map::RobotShape checked_;  // the shape the checker sees (box -> its turning cylinder)
+  double res_ = 0.1, required_ = 0.0, half_height_ = 0.0, step_ = 0.05, lift_ = 0.0;
+};
+
+}  // namespace adit::global

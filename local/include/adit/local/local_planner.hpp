@@ -1,0 +1,158 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// LocalPlanner: the reactive step a robot calls every control period. Given the robot's state,
+/// the expected path (from the global planner, or a straight line), the moving obstacles it
+/// senses and the period, step() returns velocity and acceleration set-points within the robot's
+/// limits, the current sub-goal and a status. It uses the potential field of the selected model
+/// (params.hpp, potential_terms.hpp), a progress monitor that detects local minima and
+/// oscillation (no new best progress along the path over a window), escapes them (the UUV
+/// rotation direction picks the side, a virtual sub-goal on that side leads round the obstacle)
+/// and, after a bounded number of failed escapes, says kStuck so that the caller can replan.
+///
+/// step() does not allocate (scratch buffers are sized in create()), takes time linear in the
+/// number of obstacles passed, and never returns NaN: non-finite input gets a refused command
+/// (zero set-points, status kRefused, a message). kArrived only when the centre is within
+/// MonitorParams::arrival_tolerance_m of the path's last point.
+///
+///   World world;  world.field = &field;                 // rock (optional: open space without)
+///   StatusOr<LocalPlanner> planner = LocalPlanner::create(LocalParams::preset(Method::kTian2016), world);
+///   for (;;) {                                           // every control period
+///     RobotState s = readOdometry();
+///     StepCommand c = planner->step(s, expected_path, sensed_obstacles, 0.1);
+///     if (c.status == StepStatus::kStuck) replan();
+///     sendSetPoints(c.velocity, c.acceleration);
+///   }
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "adit/local/params.hpp"
+#include "adit/map/types.hpp"
+#include "adit/status.hpp"
+
+namespace adit::map {
+class DistanceField;
+class CollisionChecker;
+}  // namespace adit::map
+
+namespace adit::local {
+
+using map::Vec3;
+
+enum class StepStatus {
+  kFollowing,  ///< on the way, the field mostly pulls along the path
+  kYielding,   ///< slowing or backing off for a moving obstacle that closes in
+  kDetouring,  ///< deflected round an obstacle, or escaping a local minimum
+  kStuck,      ///< no progress after the bounded escapes: replan (stays until reset() or a new path)
+  kArrived,    ///< the centre is within the arrival tolerance of the goal
+  kRefused,    ///< the input was not usable (non-finite, empty path, dt <= 0); set-points zero
+};
+const char* stepStatusName(StepStatus s);
+
+/// The robot's state in the world frame.
+struct RobotState {
+  Vec3 position = Vec3::Zero();
+  Vec3 velocity = Vec3::Zero();
+  Vec3 acceleration = Vec3::Zero();
+};
+
+/// A static sphere (a disc in the papers' 2-D set-ups) given besides the map.
+struct StaticSphere {
+  Vec3 center = Vec3::Zero();
+  double radius = 0.5;
+};
+
+/// What the robot knows besides the moving obstacles. Pointers are not owned and must outlive the
+/// planner.
+struct World {
+  const map::DistanceField* field = nullptr;  ///< rock; null: open space
+  /// With a non-spherical `shape`, the rock distance comes from this exact checker (FCL) instead
+  /// of the field; the shape's local x axis is turned to the direction of travel.
+  const map::CollisionChecker* checker = nullptr;
+  map::RobotShape shape = map::RobotShape::sphere(0.3);
+  std::vector<StaticSphere> static_obstacles;
+};
+
+struct StepCommand {
+  Vec3 velocity = Vec3::Zero();      ///< set-point, |v| <= v_max
+  Vec3 acceleration = Vec3::Zero();  ///< (velocity - current velocity) / dt, |a| <= a_max
+  Vec3 sub_goal = Vec3::Zero();      ///< the break point (or virtual sub-goal) being steered to
+  StepStatus status = StepStatus::kRefused;
+  double potential = 0.0;            ///< total U at the robot (models with a potential)
+  double clearance_m = std::numeric_limits<double>::infinity();  ///< nearest obstacle surface seen
+  int escapes = 0;                   ///< escape attempts since the last real progress
+  const char* message = "";          ///< why, for kRefused and kStuck (a static string)
+};
+
+class LocalPlanner {
+ public:
+  /// Validates the parameters and the static obstacles, sizes the scratch buffers.
+  static StatusOr<LocalPlanner> create(const LocalParams& params, World world);
+
+  /// One control period. `moving` holds the obstacles as sensed now: position, velocity and
+  /// acceleration at this instant (MovingObstacle's t = 0 is "now").
+  StepCommand step(const RobotState& state, const map::Polyline& expected_path, const map::MovingObstacle* moving,
+                   std::size_t moving_count, double dt);
+  StepCommand step(const RobotState& state, const map::Polyline& expected_path,
+                   const std::vector<map::MovingObstacle>& moving, double dt) {
+    return step(state, expected_path, moving.data(), moving.size(), dt);
+  }
+
+  /// Forgets the progress history, the sub-goal index and a kStuck verdict (after a replan).
+  void reset();
+
+  const LocalParams& params() const { return params_; }
+  const World& world() const { return world_; }
+
+ private:
+  LocalPlanner(const LocalParams& params, World world);
+
+  struct Obstacle;  // one repelling thing this period
+  void gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, const map::MovingObstacle* moving,
+                       std::size_t moving_count);
+  void addRockPoints(const Vec3& q, const Vec3& v, const Vec3& a, double radius);
+  // Smallest clearance (negative: overlap) to moving obstacles and static spheres over the safety
+  // horizon if the robot steers its velocity to v_target.
+  // Only the obstacles listed in reachable_ count.
+  double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving) const;
+
+  LocalParams params_;
+  World world_;
+
+  // Progress monitor.
+  double clock_s_ = 0.0;
+  double best_progress_ = std::numeric_limits<double>::infinity();
+  double last_improvement_s_ = 0.0;
+  double wait_credit_s_ = 0.0;  // time not counted against the robot while it yields
+  int escapes_ = 0;
+  bool escaping_ = false;
+  double escape_until_s_ = 0.0;
+  Vec3 escape_axis_ = Vec3::UnitZ();
+  bool stuck_ = false;
+  std::size_t segment_ = 0;
+  std::size_t path_size_ = 0;
+  std::uint64_t path_signature_ = 0;  // of the path the monitor state belongs to
+
+  // Scratch, sized in create(): never reallocated by step().
+  struct ObstacleData {
+    double rho;
+    Vec3 grad;
+    double pivot;
+    Vec3 v_rel, a_rel;
+    Vec3 point;   // nearest point on the obstacle
+    bool moving;
+    bool closing;  // moving and getting nearer now (true geometry, not the prediction)
+  };
+  std::vector<ObstacleData> obstacles_;
+  std::vector<Vec3> rock_points_;
+  std::vector<std::size_t> reachable_;  // moving obstacles that can reach the robot within the safety horizon
+  static constexpr int kAzimuthBins = 24, kElevationBins = 7;
+  std::array<double, kAzimuthBins * kElevationBins> bin_distance_{};
+  std::array<Vec3, kAzimuthBins * kElevationBins> bin_point_{};
+};
+
+}  // namespace adit::local

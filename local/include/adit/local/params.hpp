@@ -1,0 +1,181 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// Parameters of the local layer: one struct per potential-field model with the paper's values as
+/// defaults (and a named preset), the robot's limits, the progress monitor, and LocalParams that
+/// bundles them with the selected Method. Every struct has validate(), whose message names the
+/// field, the value and the rule. The formulas are restated in ../shared/spec/algorithms.md §1-4.
+///
+///   LocalParams p = LocalParams::preset(Method::kTian2016);
+///   p.robot.v_max_mps = 1.0;
+///   if (Status s = p.validate(); !s.ok()) fail(s);
+
+#include <string>
+
+#include "adit/status.hpp"
+
+namespace adit::local {
+
+/// The selectable models. Names are the scenario YAML's `method` values.
+enum class Method { kClassic, kTian2016, kWang2014, kVff, kCvff, kUuv };
+
+const char* methodName(Method m);
+/// "classic" | "tian2016" | "wang2014" | "vff" | "cvff" | "uuv".
+StatusOr<Method> parseMethod(const std::string& name);
+
+/// Khatib's APF (Tian 2016 eqs. 1-8), the baseline.
+struct ClassicParams {
+  double xi = 1.0;       ///< attraction gain, U = 1/2 xi rho_g^2
+  double eta = 1.0;      ///< repulsion gain, U = 1/2 eta (1/rho - 1/rho0)^2
+  double rho0_m = 2.0;   ///< influence distance rho_0
+  Status validate() const;
+  /// One field list for YAML overrides, dumps and docs.
+  template <class V>
+  void visit(V& v) {
+    v("xi", xi); v("eta", eta); v("rho0_m", rho0_m);
+  }
+};
+
+/// Tian, Gao, Zhang 2016: attraction with the expected-path line field (eqs. 9-11) and repulsion
+/// with relative velocity and acceleration (eq. 12).
+struct Tian2016Params {
+  double k_q = 0.05;      ///< goal gain
+  double k_v = 0.1;       ///< relative-velocity gain
+  double k_a = 0.1;       ///< relative-acceleration gain
+  double k_l = 0.1;       ///< line-field gain (0 turns the line field off)
+  double s = 2.0;         ///< goal exponent ("m")
+  double t = 2.0;         ///< velocity exponent ("n")
+  double p = 2.0;         ///< acceleration exponent ("q")
+  double l = 2.0;         ///< line-field exponent
+  double K_q = 1.0;       ///< repulsion position gain (not given in the paper)
+  double K_v = 0.5;       ///< repulsion closing-speed gain
+  double K_a = 0.5;       ///< repulsion closing-acceleration gain
+  double rho0_m = 2.0;    ///< influence distance rho_0
+  /// Interpretation (spec §1.3): the position term also applies when not closing in, so that a
+  /// robot sliding along a wall still feels it.
+  bool position_term_always = true;
+  Status validate() const;
+  /// One field list for YAML overrides, dumps and docs.
+  template <class V>
+  void visit(V& v) {
+    v("k_q", k_q); v("k_v", k_v); v("k_a", k_a); v("k_l", k_l); v("s", s); v("t", t); v("p", p);
+    v("l", l); v("K_q", K_q); v("K_v", K_v); v("K_a", K_a); v("rho0_m", rho0_m);
+    v("position_term_always", position_term_always);
+  }
+};
+
+/// Wang, Song, Zhang 2014: field of view, Ge-Cui goal-aware repulsion, shrinking influence range,
+/// fuzzy repulsion gain.
+struct Wang2014Params {
+  double k_att = 1.0;           ///< attraction gain (Khatib form)
+  double K_2 = 1.0;             ///< base repulsion gain, multiplied by the fuzzy gain
+  double n = 2.0;               ///< goal-distance exponent of the Ge-Cui repulsion
+  double view_range_m = 4.0;    ///< D_r, radius of the field-of-view sector
+  double view_half_angle_deg = 60.0;  ///< the sector is +- this about the heading
+  double sensing_radius_m = 2.0;      ///< r: rho_0 while the goal is farther than r
+  double approach_factor = 2.0;       ///< delta for an approaching obstacle
+  double recede_factor = 0.5;         ///< delta for a receding obstacle
+  Status validate() const;
+  /// One field list for YAML overrides, dumps and docs.
+  template <class V>
+  void visit(V& v) {
+    v("k_att", k_att); v("K_2", K_2); v("n", n); v("view_range_m", view_range_m);
+    v("view_half_angle_deg", view_half_angle_deg); v("sensing_radius_m", sensing_radius_m);
+    v("approach_factor", approach_factor); v("recede_factor", recede_factor);
+  }
+};
+
+/// Guo et al. 2022: VFF (eq. 4) and, with `compound`, the CVFF velocity fields (eqs. 7-12).
+/// The paper's units are grid cells (decimetres); here metres, so the paper's grid maps 1:1 onto
+/// scenario units.
+struct VffParams {
+  bool compound = false;   ///< CVFF when true
+  double K_p = 13.0;       ///< position attraction, F = K_p unit(q_g - q)
+  double K_v = 15.0;       ///< velocity attraction
+  double M_p = 5.0;        ///< position repulsion, M_p C / d^2
+  double M_v = 7.0;        ///< velocity repulsion, M_v |V_b| C / d
+  double p0_m = 1.0;       ///< influence distance p_0 (certainty C = 1 within it)
+  Status validate() const;
+  /// One field list for YAML overrides, dumps and docs.
+  template <class V>
+  void visit(V& v) {
+    v("K_p", K_p); v("K_v", K_v); v("M_p", M_p); v("M_v", M_v); v("p0_m", p0_m);
+  }
+};
+
+/// The UUV paper: Ge-Cui repulsion with n = 2, attraction bounded (conic) far from the goal, and the
+/// 3-D rotation direction d = (a x b) x a.
+struct UuvParams {
+  double k_att = 1.0;          ///< attraction gain
+  double conic_distance_m = 5.0;  ///< beyond it the attraction is conic (constant magnitude)
+  double k_rep = 1.0;          ///< repulsion gain
+  double rho0_m = 2.0;         ///< influence distance
+  double rotation_gain = 1.0;  ///< tangential force, as a fraction of the repulsion magnitude
+  Status validate() const;
+  /// One field list for YAML overrides, dumps and docs.
+  template <class V>
+  void visit(V& v) {
+    v("k_att", k_att); v("conic_distance_m", conic_distance_m); v("k_rep", k_rep); v("rho0_m", rho0_m);
+    v("rotation_gain", rotation_gain);
+  }
+};
+
+/// The robot as the local planner sees it: a sphere with speed and acceleration limits.
+struct RobotLimits {
+  double radius_m = 0.3;
+  double v_max_mps = 1.0;
+  double a_max_mps2 = 0.5;
+  Status validate() const;
+};
+
+/// Progress monitor and escape (local minima and oscillation), spec "Known traps".
+struct MonitorParams {
+  double window_s = 4.0;           ///< progress is judged over this much time
+  /// Waiting for closing moving obstacles is not held against the robot, up to this much time
+  /// since the last progress (then the monitor counts again: no endless yielding).
+  double max_wait_s = 30.0;
+  double min_progress_m = 0.3;     ///< less goal-distance reduction than this over a window: no progress
+  bool escape = true;              ///< try escapes (rotation direction, then virtual sub-goals)
+  int max_escapes = 3;             ///< after this many failed escapes in a row: stuck
+  double escape_time_s = 20.0;     ///< longest escape manoeuvre (it ends early on progress)
+  double virtual_goal_offset_m = 2.0;  ///< lateral offset of the virtual sub-goal
+  double arrival_tolerance_m = 0.5;    ///< arrived when the centre is within this of the goal
+  double subgoal_switch_m = 1.0;       ///< advance to the next break point within this distance
+  double full_speed_force = 1.0;       ///< |F| at or above which the robot commands v_max
+  /// Moving obstacles repel from their closest approach within this horizon (constant
+  /// acceleration); 0 = from where they are now. The classic baseline never predicts.
+  double prediction_horizon_s = 2.0;
+  /// Safety check of each command against moving obstacles over this horizon (0 = off): a command
+  /// that leads into one is replaced by braking or a side step (status kYielding).
+  double safety_horizon_s = 2.0;
+  Status validate() const;
+  /// One field list for YAML overrides, dumps and docs.
+  template <class V>
+  void visit(V& v) {
+    v("window_s", window_s); v("max_wait_s", max_wait_s); v("min_progress_m", min_progress_m); v("escape", escape);
+    v("max_escapes", max_escapes); v("escape_time_s", escape_time_s);
+    v("virtual_goal_offset_m", virtual_goal_offset_m); v("arrival_tolerance_m", arrival_tolerance_m);
+    v("subgoal_switch_m", subgoal_switch_m); v("full_speed_force", full_speed_force);
+    v("prediction_horizon_s", prediction_horizon_s); v("safety_horizon_s", safety_horizon_s);
+  }
+};
+
+/// Everything step() needs: the method, the model parameters (only the selected one is used),
+/// the robot and the monitor.
+struct LocalParams {
+  Method method = Method::kTian2016;
+  ClassicParams classic;
+  Tian2016Params tian2016;
+  Wang2014Params wang2014;
+  VffParams vff;
+  UuvParams uuv;
+  RobotLimits robot;
+  MonitorParams monitor;
+
+  /// The paper's values for `m`. The classic preset turns escapes off: Khatib's APF has none,
+  /// which is what the baseline shows.
+  static LocalParams preset(Method m);
+  Status validate() const;
+};
+
+}  // namespace adit::local

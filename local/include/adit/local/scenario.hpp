@@ -1,0 +1,67 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// A simulation scenario: the YAML schema of `adit simulate` as a struct, and its loader. The
+/// schema (issue 7) is fixed; fields marked "extension" are additions.
+///
+///   map: ../district.bt          # optional: relative to the working directory, else to this file
+///   start: [0, 0, 0]
+///   goal: [14, 14, 0]
+///   expected_path: [[0,0,0], [4.9,5,0], [10.8,6.2,0], [14,14,0]]   # optional: straight line
+///   robot: {radius: 0.3, v_max: 1.0, a_max: 0.5}
+///   static_obstacles:  [{center: [9, 11.5, 0], radius: 0.5}]
+///   moving_obstacles:  [{start: [4, 8, 0], velocity: [0.25, -0.35, 0], acceleration: [0.036, 0.16, 0], radius: 0.3}]
+///   method: tian2016             # classic | tian2016 | wang2014 | vff | cvff | uuv
+///   params: {}                   # overrides of the preset: the method's fields and MonitorParams'
+///   dt: 0.1
+///   t_max: 300
+///   seed: 1
+///
+/// Extensions: `name`, `description`; a moving obstacle may have `name`, `shape: sphere | box |
+/// cylinder` with `size: [x, y, z]` (box) or `length` (cylinder, along z).
+///
+///   StatusOr<Scenario> s = loadScenario("maps/scenarios/tian2016_straight.yaml");
+///   if (!s.ok()) return report(s.status());   // "file:line:col: robot.radius: must be > 0 (got -1)"
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "adit/local/local_planner.hpp"
+#include "adit/local/params.hpp"
+#include "adit/map/types.hpp"
+#include "adit/status.hpp"
+
+namespace adit::local {
+
+struct NamedObstacle {
+  std::string name;
+  map::MovingObstacle obstacle;  ///< position/velocity/acceleration at t = 0
+};
+
+struct Scenario {
+  std::string name;         ///< `name`, else the file's stem
+  std::string description;
+  std::string file;         ///< where it was loaded from (messages)
+  std::optional<std::string> map_path;  ///< resolved path of `map`
+  Vec3 start = Vec3::Zero();
+  Vec3 goal = Vec3::Zero();
+  map::Polyline expected_path;  ///< never empty after loading: [start, goal] by default
+  std::vector<StaticSphere> static_obstacles;
+  std::vector<NamedObstacle> moving_obstacles;
+  LocalParams params;       ///< preset of `method` with `params` and `robot` applied
+  double dt_s = 0.1;
+  double t_max_s = 300.0;
+  std::uint64_t seed = 1;
+
+  /// Range checks that need no map (the loader calls it; code that builds a Scenario should too).
+  Status validate() const;
+};
+
+/// Reads and validates a scenario file. Errors name the file, line, column and field.
+StatusOr<Scenario> loadScenario(const std::string& path);
+/// The same from text; `file` names it in messages and locates a relative `map`.
+StatusOr<Scenario> parseScenario(const std::string& text, const std::string& file);
+
+}  // namespace adit::local

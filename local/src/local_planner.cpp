@@ -1,0 +1,570 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/local/local_planner.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "adit/local/potential_terms.hpp"
+#include "adit/map/collision.hpp"
+#include "adit/map/distance_field.hpp"
+#include "adit/map/rock_points.hpp"
+
+namespace adit::local {
+
+using map::allFinite;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr std::size_t kMaxObstacles = 512;   // kept per period (the nearest win when more)
+constexpr std::size_t kRockBuffer = 8192;    // rock surface points per period
+constexpr double kClosingSpeed = 0.05;       // m/s: slower relative motion counts as static
+
+bool finiteShape(const map::RobotShape& s) {
+  return std::isfinite(s.radius) && std::isfinite(s.length) && allFinite(s.size);
+}
+
+// Nearest point of an obstacle shape (identity orientation, centred at c) to q; false when q is
+// inside it.
+bool nearestOnShape(const map::RobotShape& s, const Vec3& c, const Vec3& q, Vec3* out) {
+  const Vec3 d = q - c;
+  switch (s.type) {
+    case map::ShapeType::kSphere: {
+      const double n = d.norm();
+      if (n <= s.radius) return false;
+      *out = c + d * (s.radius / n);
+      return true;
+    }
+    case map::ShapeType::kBox: {
+      const Vec3 h = 0.5 * s.size;
+      const Vec3 cl = d.cwiseMax(-h).cwiseMin(h);
+      if (cl == d) return false;
+      *out = c + cl;
+      return true;
+    }
+    case map::ShapeType::kCylinder:
+    case map::ShapeType::kCapsule: {
+      const double hl = 0.5 * s.length;
+      if (s.type == map::ShapeType::kCapsule) {
+        const Vec3 axis_pt(0, 0, std::clamp(d.z(), -hl, hl));
+        const Vec3 r = d - axis_pt;
+        const double n = r.norm();
+        if (n <= s.radius) return false;
+        *out = c + axis_pt + r * (s.radius / n);
+        return true;
+      }
+      const Vec3 radial(d.x(), d.y(), 0.0);
+      const double rn = radial.norm();
+      const bool inside_r = rn <= s.radius, inside_z = std::abs(d.z()) <= hl;
+      if (inside_r && inside_z) return false;
+      const Vec3 rp = inside_r ? radial : Vec3(radial * (s.radius / rn));
+      *out = c + Vec3(rp.x(), rp.y(), std::clamp(d.z(), -hl, hl));
+      return true;
+    }
+  }
+  return false;
+}
+
+// Bearing of `to` about the heading in the horizontal plane, positive to the left.
+double bearing(const Vec3& heading, const Vec3& to) {
+  const double cross = heading.x() * to.y() - heading.y() * to.x();
+  const double dot = heading.x() * to.x() + heading.y() * to.y();
+  return std::atan2(cross, dot);
+}
+
+Vec3 clampNorm(const Vec3& v, double max) {
+  const double n = v.norm();
+  return n > max ? Vec3(v * (max / n)) : v;
+}
+
+Vec3 unitOr(const Vec3& v, const Vec3& fallback) {
+  const double n = v.norm();
+  return n > 1e-12 ? Vec3(v / n) : fallback;
+}
+
+// FNV-1a over the path's coordinates: any change of any point is a new path.
+std::uint64_t pathSignature(const map::Polyline& path) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (const Vec3& p : path.points)
+    for (int i = 0; i < 3; ++i) {
+      std::uint64_t bits;
+      const double x = p[i];
+      std::memcpy(&bits, &x, sizeof bits);
+      for (int b = 0; b < 8; ++b) {
+        h ^= (bits >> (8 * b)) & 0xffu;
+        h *= 1099511628211ull;
+      }
+    }
+  return h;
+}
+
+}  // namespace
+
+const char* stepStatusName(StepStatus s) {
+  switch (s) {
+    case StepStatus::kFollowing: return "following";
+    case StepStatus::kYielding: return "yielding";
+    case StepStatus::kDetouring: return "detouring";
+    case StepStatus::kStuck: return "stuck";
+    case StepStatus::kArrived: return "arrived";
+    case StepStatus::kRefused: return "refused";
+  }
+  return "?";
+}
+
+StatusOr<LocalPlanner> LocalPlanner::create(const LocalParams& params, World world) {
+  ADIT_RETURN_IF_ERROR(params.validate());
+  for (std::size_t i = 0; i < world.static_obstacles.size(); ++i) {
+    const StaticSphere& s = world.static_obstacles[i];
+    if (!allFinite(s.center) || !(s.radius >= 0.0) || !std::isfinite(s.radius))
+      return invalidArgument("static_obstacles[" + std::to_string(i) + "]: centre and radius must be finite, radius >= 0");
+  }
+  if (world.shape.type != map::ShapeType::kSphere) {
+    ADIT_RETURN_IF_ERROR(world.shape.validate());
+    if (!world.checker) return invalidArgument("World::shape is not a sphere but no CollisionChecker is given");
+  }
+  return LocalPlanner(params, std::move(world));
+}
+
+LocalPlanner::LocalPlanner(const LocalParams& params, World world) : params_(params), world_(std::move(world)) {
+  obstacles_.reserve(kMaxObstacles);
+  reachable_.reserve(kMaxObstacles);
+  rock_points_.resize(world_.field ? kRockBuffer : 0);
+}
+
+void LocalPlanner::reset() {
+  clock_s_ = 0.0;
+  best_progress_ = std::numeric_limits<double>::infinity();
+  last_improvement_s_ = 0.0;
+  wait_credit_s_ = 0.0;
+  escapes_ = 0;
+  escaping_ = false;
+  stuck_ = false;
+  segment_ = 0;
+  path_size_ = 0;
+}
+
+void LocalPlanner::addRockPoints(const Vec3& q, const Vec3& v, const Vec3& a, double radius) {
+  // Wang 2014 sees only its field of view: the scan skips the rest (the same test as inFieldOfView).
+  map::ViewCone cone;
+  if (params_.method == Method::kWang2014) {
+    cone.axis = unitOr(v, Vec3::Zero());
+    cone.half_angle_rad = params_.wang2014.view_half_angle_deg * kPi / 180.0;
+  }
+  const map::RockPointsResult r =
+      map::rockSurfacePoints(*world_.field, q, radius, cone, rock_points_.data(), rock_points_.size());
+  // One point per direction bin (the nearest), as a range sensor would see the rock: a wall is
+  // then a few obstacles, not hundreds of voxels whose forces would swamp everything else.
+  bin_distance_.fill(std::numeric_limits<double>::infinity());
+  for (std::size_t i = 0; i < r.written; ++i) {
+    const Vec3 d = rock_points_[i] - q;
+    const double n = d.norm();
+    if (n <= 1e-9) continue;
+    const double az = std::atan2(d.y(), d.x()), el = std::asin(std::clamp(d.z() / n, -1.0, 1.0));
+    const int ia = std::min(kAzimuthBins - 1, int((az + kPi) / (2 * kPi) * kAzimuthBins));
+    const int ie = std::min(kElevationBins - 1, int((el + 0.5 * kPi) / kPi * kElevationBins));
+    const int b = ie * kAzimuthBins + ia;
+    if (n < bin_distance_[std::size_t(b)]) {
+      bin_distance_[std::size_t(b)] = n;
+      bin_point_[std::size_t(b)] = rock_points_[i];
+    }
+  }
+  const double rr = params_.robot.radius_m;
+  for (std::size_t b = 0; b < bin_distance_.size(); ++b) {
+    if (!std::isfinite(bin_distance_[b]) || obstacles_.size() >= kMaxObstacles) continue;
+    const Proximity p = pointProximity(q, bin_point_[b], rr);
+    obstacles_.push_back({p.rho, p.grad, p.pivot_distance, v, a, bin_point_[b], false, false});
+  }
+}
+
+void LocalPlanner::gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, const map::MovingObstacle* moving,
+                                   std::size_t moving_count) {
+  obstacles_.clear();
+  const double rr = params_.robot.radius_m;
+  double range = 0.0;
+  switch (params_.method) {
+    case Method::kClassic: range = params_.classic.rho0_m; break;
+    case Method::kTian2016: range = params_.tian2016.rho0_m; break;
+    case Method::kWang2014: range = std::max(params_.wang2014.sensing_radius_m, 0.0); break;
+    case Method::kVff:
+    case Method::kCvff: range = params_.vff.p0_m; break;
+    case Method::kUuv: range = params_.uuv.rho0_m; break;
+  }
+  auto keep = [&](const ObstacleData& o) {
+    if (!(o.rho <= range)) return;
+    if (obstacles_.size() < kMaxObstacles) {
+      obstacles_.push_back(o);
+      return;
+    }
+    auto far = std::max_element(obstacles_.begin(), obstacles_.end(),
+                                [](const ObstacleData& x, const ObstacleData& y) { return x.rho < y.rho; });
+    if (far->rho > o.rho) *far = o;
+  };
+
+  if (world_.field) {
+    const bool all_points = params_.method == Method::kWang2014 || params_.method == Method::kVff ||
+                            params_.method == Method::kCvff;
+    if (world_.shape.type != map::ShapeType::kSphere && world_.checker) {
+      // The exact robot shape against the rock, turned to the direction of travel.
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation() = q;
+      if (std::hypot(v.x(), v.y()) > 1e-6) pose.linear() = Eigen::AngleAxisd(std::atan2(v.y(), v.x()), Vec3::UnitZ()).toRotationMatrix();
+      const map::ShapeDistance d = world_.checker->distance(world_.shape, pose, range);
+      if (d.exact && allFinite(d.point_on_obstacle)) {
+        const Vec3 sep = d.point_on_robot - d.point_on_obstacle;
+        Vec3 g = sep.norm() > 1e-9 ? Vec3(sep.normalized()) : world_.field->query(q).gradient;
+        if (g.norm() < 0.5) g = Vec3::UnitZ();
+        keep({d.distance_m, g, sep.norm(), v, a, d.point_on_obstacle, false, false});
+      }
+    } else if (all_points) {
+      addRockPoints(q, v, a, range + rr);
+    } else {
+      const map::DistanceSample s = world_.field->query(q);
+      if (!s.in_rock) {
+        const Proximity p = pointProximity(q, s.nearest, rr);
+        keep({p.rho, p.grad, p.pivot_distance, v, a, s.nearest, false, false});
+      }
+    }
+  }
+  for (const StaticSphere& s : world_.static_obstacles) {
+    const Proximity p = sphereProximity(q, s.center, s.radius, rr);
+    keep({p.rho, p.grad, p.pivot_distance, v, a, s.center - p.grad * s.radius, false, false});
+  }
+  const double horizon = params_.method == Method::kClassic ? 0.0 : params_.monitor.prediction_horizon_s;
+  for (std::size_t i = 0; i < moving_count; ++i) {
+    const map::MovingObstacle& m = moving[i];
+    // Where the obstacle will be relative to the robot at their closest approach within the
+    // horizon (constant acceleration for the obstacle, constant velocity for the robot): the
+    // robot is repelled from that encounter, not only from where the obstacle is now.
+    Vec3 centre = m.position;
+    const Vec3 d0 = q - m.position, w = v - m.velocity;
+    const bool closing = -d0.dot(w) > kClosingSpeed * d0.norm();
+    if (horizon > 0.0) {
+      const double w2 = w.squaredNorm();
+      const double t_star = w2 > 1e-12 ? std::clamp(-d0.dot(w) / w2, 0.0, horizon) : 0.0;
+      const Vec3 d_star = (q + v * t_star) - m.positionAt(t_star);
+      // A later encounter is less pressing: by then the robot can move 1/2 a_max t^2 aside.
+      const double dist = std::min(d0.norm(), d_star.norm() + 0.5 * params_.robot.a_max_mps2 * t_star * t_star);
+      if (dist < d0.norm()) centre = q - unitOr(d_star, unitOr(d0, Vec3::UnitX())) * dist;
+    }
+    Proximity p;
+    Vec3 point;
+    if (m.shape.type == map::ShapeType::kSphere) {
+      p = sphereProximity(q, centre, m.shape.radius, rr);
+      point = centre - p.grad * m.shape.radius;
+    } else if (nearestOnShape(m.shape, centre, q, &point)) {
+      p = pointProximity(q, point, rr);
+    } else {
+      p = sphereProximity(q, centre, m.shape.boundingRadius(), rr);  // inside: push out
+      point = centre;
+    }
+    keep({p.rho, p.grad, p.pivot_distance, v - m.velocity, a - m.acceleration, point, true, closing});
+  }
+}
+
+double LocalPlanner::encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target,
+                                     const map::MovingObstacle* moving) const {
+  constexpr double kSample = 0.1;   // s
+  constexpr double kMargin = 0.05;  // m kept free beyond the bounding spheres
+  const double a_max = params_.robot.a_max_mps2, rr = params_.robot.radius_m;
+  const int n = std::max(1, int(std::ceil(params_.monitor.safety_horizon_s / kSample)));
+  Vec3 pos = q, vel = v;
+  double margin = std::numeric_limits<double>::infinity();
+  for (int k = 1; k <= n; ++k) {
+    vel += clampNorm(v_target - vel, a_max * kSample);
+    pos += vel * kSample;
+    const double t = double(k) * kSample;
+    for (std::size_t i : reachable_) {
+      const map::MovingObstacle& m = moving[i];
+      margin = std::min(margin, (pos - m.positionAt(t)).norm() - m.shape.boundingRadius() - rr - kMargin);
+    }
+    for (const StaticSphere& s : world_.static_obstacles)
+      margin = std::min(margin, (pos - s.center).norm() - s.radius - rr - kMargin);
+  }
+  return margin;
+}
+
+StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& path, const map::MovingObstacle* moving,
+                               std::size_t moving_count, double dt) {
+  StepCommand cmd;
+  auto refuse = [&](const char* why) {
+    cmd.status = StepStatus::kRefused;
+    cmd.message = why;
+    return cmd;
+  };
+  if (!allFinite(state.position) || !allFinite(state.velocity) || !allFinite(state.acceleration))
+    return refuse("robot state is not finite");
+  if (!(dt > 0.0) || !std::isfinite(dt)) return refuse("dt must be finite and > 0");
+  if (path.points.empty()) return refuse("expected path is empty");
+  for (const Vec3& p : path.points)
+    if (!allFinite(p)) return refuse("expected path has a non-finite point");
+  if (moving_count > 0 && !moving) return refuse("moving obstacles: null array");
+  for (std::size_t i = 0; i < moving_count; ++i) {
+    const map::MovingObstacle& m = moving[i];
+    if (!allFinite(m.position) || !allFinite(m.velocity) || !allFinite(m.acceleration) || !finiteShape(m.shape))
+      return refuse("a moving obstacle is not finite");
+  }
+
+  const LocalParams& P = params_;
+  const double v_max = P.robot.v_max_mps, a_max = P.robot.a_max_mps2;
+  const Vec3 q = state.position, v = state.velocity, a = state.acceleration;
+  const Vec3 goal = path.points.back();
+  clock_s_ += dt;
+
+  // A different path (the caller replanned) restarts the sub-goal index and the monitor, and
+  // clears a kStuck verdict.
+  const std::uint64_t signature = pathSignature(path);
+  if (signature != path_signature_ || path.points.size() != path_size_) {
+    reset();
+    path_size_ = path.points.size();
+    path_signature_ = signature;
+  }
+
+  auto brake = [&](StepStatus status) {
+    const Vec3 acc = clampNorm(-v / dt, a_max);
+    cmd.acceleration = acc;
+    cmd.velocity = v + acc * dt;
+    cmd.status = status;
+    return cmd;
+  };
+  const double goal_distance = (q - goal).norm();
+  cmd.sub_goal = goal;
+  if (goal_distance <= P.monitor.arrival_tolerance_m) return brake(StepStatus::kArrived);
+  if (stuck_) {
+    cmd.message = "no progress after the escapes; replan";
+    cmd.escapes = escapes_;
+    return brake(StepStatus::kStuck);
+  }
+
+  // Current segment and sub-goal: never move back along the path.
+  const std::size_t n = path.points.size();
+  Vec3 seg_a = goal, seg_b = goal;
+  if (n >= 2) {
+    std::size_t nearest_seg = 0;
+    path.nearestPoint(q, &nearest_seg);
+    segment_ = std::min(std::max(segment_, nearest_seg), n - 2);
+    while (segment_ + 2 < n && (q - path.points[segment_ + 1]).norm() < P.monitor.subgoal_switch_m) ++segment_;
+    seg_a = path.points[segment_];
+    seg_b = path.points[segment_ + 1];
+  }
+  const Vec3 sub_goal = seg_b;
+  cmd.sub_goal = sub_goal;
+
+  // Progress: path length still to go from the projection onto the current segment, plus the
+  // distance off the path. It only counts as progress when it beats the best so far.
+  const Vec3 proj = nearestOnSegment(q, seg_a, seg_b);
+  double progress = (proj - seg_b).norm() + (q - proj).norm();
+  for (std::size_t i = segment_ + 1; i + 1 < n; ++i) progress += (path.points[i + 1] - path.points[i]).norm();
+  if (!std::isfinite(best_progress_)) {
+    best_progress_ = progress;
+    last_improvement_s_ = clock_s_;
+  } else if (progress < best_progress_ - P.monitor.min_progress_m) {
+    best_progress_ = progress;
+    last_improvement_s_ = clock_s_;
+    wait_credit_s_ = 0.0;
+    escapes_ = 0;
+    escaping_ = false;
+  }
+
+  gatherObstacles(q, v, a, moving, moving_count);
+  const ObstacleData* nearest = nullptr;
+  bool moving_closing = false;
+  for (const ObstacleData& o : obstacles_) {
+    if (!nearest || o.rho < nearest->rho) nearest = &o;
+    moving_closing = moving_closing || o.closing;
+  }
+  if (nearest) cmd.clearance_m = nearest->rho;
+
+  const Vec3 to_goal = unitOr(sub_goal - q, unitOr(goal - q, Vec3::UnitX()));
+  const Vec3 heading = unitOr(v, to_goal);
+  // The side to pass an obstacle on: the UUV rotation direction (the turn is toward -d); with no
+  // preferred side (head-on), the side where the obstacles are fewer and farther.
+  auto freeSideAxis = [&](const Vec3& dir, const Vec3& to_obstacle) {
+    Vec3 c = dir.cross(to_obstacle);
+    if (c.norm() > 1e-6 * std::max(1.0, to_obstacle.norm())) return Vec3(c.normalized());
+    Vec3 up = std::abs(dir.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
+    const Vec3 left = up.cross(dir).normalized();
+    double lean = 0.0;  // > 0: obstacles lean left
+    for (const ObstacleData& o : obstacles_) lean += (o.point - q).dot(left) / std::max(o.rho, 0.05);
+    // Axis +up circulates to the right of an obstacle ahead (see potential_terms.hpp).
+    return lean >= 0.0 ? up : Vec3(-up);
+  };
+
+  // Progress monitor: a window without a new best is a local minimum or an oscillation. Waiting
+  // for a moving obstacle does not count against the robot.
+  if (moving_closing && wait_credit_s_ < P.monitor.max_wait_s) {
+    last_improvement_s_ += dt;
+    wait_credit_s_ += dt;
+  }
+  if (escaping_ && clock_s_ >= escape_until_s_) {
+    escaping_ = false;
+    last_improvement_s_ = clock_s_;
+  }
+  if (!escaping_ && clock_s_ - last_improvement_s_ > P.monitor.window_s) {
+    if (P.monitor.escape && escapes_ < P.monitor.max_escapes) {
+      ++escapes_;
+      escaping_ = true;
+      escape_until_s_ = clock_s_ + P.monitor.escape_time_s;
+      escape_axis_ = freeSideAxis(to_goal, nearest ? Vec3(nearest->point - q) : to_goal);
+      if (escapes_ % 2 == 0) escape_axis_ = -escape_axis_;  // every other attempt: the other side
+    } else {
+      stuck_ = true;
+      cmd.message = P.monitor.escape ? "no progress after the escapes; replan" : "no progress (local minimum)";
+      cmd.escapes = escapes_;
+      return brake(StepStatus::kStuck);
+    }
+  }
+  cmd.escapes = escapes_;
+
+  // The field of the selected model: attraction, then each obstacle's repulsion (a potential
+  // term plus, for CVFF and UUV, forces the papers define without one).
+  TermValue total;
+  Vec3 extra = Vec3::Zero();
+  switch (P.method) {
+    case Method::kClassic: total += classicAttraction(q, sub_goal, P.classic.xi); break;
+    case Method::kTian2016: total += tianAttraction(q, v, a, sub_goal, seg_a, seg_b, P.tian2016); break;
+    case Method::kWang2014: total += classicAttraction(q, sub_goal, P.wang2014.k_att); break;
+    case Method::kVff:
+    case Method::kCvff:
+      total += cvffAttraction(q, sub_goal, P.vff.K_p);
+      if (P.vff.compound) extra += cvffVelocityAttraction(v, P.vff.K_v, v_max);
+      break;
+    case Method::kUuv: total += boundedAttraction(q, sub_goal, P.uuv.k_att, P.uuv.conic_distance_m); break;
+  }
+  const double half_view = P.wang2014.view_half_angle_deg * kPi / 180.0;
+  const double wang_rho0 = shrinkingInfluenceRange((q - sub_goal).norm(), P.wang2014.sensing_radius_m);
+  auto repulsion = [&](const ObstacleData& o, Vec3* no_potential) -> TermValue {
+    const Proximity prox{o.rho, o.grad, o.pivot};
+    switch (P.method) {
+      case Method::kClassic: return classicRepulsion(prox, P.classic.eta, P.classic.rho0_m);
+      case Method::kTian2016: return tianRepulsion(prox, o.v_rel, o.a_rel, P.tian2016);
+      case Method::kWang2014: {
+        const Wang2014Params& w = P.wang2014;
+        if (o.rho > wang_rho0 || !inFieldOfView(q, heading, o.point, w.view_range_m, half_view)) return {};
+        double delta = 1.0;
+        if (o.moving) {
+          const double v_ro = o.v_rel.dot(-o.grad);
+          delta = v_ro > kClosingSpeed ? w.approach_factor : v_ro < -kClosingSpeed ? w.recede_factor : 1.0;
+        }
+        const double f = fuzzyRepulsionGain(o.rho, bearing(heading, o.point - q), w.view_range_m, half_view);
+        return goalAwareRepulsion(prox, q, sub_goal, w.K_2 * delta * f, wang_rho0, w.n);
+      }
+      case Method::kVff:
+      case Method::kCvff:
+        if (P.vff.compound) *no_potential += cvffVelocityRepulsion(prox, o.v_rel, P.vff.M_v, P.vff.p0_m);
+        return vffRepulsion(prox, P.vff.M_p, P.vff.p0_m);
+      case Method::kUuv: {
+        const TermValue rep = goalAwareRepulsion(prox, q, sub_goal, P.uuv.k_rep, P.uuv.rho0_m, 2.0);
+        const Vec3 b = o.point - q;
+        if (rep.dq.norm() > 0.0 && b.dot(heading) > 0.0) {
+          // Turn the velocity toward the free side: -d, d = (a x b) x a.
+          Vec3 side = rotationSide(heading, b);
+          if (side.norm() <= 0.0) side = freeSideAxis(heading, b).cross(heading).cross(heading);
+          *no_potential -= P.uuv.rotation_gain * rep.dq.norm() * unitOr(side, Vec3::Zero());
+        }
+        return rep;
+      }
+    }
+    return {};
+  };
+  Vec3 moving_force = Vec3::Zero();  // kept apart: escapes still give way to moving obstacles
+  for (const ObstacleData& o : obstacles_) {
+    Vec3 no_potential = Vec3::Zero();
+    const TermValue rep = repulsion(o, &no_potential);
+    total += rep;
+    extra += no_potential;
+    if (o.moving) moving_force += rep.force() + no_potential;
+  }
+  cmd.potential = total.u;
+  Vec3 force = total.force() + extra;
+  if (!allFinite(force)) return refuse("internal: non-finite force");
+
+  // Desired velocity: along the force (or round the obstacle when escaping), no faster than the
+  // robot can still stop at the goal.
+  Vec3 v_des;
+  Vec3 steer_to = sub_goal;
+  if (escaping_) {
+    // Virtual sub-goal on the chosen side: circulate about the escape axis round the nearest
+    // obstacle, holding about half a metre from its surface.
+    const ObstacleData* wall = nullptr;  // the static obstacle being followed
+    for (const ObstacleData& o : obstacles_)
+      if (!o.moving && (!wall || o.rho < wall->rho)) wall = &o;
+    const Vec3 g = wall ? wall->grad : Vec3(-to_goal);
+    const double rho = wall ? wall->rho : 1.0;
+    Vec3 tangent = unitOr(escape_axis_.cross(g), to_goal);
+    const Vec3 dir = unitOr(tangent + std::clamp(0.5 - rho, -1.0, 1.0) * g, tangent);
+    steer_to = q + P.monitor.virtual_goal_offset_m * dir;
+    v_des = 0.6 * v_max * dir + v_max * moving_force / P.monitor.full_speed_force;
+  } else {
+    const double fn = force.norm();
+    const double speed = v_max * std::min(1.0, fn / P.monitor.full_speed_force);
+    v_des = fn > 1e-12 ? Vec3(force * (speed / fn)) : Vec3::Zero();
+  }
+  const double stop_speed = std::sqrt(2.0 * a_max * 0.8 * goal_distance);
+  v_des = clampNorm(v_des, std::min(v_max, stop_speed));
+  bool safety_override = false;
+  // Only obstacles that can reach the robot within the safety horizon take part in the check.
+  reachable_.clear();
+  if (P.monitor.safety_horizon_s > 0.0) {
+    const double T = P.monitor.safety_horizon_s;
+    const double robot_reach = std::max(v.norm(), v_max) * T + 0.5 * a_max * T * T;
+    for (std::size_t i = 0; i < moving_count && reachable_.size() < reachable_.capacity(); ++i) {
+      const map::MovingObstacle& m = moving[i];
+      const double reach = robot_reach + m.velocity.norm() * T + 0.5 * m.acceleration.norm() * T * T;
+      if ((q - m.position).norm() - m.shape.boundingRadius() - P.robot.radius_m <= reach + 0.1) reachable_.push_back(i);
+    }
+    // More than the buffer holds: check them all rather than miss one.
+    if (reachable_.size() == reachable_.capacity() && moving_count > reachable_.size()) {
+      reachable_.clear();
+      for (std::size_t i = 0; i < std::min(moving_count, reachable_.capacity()); ++i) reachable_.push_back(i);
+    }
+  }
+  if (!reachable_.empty() && P.monitor.safety_horizon_s > 0.0) {
+    // Last line of defence against moving obstacles: the field's velocity must not lead into one
+    // within the horizon (the robot turning toward it at a_max and holding it, the obstacles under
+    // constant acceleration). Otherwise the first clear of: brake, either side, back off; if none
+    // is clear, the one that keeps the most room.
+    const double score_des = encounterMargin(q, v, v_des, moving);
+    if (score_des < 0.0) {
+      const Vec3 up = std::abs(heading.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
+      const Vec3 left = up.cross(heading).normalized();
+      const Vec3 candidates[4] = {Vec3::Zero(), 0.6 * v_max * left, -0.6 * v_max * left, -0.5 * v_max * heading};
+      Vec3 best = v_des;
+      double best_score = score_des;
+      for (const Vec3& c : candidates) {
+        const double sc = encounterMargin(q, v, c, moving);
+        if (sc > best_score + 1e-9) {
+          best = c;
+          best_score = sc;
+        }
+        if (sc >= 0.0) break;
+      }
+      safety_override = best != v_des;
+      v_des = best;
+    }
+  }
+  Vec3 acc = clampNorm((v_des - v) / dt, a_max);
+  Vec3 v_cmd = v + acc * dt;
+  if (v_cmd.norm() > v_max) {
+    v_cmd = clampNorm(v_cmd, v_max);
+    acc = clampNorm((v_cmd - v) / dt, a_max);  // a_max wins if the robot was already too fast
+    v_cmd = v + acc * dt;
+  }
+  if (!allFinite(v_cmd) || !allFinite(acc)) return refuse("internal: non-finite command");
+  cmd.velocity = v_cmd;
+  cmd.acceleration = acc;
+  cmd.sub_goal = steer_to;
+
+  const double along = v_cmd.dot(to_goal);
+  if (safety_override) cmd.status = StepStatus::kYielding;
+  else if (escaping_) cmd.status = StepStatus::kDetouring;
+  else if (moving_closing && along < 0.5 * v_max) cmd.status = StepStatus::kYielding;
+  else if (nearest && v_cmd.norm() > 1e-3 && along < std::cos(30.0 * kPi / 180.0) * v_cmd.norm())
+    cmd.status = StepStatus::kDetouring;
+  else cmd.status = StepStatus::kFollowing;
+  return cmd;
+}
+
+}  // namespace adit::local

@@ -1,0 +1,152 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/local/params.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace adit::local {
+
+namespace {
+
+// One rule per call: "Struct::field = value violates rule".
+class Checker {
+ public:
+  explicit Checker(const char* owner) : owner_(owner) {}
+  Checker& positive(const char* field, double v) { return rule(field, v, v > 0.0 && std::isfinite(v), "> 0"); }
+  Checker& nonNegative(const char* field, double v) {
+    return rule(field, v, v >= 0.0 && std::isfinite(v), ">= 0");
+  }
+  Checker& atLeast(const char* field, double v, double lo, const char* text) {
+    return rule(field, v, v >= lo && std::isfinite(v), text);
+  }
+  Checker& rule(const char* field, double v, bool ok, const char* text) {
+    if (!ok && status_.ok()) {
+      std::ostringstream os;
+      os << owner_ << "::" << field << " = " << v << " violates " << field << " " << text;
+      status_ = invalidArgument(os.str());
+    }
+    return *this;
+  }
+  Status status() const { return status_; }
+
+ private:
+  const char* owner_;
+  Status status_;
+};
+
+}  // namespace
+
+const char* methodName(Method m) {
+  switch (m) {
+    case Method::kClassic: return "classic";
+    case Method::kTian2016: return "tian2016";
+    case Method::kWang2014: return "wang2014";
+    case Method::kVff: return "vff";
+    case Method::kCvff: return "cvff";
+    case Method::kUuv: return "uuv";
+  }
+  return "?";
+}
+
+StatusOr<Method> parseMethod(const std::string& name) {
+  for (Method m : {Method::kClassic, Method::kTian2016, Method::kWang2014, Method::kVff, Method::kCvff, Method::kUuv})
+    if (name == methodName(m)) return m;
+  return invalidArgument("unknown method '" + name + "' (classic, tian2016, wang2014, vff, cvff, uuv)");
+}
+
+Status ClassicParams::validate() const {
+  return Checker("ClassicParams").nonNegative("xi", xi).nonNegative("eta", eta).positive("rho0_m", rho0_m).status();
+}
+
+Status Tian2016Params::validate() const {
+  return Checker("Tian2016Params")
+      .nonNegative("k_q", k_q).nonNegative("k_v", k_v).nonNegative("k_a", k_a).nonNegative("k_l", k_l)
+      .atLeast("s", s, 1.0, ">= 1").atLeast("t", t, 1.0, ">= 1").atLeast("p", p, 1.0, ">= 1")
+      .atLeast("l", l, 1.0, ">= 1")
+      .nonNegative("K_q", K_q).nonNegative("K_v", K_v).nonNegative("K_a", K_a).positive("rho0_m", rho0_m)
+      .status();
+}
+
+Status Wang2014Params::validate() const {
+  return Checker("Wang2014Params")
+      .nonNegative("k_att", k_att).nonNegative("K_2", K_2).nonNegative("n", n)
+      .positive("view_range_m", view_range_m)
+      .rule("view_half_angle_deg", view_half_angle_deg, view_half_angle_deg > 0 && view_half_angle_deg <= 180,
+            "in (0, 180]")
+      .positive("sensing_radius_m", sensing_radius_m)
+      .nonNegative("approach_factor", approach_factor).nonNegative("recede_factor", recede_factor)
+      .status();
+}
+
+Status VffParams::validate() const {
+  return Checker("VffParams")
+      .nonNegative("K_p", K_p).nonNegative("K_v", K_v).nonNegative("M_p", M_p).nonNegative("M_v", M_v)
+      .positive("p0_m", p0_m)
+      .status();
+}
+
+Status UuvParams::validate() const {
+  return Checker("UuvParams")
+      .nonNegative("k_att", k_att).positive("conic_distance_m", conic_distance_m).nonNegative("k_rep", k_rep)
+      .positive("rho0_m", rho0_m).nonNegative("rotation_gain", rotation_gain)
+      .status();
+}
+
+Status RobotLimits::validate() const {
+  return Checker("RobotLimits")
+      .positive("radius_m", radius_m).positive("v_max_mps", v_max_mps).positive("a_max_mps2", a_max_mps2)
+      .status();
+}
+
+Status MonitorParams::validate() const {
+  return Checker("MonitorParams")
+      .positive("window_s", window_s).nonNegative("max_wait_s", max_wait_s)
+      .nonNegative("min_progress_m", min_progress_m)
+      .rule("max_escapes", max_escapes, max_escapes >= 0 && max_escapes <= 100, "in [0, 100]")
+      .positive("escape_time_s", escape_time_s).positive("virtual_goal_offset_m", virtual_goal_offset_m)
+      .positive("arrival_tolerance_m", arrival_tolerance_m).positive("subgoal_switch_m", subgoal_switch_m)
+      .positive("full_speed_force", full_speed_force)
+      .rule("prediction_horizon_s", prediction_horizon_s, prediction_horizon_s >= 0 && prediction_horizon_s <= 60,
+            "in [0, 60]")
+      .rule("safety_horizon_s", safety_horizon_s, safety_horizon_s >= 0 && safety_horizon_s <= 10, "in [0, 10]")
+      .status();
+}
+
+LocalParams LocalParams::preset(Method m) {
+  LocalParams p;
+  p.method = m;
+  switch (m) {
+    case Method::kClassic:
+      p.monitor.escape = false;
+      break;
+    case Method::kTian2016:
+      // k_q = 0.05 makes a weak pull (0.1 N per metre from the goal); full speed at 0.5.
+      p.monitor.full_speed_force = 0.5;
+      break;
+    case Method::kVff:
+    case Method::kCvff:
+      p.vff.compound = (m == Method::kCvff);
+      p.monitor.full_speed_force = 10.0;  // the gains are tens: K_p = 13
+      break;
+    case Method::kWang2014:
+    case Method::kUuv:
+      break;
+  }
+  return p;
+}
+
+Status LocalParams::validate() const {
+  ADIT_RETURN_IF_ERROR(robot.validate());
+  ADIT_RETURN_IF_ERROR(monitor.validate());
+  switch (method) {
+    case Method::kClassic: return classic.validate();
+    case Method::kTian2016: return tian2016.validate();
+    case Method::kWang2014: return wang2014.validate();
+    case Method::kVff:
+    case Method::kCvff: return vff.validate();
+    case Method::kUuv: return uuv.validate();
+  }
+  return {};
+}
+
+}  // namespace adit::local

@@ -1,0 +1,269 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/local/scenario.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <initializer_list>
+#include <sstream>
+
+#include "adit/map/map_io.hpp"
+
+namespace adit::local {
+
+using map::allFinite;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Parse errors carry the position of the node they are about; yaml-cpp's own exceptions are caught
+// at the boundary (parseScenario) and converted, so nothing escapes the library.
+struct ScenarioError {
+  Status status;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& field, const std::string& what) const {
+    std::ostringstream os;
+    os << file_;
+    if (node.IsDefined() && node.Mark().line >= 0) os << ":" << node.Mark().line + 1 << ":" << node.Mark().column + 1;
+    os << ": " << field << ": " << what;
+    throw ScenarioError{invalidArgument(os.str())};
+  }
+
+  void onlyKeys(const YAML::Node& map, const std::string& field, std::initializer_list<const char*> keys) const {
+    if (!map.IsMap()) fail(map, field, "must be a mapping");
+    for (const auto& kv : map) {
+      const std::string k = kv.first.as<std::string>();
+      bool known = false;
+      for (const char* allowed : keys) known = known || k == allowed;
+      if (!known) fail(kv.first, field.empty() ? k : field + "." + k, "unknown field");
+    }
+  }
+
+  double number(const YAML::Node& n, const std::string& field) const {
+    if (!n.IsScalar()) fail(n, field, "must be a number");
+    const std::string s = n.Scalar();
+    double v = 0.0;
+    try {
+      std::size_t used = 0;
+      v = std::stod(s, &used);
+      if (used != s.size()) fail(n, field, "'" + s + "' is not a number");
+    } catch (const std::logic_error&) {
+      fail(n, field, "'" + s + "' is not a number");
+    }
+    if (!std::isfinite(v)) fail(n, field, "'" + s + "' is not finite");
+    return v;
+  }
+
+  double positive(const YAML::Node& n, const std::string& field) const {
+    const double v = number(n, field);
+    if (!(v > 0.0)) fail(n, field, "must be > 0 (got " + n.Scalar() + ")");
+    return v;
+  }
+
+  double nonNegative(const YAML::Node& n, const std::string& field) const {
+    const double v = number(n, field);
+    if (!(v >= 0.0)) fail(n, field, "must be >= 0 (got " + n.Scalar() + ")");
+    return v;
+  }
+
+  Vec3 vec3(const YAML::Node& n, const std::string& field) const {
+    if (!n.IsSequence() || (n.size() != 3 && n.size() != 2)) fail(n, field, "must be [x, y, z] (or [x, y])");
+    Vec3 v = Vec3::Zero();
+    for (std::size_t i = 0; i < n.size(); ++i) v[int(i)] = number(n[i], field + "[" + std::to_string(i) + "]");
+    return v;
+  }
+
+  template <class T>
+  void setField(T& target, const YAML::Node& n, const std::string& field) const {
+    if constexpr (std::is_same_v<T, bool>) {
+      if (!n.IsScalar() || (n.Scalar() != "true" && n.Scalar() != "false")) fail(n, field, "must be true or false");
+      target = n.Scalar() == "true";
+    } else if constexpr (std::is_integral_v<T>) {
+      const double v = number(n, field);
+      if (v != std::floor(v)) fail(n, field, "must be an integer");
+      target = T(v);
+    } else {
+      target = number(n, field);
+    }
+  }
+
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+// Applies one `params` entry to the struct whose visit() lists the key; false when none does.
+struct FieldSetter {
+  const Reader& reader;
+  const std::string& key;
+  const YAML::Node& value;
+  bool found = false;
+  template <class T>
+  void operator()(const char* name, T& field) {
+    if (key == name) {
+      reader.setField(field, value, "params." + key);
+      found = true;
+    }
+  }
+};
+
+Scenario parse(const YAML::Node& root, const Reader& r) {
+  Scenario s;
+  if (!root.IsMap()) r.fail(root, "(document)", "a scenario is a YAML mapping");
+  r.onlyKeys(root, "", {"name", "description", "map", "start", "goal", "expected_path", "robot",
+                        "static_obstacles", "moving_obstacles", "method", "params", "dt", "t_max", "seed"});
+  s.file = r.file();
+  s.name = root["name"] ? root["name"].as<std::string>() : fs::path(r.file()).stem().string();
+  if (root["description"]) s.description = root["description"].as<std::string>();
+
+  if (!root["method"]) r.fail(root, "method", "missing (classic, tian2016, wang2014, vff, cvff, uuv)");
+  StatusOr<Method> method = parseMethod(root["method"].as<std::string>());
+  if (!method.ok()) r.fail(root["method"], "method", method.status().message());
+  s.params = LocalParams::preset(*method);
+
+  if (const YAML::Node m = root["map"]) {
+    const std::string p = m.as<std::string>();
+    fs::path resolved = p;
+    if (!fs::exists(resolved) && fs::path(p).is_relative()) resolved = fs::path(r.file()).parent_path() / p;
+    if (!fs::exists(resolved)) r.fail(m, "map", "no such file '" + p + "' (relative to the working directory or to the scenario)");
+    s.map_path = resolved.string();
+  }
+  for (const char* k : {"start", "goal"})
+    if (!root[k]) r.fail(root, k, "missing");
+  s.start = r.vec3(root["start"], "start");
+  s.goal = r.vec3(root["goal"], "goal");
+  if (const YAML::Node p = root["expected_path"]) {
+    if (!p.IsSequence() || p.size() < 1) r.fail(p, "expected_path", "must be a list of at least one point");
+    for (std::size_t i = 0; i < p.size(); ++i)
+      s.expected_path.points.push_back(r.vec3(p[i], "expected_path[" + std::to_string(i) + "]"));
+    if ((s.expected_path.points.back() - s.goal).norm() > 1e-6)
+      r.fail(p[p.size() - 1], "expected_path", "must end at the goal");
+  } else {
+    s.expected_path.points = {s.start, s.goal};
+  }
+
+  if (const YAML::Node rb = root["robot"]) {
+    r.onlyKeys(rb, "robot", {"radius", "v_max", "a_max"});
+    if (rb["radius"]) s.params.robot.radius_m = r.positive(rb["radius"], "robot.radius");
+    if (rb["v_max"]) s.params.robot.v_max_mps = r.positive(rb["v_max"], "robot.v_max");
+    if (rb["a_max"]) s.params.robot.a_max_mps2 = r.positive(rb["a_max"], "robot.a_max");
+  }
+  if (const YAML::Node list = root["static_obstacles"]) {
+    if (!list.IsSequence()) r.fail(list, "static_obstacles", "must be a list");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string f = "static_obstacles[" + std::to_string(i) + "]";
+      r.onlyKeys(list[i], f, {"center", "radius"});
+      if (!list[i]["center"]) r.fail(list[i], f + ".center", "missing");
+      StaticSphere o;
+      o.center = r.vec3(list[i]["center"], f + ".center");
+      o.radius = list[i]["radius"] ? r.positive(list[i]["radius"], f + ".radius") : 0.5;
+      s.static_obstacles.push_back(o);
+    }
+  }
+  if (const YAML::Node list = root["moving_obstacles"]) {
+    if (!list.IsSequence()) r.fail(list, "moving_obstacles", "must be a list");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string f = "moving_obstacles[" + std::to_string(i) + "]";
+      const YAML::Node o = list[i];
+      r.onlyKeys(o, f, {"name", "start", "velocity", "acceleration", "radius", "shape", "size", "length"});
+      if (!o["start"]) r.fail(o, f + ".start", "missing");
+      NamedObstacle m;
+      m.name = o["name"] ? o["name"].as<std::string>() : "obstacle " + std::to_string(i + 1);
+      m.obstacle.position = r.vec3(o["start"], f + ".start");
+      if (o["velocity"]) m.obstacle.velocity = r.vec3(o["velocity"], f + ".velocity");
+      if (o["acceleration"]) m.obstacle.acceleration = r.vec3(o["acceleration"], f + ".acceleration");
+      const std::string shape = o["shape"] ? o["shape"].as<std::string>() : "sphere";
+      const double radius = o["radius"] ? r.positive(o["radius"], f + ".radius") : 0.3;
+      if (shape == "sphere") {
+        m.obstacle.shape = map::RobotShape::sphere(radius);
+      } else if (shape == "box") {
+        if (!o["size"]) r.fail(o, f + ".size", "missing (a box needs size: [x, y, z])");
+        const Vec3 size = r.vec3(o["size"], f + ".size");
+        if (!(size.array() > 0).all()) r.fail(o["size"], f + ".size", "every edge must be > 0");
+        m.obstacle.shape = map::RobotShape::box(size);
+      } else if (shape == "cylinder") {
+        if (!o["length"]) r.fail(o, f + ".length", "missing (a cylinder needs length)");
+        m.obstacle.shape = map::RobotShape::cylinder(radius, r.positive(o["length"], f + ".length"));
+      } else {
+        r.fail(o["shape"], f + ".shape", "unknown shape '" + shape + "' (sphere, box, cylinder)");
+      }
+      s.moving_obstacles.push_back(m);
+    }
+  }
+  if (const YAML::Node p = root["params"]) {
+    if (!p.IsMap()) r.fail(p, "params", "must be a mapping");
+    for (const auto& kv : p) {
+      const std::string key = kv.first.as<std::string>();
+      FieldSetter set{r, key, kv.second};
+      switch (s.params.method) {
+        case Method::kClassic: s.params.classic.visit(set); break;
+        case Method::kTian2016: s.params.tian2016.visit(set); break;
+        case Method::kWang2014: s.params.wang2014.visit(set); break;
+        case Method::kVff:
+        case Method::kCvff: s.params.vff.visit(set); break;
+        case Method::kUuv: s.params.uuv.visit(set); break;
+      }
+      s.params.monitor.visit(set);
+      if (!set.found)
+        r.fail(kv.first, "params." + key, std::string("unknown field for method ") + methodName(s.params.method));
+    }
+  }
+  if (root["dt"]) s.dt_s = r.positive(root["dt"], "dt");
+  if (root["t_max"]) s.t_max_s = r.positive(root["t_max"], "t_max");
+  if (root["seed"]) {
+    const double seed = r.nonNegative(root["seed"], "seed");
+    if (seed != std::floor(seed)) r.fail(root["seed"], "seed", "must be an integer");
+    s.seed = std::uint64_t(seed);
+  }
+  if (Status st = s.validate(); !st.ok()) r.fail(root, "(scenario)", st.message());
+  return s;
+}
+
+}  // namespace
+
+Status Scenario::validate() const {
+  ADIT_RETURN_IF_ERROR(params.validate());
+  if (expected_path.points.empty()) return invalidArgument("expected_path: empty");
+  if (!(dt_s > 0.0) || !(t_max_s >= dt_s)) return invalidArgument("dt must be > 0 and t_max >= dt");
+  if (t_max_s / dt_s > 1e7) return invalidArgument("t_max / dt: more than 10 million steps");
+  const double r = params.robot.radius_m;
+  for (std::size_t i = 0; i < static_obstacles.size(); ++i) {
+    const StaticSphere& o = static_obstacles[i];
+    if ((start - o.center).norm() < o.radius + r)
+      return invalidArgument("start: the robot overlaps static_obstacles[" + std::to_string(i) + "]");
+  }
+  for (std::size_t i = 0; i < moving_obstacles.size(); ++i) {
+    const map::MovingObstacle& o = moving_obstacles[i].obstacle;
+    if ((start - o.position).norm() < o.shape.boundingRadius() + r)
+      return invalidArgument("start: the robot overlaps moving_obstacles[" + std::to_string(i) + "] at t = 0");
+  }
+  return {};
+}
+
+StatusOr<Scenario> parseScenario(const std::string& text, const std::string& file) {
+  try {
+    const YAML::Node root = YAML::Load(text);
+    return parse(root, Reader(file));
+  } catch (const ScenarioError& e) {
+    return e.status;
+  } catch (const YAML::Exception& e) {
+    std::ostringstream os;
+    os << file << ":" << e.mark.line + 1 << ":" << e.mark.column + 1 << ": " << e.msg;
+    return invalidArgument(os.str());
+  }
+}
+
+StatusOr<Scenario> loadScenario(const std::string& path) {
+  ADIT_ASSIGN_OR_RETURN(const std::string text, map::readFile(path, std::size_t{16} << 20));
+  return parseScenario(text, path);
+}
+
+}  // namespace adit::local

@@ -1,0 +1,245 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/local/simulator.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <optional>
+#include <sstream>
+
+#include "adit/map/collision.hpp"
+#include "adit/map/distance_field.hpp"
+#include "adit/map/map_io.hpp"
+#include "adit/map/occupancy_map.hpp"
+
+namespace adit::local {
+
+using map::allFinite;
+
+// ---- Environment ------------------------------------------------------------------------------
+
+struct Environment::Impl {
+  std::optional<map::OccupancyMap> own_map;
+  std::optional<map::DistanceField> own_field;
+  const map::OccupancyMap* map = nullptr;
+  const map::DistanceField* field = nullptr;
+  std::optional<map::CollisionChecker> checker;
+};
+
+Environment::Environment(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Environment::Environment(Environment&&) noexcept = default;
+Environment& Environment::operator=(Environment&&) noexcept = default;
+Environment::~Environment() = default;
+
+const map::OccupancyMap* Environment::map() const { return impl_->map; }
+const map::DistanceField* Environment::field() const { return impl_->field; }
+const map::CollisionChecker* Environment::checker() const { return impl_->checker ? &*impl_->checker : nullptr; }
+
+Environment Environment::openSpace() { return Environment(std::make_unique<Impl>()); }
+
+StatusOr<Environment> Environment::borrow(const map::OccupancyMap& m, const map::DistanceField& f) {
+  auto impl = std::make_unique<Impl>();
+  impl->map = &m;
+  impl->field = &f;
+  ADIT_ASSIGN_OR_RETURN(map::CollisionChecker checker, map::CollisionChecker::create(m, f));
+  impl->checker = checker;
+  return Environment(std::move(impl));
+}
+
+StatusOr<Environment> Environment::load(const Scenario& scenario) {
+  if (!scenario.map_path) return openSpace();
+  auto impl = std::make_unique<Impl>();
+  ADIT_ASSIGN_OR_RETURN(map::OccupancyMap m, map::loadMap(*scenario.map_path));
+  impl->own_map.emplace(std::move(m));
+  ADIT_ASSIGN_OR_RETURN(map::DistanceField f, map::DistanceField::build(*impl->own_map));
+  impl->own_field.emplace(std::move(f));
+  impl->map = &*impl->own_map;
+  impl->field = &*impl->own_field;
+  ADIT_ASSIGN_OR_RETURN(map::CollisionChecker checker, map::CollisionChecker::create(*impl->map, *impl->field));
+  impl->checker = checker;
+  return Environment(std::move(impl));
+}
+
+const char* outcomeName(Outcome o) {
+  switch (o) {
+    case Outcome::kArrived: return "arrived";
+    case Outcome::kCollision: return "collision";
+    case Outcome::kStuck: return "stuck";
+    case Outcome::kTimeout: return "timeout";
+  }
+  return "?";
+}
+
+// ---- simulate ---------------------------------------------------------------------------------
+
+namespace {
+
+// The independent referee: surface distances of the robot's sphere at `p`, time `t`.
+class Referee {
+ public:
+  Referee(const Scenario& sc, const Environment& env)
+      : sc_(sc), env_(env), robot_(map::RobotShape::sphere(sc.params.robot.radius_m)) {}
+
+  double rockDistance(const Vec3& p) const {
+    if (!env_.checker()) return std::numeric_limits<double>::infinity();
+    const map::ShapeDistance d = env_.checker()->distance(robot_, pose(p), 10.0);
+    return d.collision ? 0.0 : d.distance_m;
+  }
+  double staticDistance(const Vec3& p, std::size_t i) const {
+    const StaticSphere& s = sc_.static_obstacles[i];
+    return std::max(0.0, (p - s.center).norm() - s.radius - robot_.radius);
+  }
+  double movingDistance(const Vec3& p, std::size_t i, double t) const {
+    const map::ShapeDistance d = map::obstacleDistance(robot_, pose(p), sc_.moving_obstacles[i].obstacle, t);
+    return d.collision ? 0.0 : d.distance_m;
+  }
+
+ private:
+  static Eigen::Isometry3d pose(const Vec3& p) {
+    Eigen::Isometry3d x = Eigen::Isometry3d::Identity();
+    x.translation() = p;
+    return x;
+  }
+  const Scenario& sc_;
+  const Environment& env_;
+  map::RobotShape robot_;
+};
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  const std::size_t k = std::min(v.size() - 1, std::size_t(q * double(v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) {
+  ADIT_RETURN_IF_ERROR(sc.validate());
+  const double r = sc.params.robot.radius_m;
+  if (env.field()) {
+    if (!env.field()->isFree(sc.start)) return invalidArgument(sc.file + ": start: inside rock");
+    if (!env.field()->isFree(sc.goal)) return invalidArgument(sc.file + ": goal: inside rock");
+  }
+  Referee referee(sc, env);
+  if (referee.rockDistance(sc.start) <= 0.0)
+    return invalidArgument(sc.file + ": start: the robot (radius " + std::to_string(r) + " m) overlaps rock");
+
+  World world;
+  world.field = env.field();
+  world.checker = env.checker();
+  world.shape = map::RobotShape::sphere(r);
+  world.static_obstacles = sc.static_obstacles;
+  ADIT_ASSIGN_OR_RETURN(LocalPlanner planner, LocalPlanner::create(sc.params, world));
+
+  SimulationResult res;
+  res.arrival_tolerance_m = sc.params.monitor.arrival_tolerance_m;
+  const std::size_t nm = sc.moving_obstacles.size();
+  res.closest.resize(nm);
+  for (std::size_t i = 0; i < nm; ++i) res.closest[i].name = sc.moving_obstacles[i].name;
+  std::vector<map::MovingObstacle> sensed(nm);
+  std::vector<double> step_us;
+  const auto max_steps = std::size_t(std::ceil(sc.t_max_s / sc.dt_s - 1e-9));
+  step_us.reserve(max_steps);
+  res.trajectory.reserve(max_steps + 1);
+
+  RobotState state;
+  state.position = sc.start;
+  double t = 0.0;
+  res.trajectory.push_back({0.0, state.position, state.velocity, StepStatus::kFollowing});
+  double min_obstacle_radius = r;
+  for (const auto& m : sc.moving_obstacles)
+    min_obstacle_radius = std::min(min_obstacle_radius, m.obstacle.shape.type == map::ShapeType::kBox
+                                                            ? 0.5 * m.obstacle.shape.size.minCoeff()
+                                                            : m.obstacle.shape.radius);
+  const double sample_step = 0.25 * std::max(min_obstacle_radius, 0.01);
+  bool stuck = false;
+  StepStatus last = StepStatus::kFollowing;
+
+  for (std::size_t k = 0; k < max_steps; ++k) {
+    for (std::size_t i = 0; i < nm; ++i) {
+      const map::MovingObstacle& m = sc.moving_obstacles[i].obstacle;
+      sensed[i] = m;
+      sensed[i].position = m.positionAt(t);
+      sensed[i].velocity = m.velocityAt(t);
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    const StepCommand c = planner.step(state, sc.expected_path, sensed, sc.dt_s);
+    const auto t1 = std::chrono::steady_clock::now();
+    step_us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    ++res.steps;
+    res.escapes = std::max(res.escapes, c.escapes);
+    last = c.status;
+    if (c.status == StepStatus::kArrived) break;
+    if (c.status == StepStatus::kStuck || c.status == StepStatus::kRefused) {
+      stuck = true;
+      res.message = c.message;
+      break;
+    }
+    // The robot follows the set-points: constant acceleration over the period.
+    const Vec3 p0 = state.position, v0 = state.velocity, acc = c.acceleration;
+    const double dt = sc.dt_s;
+    // Sub-samples so that no relative motion within one exceeds sample_step.
+    double reach = v0.norm() * dt + 0.5 * acc.norm() * dt * dt;
+    double ob_reach = 0.0;
+    for (std::size_t i = 0; i < nm; ++i) {
+      const map::MovingObstacle& m = sc.moving_obstacles[i].obstacle;
+      ob_reach = std::max(ob_reach, m.velocityAt(t).norm() * dt + 0.5 * m.acceleration.norm() * dt * dt);
+    }
+    const int subs = int(std::clamp(std::ceil((reach + ob_reach) / sample_step), 1.0, 1000.0));
+    bool hit = false;
+    for (int s = 1; s <= subs; ++s) {
+      const double tau = dt * double(s) / double(subs);
+      const Vec3 p = p0 + v0 * tau + 0.5 * acc * tau * tau;
+      // Nearest thing to the robot at this instant, and what it is.
+      double d = referee.rockDistance(p);
+      std::string what = "rock";
+      for (std::size_t i = 0; i < sc.static_obstacles.size(); ++i) {
+        const double ds = referee.staticDistance(p, i);
+        if (ds < d) { d = ds; what = "static obstacle " + std::to_string(i + 1); }
+      }
+      for (std::size_t i = 0; i < nm; ++i) {
+        const double dm = referee.movingDistance(p, i, t + tau);
+        if (dm < res.closest[i].distance_m) res.closest[i] = {res.closest[i].name, dm, t + tau};
+        if (dm < d) { d = dm; what = sc.moving_obstacles[i].name; }
+      }
+      res.min_clearance_m = std::min(res.min_clearance_m, d);
+      if (d <= 0.0 && !hit && res.collisions == 0) {
+        res.first_collision_t_s = t + tau;
+        res.first_collision_with = what;
+      }
+      hit = hit || d <= 0.0;
+    }
+    if (hit) ++res.collisions;
+    state.position = p0 + v0 * dt + 0.5 * acc * dt * dt;
+    state.velocity = v0 + acc * dt;
+    state.acceleration = acc;
+    res.path_length_m += (state.position - p0).norm();
+    t = double(k + 1) * dt;
+    res.trajectory.push_back({t, state.position, state.velocity, c.status});
+  }
+  res.final_goal_distance_m = (state.position - sc.goal).norm();
+  res.step_time_p50_us = percentile(step_us, 0.5);
+  res.step_time_p99_us = percentile(step_us, 0.99);
+  // The verdict is the referee's, not the planner's.
+  const bool within = res.final_goal_distance_m <= res.arrival_tolerance_m;
+  if (res.collisions > 0) {
+    res.outcome = Outcome::kCollision;
+    std::ostringstream os;
+    os << "the robot overlapped " << res.first_collision_with << " at t = " << res.first_collision_t_s << " s ("
+       << res.collisions << " periods in contact)";
+    res.message = os.str();
+  } else if (last == StepStatus::kArrived && within) {
+    res.outcome = Outcome::kArrived;
+    res.arrival_time_s = t;
+  } else if (stuck) {
+    res.outcome = Outcome::kStuck;
+  } else {
+    res.outcome = Outcome::kTimeout;
+    res.message = "t_max reached";
+  }
+  if (!res.trajectory.empty()) res.trajectory.back().status = last;
+  return res;
+}
+
+}  // namespace adit::local

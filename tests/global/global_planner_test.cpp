@@ -1,0 +1,375 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The global planner on generated roadways: routing, blocking, validity, determinism, ground
+// mode, and path length against the 26-connected grid optimum.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "adit/global/global_planner.hpp"
+#include "adit/global/grid_reference.hpp"
+#include "adit/map/distance_field.hpp"
+#include "support/synthetic_roadway.hpp"
+
+namespace adit::global {
+namespace {
+
+using map::CrossSection;
+using map::Vec3;
+
+// A taut any-angle path is shorter than the 45-degree zig-zag of the grid; allow a little for
+// paths that must bend around several corners at the required clearance.
+constexpr double kGridRatioLimit = 1.02;
+
+struct World {
+  map::SurveyNetwork net;
+  map::OccupancyMap map;
+  map::DistanceField field;
+
+  explicit World(map::SurveyNetwork n)
+      : net(std::move(n)), map(test::voxelizeOrFail(net)), field(std::move(map::DistanceField::build(map)).value()) {}
+
+  GlobalPlanner planner(GlobalPlannerParams p = {}, bool with_survey = true) const {
+    StatusOr<GlobalPlanner> g = GlobalPlanner::create(map, field, p, with_survey ? &net : nullptr);
+    EXPECT_TRUE(g.ok()) << g.status().toString();
+    return std::move(g).value();
+  }
+  // Rock over a box (a roof fall), with the field and the planner's graph brought up to date.
+  void fall(const map::Aabb& box, GlobalPlanner* planner) {
+    std::vector<Vec3> pts;
+    const double r = map.resolution();
+    for (double x = box.min.x(); x <= box.max.x(); x += r)
+      for (double y = box.min.y(); y <= box.max.y(); y += r)
+        for (double z = box.min.z(); z <= box.max.z(); z += r) pts.emplace_back(x, y, z);
+    ASSERT_TRUE(map.setVoxels(pts, map::VoxelState::kOccupied).ok());
+    ASSERT_TRUE(field.update(map, box).ok());
+    planner->mapChanged(box);
+  }
+};
+
+// Two parallel roadways joined by a cross-cut at each end: a loop, so one can be blocked.
+map::SurveyNetwork ladder() {
+  map::SurveyNetwork net;
+  net.name = "ladder";
+  net.resolution_m = 0.2;
+  net.stations = {{"A", Vec3(0, 0, 0)}, {"B", Vec3(30, 0, 0)}, {"C", Vec3(0, 16, 0)}, {"D", Vec3(30, 16, 0)}};
+  net.sections = {{"s", CrossSection::rectangle(4.0, 3.0)}};
+  net.roadways = {{"south", {"A", "B"}, "s"}, {"north", {"C", "D"}, "s"}, {"west", {"A", "C"}, "s"},
+                  {"east", {"B", "D"}, "s"}};
+  return net;
+}
+
+GlobalPlannerParams rrtConnect() {
+  GlobalPlannerParams p;
+  p.planner = PlannerType::kRrtConnect;
+  return p;
+}
+
+double gridLength(const World& w, const GlobalPlanner& planner, const Vec3& a, const Vec3& b) {
+  StatusOr<GridPathResult> g =
+      gridOptimum([&](const Vec3& c) { return planner.stateValid(c); }, w.map.resolution(), a, b);
+  if (!g.ok()) {
+    ADD_FAILURE() << g.status().toString();
+    return std::nan("");
+  }
+  EXPECT_TRUE(g->found);
+  return g->length_m;
+}
+
+void expectValidPath(const GlobalPlanner& planner, const GlobalPlanResult& r, const Vec3& start, const Vec3& goal) {
+  ASSERT_TRUE(r.solved()) << outcomeName(r.outcome) << ": " << r.message;
+  ASSERT_GE(r.path.size(), 2u);
+  EXPECT_LT((r.path.points.front() - start).norm(), 1e-9);
+  EXPECT_LT((r.path.points.back() - goal).norm(), 1e-9);
+  EXPECT_TRUE(planner.validatePath(r.path).ok()) << planner.validatePath(r.path).message();
+  EXPECT_NEAR(r.length_m, r.path.length(), 1e-9);
+  EXPECT_GE(r.min_clearance_m, planner.params().safety_margin_m - 0.5 * 0.2 - 1e-9);
+  EXPECT_GE(r.mean_clearance_m, r.min_clearance_m);
+}
+
+TEST(GlobalPlannerParams, ValidateNamesTheField) {
+  GlobalPlannerParams p;
+  p.time_budget_s = std::nan("");
+  EXPECT_NE(p.validate().message().find("time_budget_s"), std::string::npos);
+  p = {};
+  p.motion_step_voxels = 2.0;
+  EXPECT_NE(p.validate().message().find("motion_step_voxels"), std::string::npos);
+  p = {};
+  p.robot = map::RobotShape::sphere(-1);
+  EXPECT_FALSE(p.validate().ok());
+  EXPECT_TRUE(GlobalPlannerParams{}.validate().ok());
+  EXPECT_FALSE(parsePlannerType("astar").ok());
+  EXPECT_EQ(*parsePlannerType("BITstar"), PlannerType::kBitStar);
+}
+
+TEST(GlobalPlanner, StraightRoadwayIsOneSegment) {
+  World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 20.0));
+  GlobalPlanner planner = w.planner(rrtConnect());
+  const Vec3 a(1, 0, 1.5), b(19, 0.5, 1.5);
+  GlobalPlanResult r = planner.plan(a, b);
+  expectValidPath(planner, r, a, b);
+  EXPECT_EQ(r.path.size(), 2u);
+  EXPECT_NEAR(r.length_m, (b - a).norm(), 1e-9);
+  EXPECT_EQ(r.route, std::vector<std::string>{"road"});
+}
+
+TEST(GlobalPlanner, BendIsNoLongerThanTheGridOptimum) {
+  World w(test::bentRoadway(CrossSection::trapezoid(4.0, 3.0, 3.0), 0.2));
+  for (PlannerType type : {PlannerType::kRrtConnect, PlannerType::kBitStar, PlannerType::kInformedRrtStar}) {
+    GlobalPlannerParams p;
+    p.planner = type;
+    p.max_iterations = 300;
+    GlobalPlanner planner = w.planner(p);
+    const Vec3 a(1.4, 0.5, 1.4), b(18.5, 10.8, 2.4);
+    GlobalPlanResult r = planner.plan(a, b);
+    expectValidPath(planner, r, a, b);
+    EXPECT_GE(r.path.size(), 3u) << "a bend needs a break point";
+    EXPECT_LE(r.length_m / gridLength(w, planner, a, b), kGridRatioLimit) << plannerTypeName(type);
+  }
+}
+
+TEST(GlobalPlanner, JunctionAndDeadEnds) {
+  World w(test::junctionNetwork(0.2));
+  GlobalPlanner planner = w.planner(rrtConnect());
+  // From the branch's dead end (C) to the cross-cut's dead end (E): main, branch and cross-cut.
+  const Vec3 c(14, 9.0, 2.0), e(6, -7.0, 1.5);
+  GlobalPlanResult r = planner.plan(c, e);
+  expectValidPath(planner, r, c, e);
+  EXPECT_EQ(r.route, (std::vector<std::string>{"branch", "main", "crosscut"}));
+  EXPECT_LE(r.length_m / gridLength(w, planner, c, e), kGridRatioLimit);
+  // Into the main's dead end at A.
+  const Vec3 a(0.8, 0, 1.5);
+  GlobalPlanResult r2 = planner.plan(e, a);
+  expectValidPath(planner, r2, e, a);
+  EXPECT_EQ(r2.route, (std::vector<std::string>{"crosscut", "main"}));
+}
+
+TEST(GlobalPlanner, BlockedRoadwayTakesTheOtherAndAllBlockedIsNoPathAtOnce) {
+  World w(ladder());
+  GlobalPlanner planner = w.planner(rrtConnect());
+  const Vec3 a(4, 0, 1.5), b(4, 16, 1.5);
+  GlobalPlanResult r = planner.plan(a, b);
+  expectValidPath(planner, r, a, b);
+  EXPECT_EQ(r.route, (std::vector<std::string>{"south", "west", "north"}));
+
+  // Roof fall in the west cross-cut: the planner goes round by the east one.
+  w.fall({Vec3(-2.5, 7, -0.5), Vec3(2.5, 8, 3.5)}, &planner);
+  GlobalPlanResult r2 = planner.plan(a, b);
+  expectValidPath(planner, r2, a, b);
+  EXPECT_EQ(r2.route, (std::vector<std::string>{"south", "east", "north"}));
+  EXPECT_GT(r2.length_m, 55.0);
+
+  // And in the east one: disconnected, reported without sampling.
+  w.fall({Vec3(27.5, 7, -0.5), Vec3(32.5, 8, 3.5)}, &planner);
+  GlobalPlanResult r3 = planner.plan(a, b);
+  EXPECT_EQ(r3.outcome, GlobalPlanOutcome::kNoPath);
+  EXPECT_NE(r3.message.find("disconnected"), std::string::npos) << r3.message;
+  EXPECT_NE(r3.message.find("west"), std::string::npos) << r3.message;
+  EXPECT_LT(r3.planning_time_s, 0.1) << "no time may be spent sampling";
+  EXPECT_TRUE(r3.path.empty());
+}
+
+TEST(GlobalPlanner, StartAndGoalOnABlockedRoadwayLeaveItAwayFromTheFall) {
+  World w(ladder());
+  GlobalPlanner planner = w.planner(rrtConnect());
+  // Roof fall in the middle of the south roadway; start and goal on either side of it.
+  w.fall({Vec3(14.5, -2.5, -0.5), Vec3(15.5, 2.5, 3.5)}, &planner);
+  const Vec3 a(4, 0, 1.5), b(26, 0, 1.5);
+  GlobalPlanResult r = planner.plan(a, b);
+  expectValidPath(planner, r, a, b);
+  EXPECT_EQ(r.route, (std::vector<std::string>{"south", "west", "north", "east", "south"}));
+  EXPECT_GT(r.length_m, 50.0);
+  // On the same side of the fall: straight along the south roadway.
+  GlobalPlanResult r2 = planner.plan(a, {12, 0, 1.5});
+  ASSERT_TRUE(r2.solved()) << r2.message;
+  EXPECT_EQ(r2.route, std::vector<std::string>{"south"});
+}
+
+TEST(GlobalPlanner, EndpointsInRockOrOutsideAreRefused) {
+  World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 12.0));
+  GlobalPlanner planner = w.planner(rrtConnect());
+  const Vec3 ok(2, 0, 1.5);
+  EXPECT_EQ(planner.plan({2, 0, -0.3}, ok).outcome, GlobalPlanOutcome::kStartInRock);
+  EXPECT_EQ(planner.plan(ok, {6, 1.9, 1.5}).outcome, GlobalPlanOutcome::kGoalInRock) << "robot does not fit by the wall";
+  EXPECT_EQ(planner.plan({2, 30, 1.5}, ok).outcome, GlobalPlanOutcome::kStartOutsideMap);
+  EXPECT_EQ(planner.plan(ok, {std::nan(""), 0, 1}).outcome, GlobalPlanOutcome::kGoalOutsideMap);
+  GlobalPlanResult r = planner.plan({2, 0, -0.3}, ok);
+  EXPECT_NE(r.message.find("start"), std::string::npos);
+  EXPECT_TRUE(isInvalidEndpoint(r.outcome));
+}
+
+TEST(GlobalPlanner, RevalidationCatchesACorruptedPath) {
+  World w(test::bentRoadway(CrossSection::rectangle(4.0, 3.0), 0.2));
+  GlobalPlanner planner = w.planner(rrtConnect());
+  const Vec3 a(1.4, 0.5, 1.5), b(18.5, 10.8, 2.5);
+  GlobalPlanResult r = planner.plan(a, b);
+  expectValidPath(planner, r, a, b);
+  map::Polyline corrupted = r.path;
+  corrupted.points.erase(corrupted.points.begin() + 1, corrupted.points.end() - 1);  // cut the corner
+  Status s = planner.validatePath(corrupted);
+  EXPECT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("segment 0"), std::string::npos) << s.message();
+  corrupted = r.path;
+  corrupted.points[1].z() -= 5.0;  // a break point pushed into the floor
+  EXPECT_FALSE(planner.validatePath(corrupted).ok());
+}
+
+TEST(GlobalPlanner, OneVoxelWallIsNeverJumped) {
+  World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 16.0));
+  const double r = w.map.resolution();
+  // A wall one voxel thick across the whole roadway at x = 8.
+  std::vector<Vec3> wall;
+  for (double y = -2.5; y <= 2.5; y += r)
+    for (double z = -0.5; z <= 3.5; z += r) wall.emplace_back(8.0 + 0.5 * r, y, z);
+  ASSERT_TRUE(w.map.setVoxels(wall, map::VoxelState::kOccupied).ok());
+  ASSERT_TRUE(w.field.update(w.map, {Vec3(7.5, -3, -1), Vec3(8.5, 3, 4)}).ok());
+  const Vec3 a(2, 0, 1.5), b(14, 0, 1.5);
+  // Plain OMPL in the whole box: nothing to route, only the motion checks stand in the way.
+  GlobalPlannerParams p = rrtConnect();
+  p.use_roadway_graph = false;
+  p.time_budget_s = 0.3;
+  GlobalPlanner planner = w.planner(p, false);
+  map::Polyline straight;
+  straight.points = {a, b};
+  EXPECT_FALSE(planner.validatePath(straight).ok());
+  GlobalPlanResult res = planner.plan(a, b);
+  EXPECT_FALSE(res.solved()) << res.message;
+  // The roadway graph sees the wall as a blocked roadway.
+  GlobalPlanner routed = w.planner(rrtConnect());
+  EXPECT_EQ(routed.plan(a, b).outcome, GlobalPlanOutcome::kNoPath);
+}
+
+TEST(GlobalPlanner, SameSeedSamePathByteForByte) {
+  World w(test::junctionNetwork(0.2));
+  for (PlannerType type : {PlannerType::kRrtConnect, PlannerType::kRrtStar, PlannerType::kBitStar}) {
+    GlobalPlannerParams p;
+    p.planner = type;
+    p.max_iterations = 200;
+    p.seed = 42;
+    const Vec3 c(14, 9.0, 2.0), e(6, -7.0, 1.5);
+    GlobalPlanResult r1 = w.planner(p).plan(c, e);
+    GlobalPlanResult r2 = w.planner(p).plan(c, e);
+    ASSERT_TRUE(r1.solved() && r2.solved()) << r1.message << " / " << r2.message;
+    ASSERT_FALSE(r1.time_limited);
+    ASSERT_EQ(r1.path.size(), r2.path.size()) << plannerTypeName(type);
+    EXPECT_EQ(0, std::memcmp(r1.path.points.data(), r2.path.points.data(), r1.path.size() * sizeof(Vec3)))
+        << plannerTypeName(type);
+  }
+}
+
+TEST(GlobalPlanner, GroundModeStaysOnTheFloor) {
+  World w(test::bentRoadway(CrossSection::rectangle(4.0, 3.0), 0.2));
+  GlobalPlannerParams p = rrtConnect();
+  p.mode = PlanMode::kGround;
+  p.robot = map::RobotShape::box({1.0, 0.7, 0.6});
+  GlobalPlanner planner = w.planner(p);
+  GlobalPlanResult r = planner.plan({1.4, 0.5, 1.0}, {18.5, 10.8, 2.0});
+  ASSERT_TRUE(r.solved()) << r.message;
+  EXPECT_TRUE(planner.validatePath(r.path).ok());
+  // Every point along the path: the centre 0.3 m (half the box's height) above the floor.
+  const double res = w.map.resolution();
+  for (std::size_t i = 0; i + 1 < r.path.size(); ++i)
+    for (double t = 0; t <= 1.0; t += 0.05) {
+      const Vec3 c = r.path.points[i] + t * (r.path.points[i + 1] - r.path.points[i]);
+      double z = c.z();
+      while (w.map.isFree({c.x(), c.y(), z})) z -= 0.5 * res;
+      const double floor = (std::floor(z / res) + 1) * res;
+      EXPECT_NEAR(c.z() - floor, 0.3, p.ground_tolerance_m + 1e-9) << "at " << c.transpose();
+    }
+}
+
+TEST(GlobalPlanner, GroundModeRefusesATooSteepRamp) {
+  // 10 m rising 5 m: 26.6 degrees.
+  World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 10.0, 0.2, 5.0));
+  GlobalPlannerParams p = rrtConnect();
+  p.mode = PlanMode::kGround;
+  const Vec3 a(1.5, 0, 2.25), b(8.5, 0, 5.75);
+  GlobalPlanResult ground = w.planner(p).plan(a, b);
+  EXPECT_EQ(ground.outcome, GlobalPlanOutcome::kNoPath) << ground.message;
+  EXPECT_NE(ground.message.find("steep"), std::string::npos) << ground.message;
+  // Without the graph the motion validator's slope limit refuses it too.
+  p.use_roadway_graph = false;
+  p.time_budget_s = 0.3;
+  EXPECT_FALSE(w.planner(p, false).plan(a, b).solved());
+  // A flier does not care; nor does a ground robot allowed 30 degrees.
+  EXPECT_TRUE(w.planner(rrtConnect()).plan(a, b).solved());
+  GlobalPlannerParams steep = rrtConnect();
+  steep.mode = PlanMode::kGround;
+  steep.max_slope_deg = 30;
+  GlobalPlanResult r = w.planner(steep).plan(a, b);
+  EXPECT_TRUE(r.solved()) << r.message;
+}
+
+TEST(GlobalPlanner, CapsuleAndCylinderRobots) {
+  World w(test::junctionNetwork(0.2));
+  const Vec3 c(14, 9.0, 2.0), e(6, -7.0, 1.5);
+  for (const map::RobotShape& shape : {map::RobotShape::capsule(0.3, 0.8), map::RobotShape::cylinder(0.4, 0.6)}) {
+    GlobalPlannerParams p = rrtConnect();
+    p.robot = shape;
+    GlobalPlanner planner = w.planner(p);
+    expectValidPath(planner, planner.plan(c, e), c, e);
+  }
+}
+
+TEST(GlobalPlanner, FreeSpaceGraphWithoutASurvey) {
+  World w(test::junctionNetwork(0.2));
+  GlobalPlanner planner = w.planner(rrtConnect(), /*with_survey=*/false);
+  EXPECT_GT(planner.graph().edges().size(), 10u);
+  const Vec3 c(14, 9.0, 2.0), e(6, -7.0, 1.5);
+  GlobalPlanResult r = planner.plan(c, e);
+  expectValidPath(planner, r, c, e);
+  EXPECT_LE(r.length_m / gridLength(w, planner, c, e), kGridRatioLimit);
+}
+
+}  // namespace
+}  // namespace adit::global
+
+namespace adit::global {
+namespace {
+
+// Path quality on generated roadways: random start/goal pairs in every oracle roadway, the
+// default planner (BIT*) within the default 2 s budget. Targets of the issue: >= 95 % valid
+// paths, length / grid optimum median <= 1.00 and worst <= 1.10.
+TEST(GlobalPlannerQuality, LengthAgainstGridOptimumOnGeneratedRoadways) {
+  std::vector<double> ratios;
+  int attempts = 0, solved = 0;
+  std::mt19937_64 rng(7);
+  for (test::NamedNetwork& named : test::oracleRoadways(14.0)) {
+    World w(named.net);
+    GlobalPlannerParams p;
+    p.max_iterations = 300;
+    GlobalPlanner planner = w.planner(p);
+    int made = 0;
+    for (int tries = 0; made < 4 && tries < 50000; ++tries) {
+      // Voxel centres, which the grid optimum starts from.
+      const double res = w.map.resolution();
+      auto centre = [&](const Vec3& q) { return Vec3(((q / res).array().floor() + 0.5) * res); };
+      const Vec3 a = centre(test::randomPoint(rng, w.map.bounds())), b = centre(test::randomPoint(rng, w.map.bounds()));
+      if ((a - b).norm() < 4.0 || !planner.stateValid(a) || !planner.stateValid(b)) continue;
+      ++made;
+      ++attempts;
+      const GlobalPlanResult r = planner.plan(a, b);
+      if (!r.solved()) {
+        ADD_FAILURE() << named.name << ": " << r.message;
+        continue;
+      }
+      ++solved;
+      EXPECT_TRUE(planner.validatePath(r.path).ok());
+      ratios.push_back(r.length_m / gridLength(w, planner, a, b));
+    }
+  }
+  ASSERT_GE(attempts, 12);
+  EXPECT_GE(double(solved) / attempts, 0.95);
+  std::sort(ratios.begin(), ratios.end());
+  ASSERT_FALSE(ratios.empty());
+  EXPECT_LE(ratios[ratios.size() / 2], 1.00);
+  EXPECT_LE(ratios.back(), 1.10);
+  std::printf("length / grid optimum over %zu paths: median %.3f, worst %.3f\n", ratios.size(), ratios[ratios.size() / 2], ratios.back());
+  RecordProperty("median_ratio", std::to_string(ratios[ratios.size() / 2]));
+  RecordProperty("worst_ratio", std::to_string(ratios.back()));
+}
+
+}  // namespace
+}  // namespace adit::global

@@ -1,0 +1,68 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The scenario loader: the schema, defaults, and errors that name the field.
+#include <gtest/gtest.h>
+
+#include "adit/local/scenario.hpp"
+#include "adit/local/simulator.hpp"
+
+namespace adit::local {
+namespace {
+
+const char* kGood = R"(start: [0, 0, 0]
+goal: [14, 14, 0]
+expected_path: [[0,0,0], [4.9,5,0], [10.8,6.2,0], [14,14,0]]
+robot: {radius: 0.3, v_max: 1.0, a_max: 0.5}
+static_obstacles:  [{center: [9, 11.5, 0], radius: 0.5}]
+moving_obstacles:  [{start: [4, 8, 0], velocity: [0.25, -0.35, 0], acceleration: [0.036, 0.16, 0], radius: 0.3}]
+method: tian2016
+params: {k_l: 0.2, window_s: 5}
+dt: 0.1
+t_max: 300
+seed: 1
+)";
+
+TEST(Scenario, ParsesTheIssueExample) {
+  StatusOr<Scenario> s = parseScenario(kGood, "good.yaml");
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  EXPECT_EQ(s->params.method, Method::kTian2016);
+  EXPECT_EQ(s->expected_path.size(), 4u);
+  EXPECT_EQ(s->params.tian2016.k_l, 0.2);
+  EXPECT_EQ(s->params.monitor.window_s, 5.0);
+  ASSERT_EQ(s->moving_obstacles.size(), 1u);
+  EXPECT_EQ(s->moving_obstacles[0].obstacle.acceleration, Vec3(0.036, 0.16, 0));
+  EXPECT_EQ(s->name, "good");
+}
+
+void expectError(const std::string& text, const std::string& needle) {
+  StatusOr<Scenario> s = parseScenario(text, "bad.yaml");
+  ASSERT_FALSE(s.ok()) << "accepted: " << text;
+  EXPECT_NE(s.status().message().find(needle), std::string::npos) << s.status().message();
+}
+
+std::string replace(std::string s, const std::string& from, const std::string& to) {
+  const std::size_t i = s.find(from);
+  EXPECT_NE(i, std::string::npos) << from;
+  return s.replace(i, from.size(), to);
+}
+
+TEST(Scenario, ErrorsNameTheField) {
+  expectError(replace(kGood, "method: tian2016", "method: khatib"), "bad.yaml:7:9: method: unknown method 'khatib'");
+  expectError(replace(kGood, "radius: 0.3, v_max", "radius: -0.3, v_max"), "robot.radius: must be > 0");
+  expectError(replace(kGood, "goal: [14, 14, 0]", "goal: [14, nan, 0]"), "goal[1]: 'nan' is not finite");
+  expectError(replace(kGood, "seed: 1", "seed: 1\nspeed: 3"), "speed: unknown field");
+  expectError(replace(kGood, "k_l: 0.2", "k_x: 0.2"), "params.k_x: unknown field for method tian2016");
+  expectError(replace(kGood, "start: [0, 0, 0]", "start: [9, 11.2, 0]"), "start: the robot overlaps static_obstacles[0]");
+  expectError(replace(kGood, "[14,14,0]]", "[14,13,0]]"), "expected_path: must end at the goal");
+  expectError(replace(kGood, "radius: 0.3}]", "radius: 0.3, colour: red}]"), "moving_obstacles[0].colour: unknown field");
+  expectError("start: [0, 0\n", "bad.yaml:");
+  expectError(std::string(kGood) + "map: /nonexistent.bt\n", "map: no such file");
+}
+
+TEST(Scenario, MissingFileIsNamed) {
+  StatusOr<Scenario> s = loadScenario("/nonexistent/scenario.yaml");
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.status().message().find("/nonexistent/scenario.yaml"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace adit::local

@@ -1,0 +1,66 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// step() must not allocate: this binary replaces the global operator new with a counting one and
+// runs every model in a roadway with moving obstacles.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "adit/local/local_planner.hpp"
+#include "adit/map/distance_field.hpp"
+#include "support/synthetic_roadway.hpp"
+
+namespace {
+std::atomic<long> g_allocations{0};
+}
+
+void* operator new(std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace adit::local {
+namespace {
+
+TEST(StepAllocation, NoHeapAllocationPerStep) {
+  const map::OccupancyMap m = test::voxelizeOrFail(test::straightRoadway(map::CrossSection::rectangle(4.0, 3.0), 20.0));
+  StatusOr<map::DistanceField> f = map::DistanceField::build(m);
+  ASSERT_TRUE(f.ok());
+  const map::Polyline path{{Vec3(1, 0, 1.5), Vec3(10, 0.5, 1.5), Vec3(19, 0, 1.5)}};
+  std::vector<map::MovingObstacle> mov(20);
+  for (std::size_t i = 0; i < mov.size(); ++i) {
+    mov[i].shape = i % 3 == 0 ? map::RobotShape::sphere(0.3)
+                   : i % 3 == 1 ? map::RobotShape::box(Vec3(1, 0.6, 0.8)) : map::RobotShape::cylinder(0.3, 1.0);
+    mov[i].position = Vec3(2.0 + 0.8 * double(i), (i % 2 ? 1.0 : -1.0), 1.5);
+    mov[i].velocity = Vec3(-0.3, 0.05, 0);
+  }
+  for (Method method : {Method::kClassic, Method::kTian2016, Method::kWang2014, Method::kVff, Method::kCvff, Method::kUuv}) {
+    World w;
+    w.field = &*f;
+    w.static_obstacles = {{Vec3(6, -1, 1.5), 0.4}};
+    StatusOr<LocalPlanner> p = LocalPlanner::create(LocalParams::preset(method), w);
+    ASSERT_TRUE(p.ok());
+    RobotState s;
+    s.position = Vec3(1.5, 0, 1.5);
+    const long before = g_allocations.load();
+    int steps = 0;
+    for (; steps < 300; ++steps) {
+      const StepCommand c = p->step(s, path, mov.data(), mov.size(), 0.1);
+      if (c.status == StepStatus::kArrived || c.status == StepStatus::kStuck) break;
+      s.position += 0.05 * (s.velocity + c.velocity);
+      s.velocity = c.velocity;
+    }
+    EXPECT_EQ(g_allocations.load() - before, 0) << methodName(method) << " over " << steps << " steps";
+    EXPECT_GT(steps, 10) << methodName(method);
+  }
+}
+
+}  // namespace
+}  // namespace adit::local

@@ -1,0 +1,216 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The papers' set-ups (maps/scenarios/) run end to end through the simulator. Each test names its
+// tolerance and why; the simulator's referee, not the planner, decides collisions and arrival.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+
+#include "adit/local/simulator.hpp"
+
+namespace adit::local {
+namespace {
+
+const std::string kDir = std::string(ADIT_MAPS_DIR) + "/scenarios/";
+
+Scenario load(const std::string& name) {
+  StatusOr<Scenario> s = loadScenario(kDir + name);
+  EXPECT_TRUE(s.ok()) << s.status().message();
+  return s.ok() ? *s : Scenario{};
+}
+
+SimulationResult run(const Scenario& sc) {
+  StatusOr<Environment> env = Environment::load(sc);
+  EXPECT_TRUE(env.ok()) << env.status().message();
+  if (!env.ok()) return {};
+  StatusOr<SimulationResult> r = simulate(sc, *env);
+  EXPECT_TRUE(r.ok()) << r.status().message();
+  if (!r.ok()) return {};
+  const SimulationResult& x = *r;
+  std::printf("[%s/%s] %s t=%.1f s, path %.2f m, min clearance %.3f m, %d collisions, %d steps, %d escapes\n",
+              sc.name.c_str(), methodName(sc.params.method), outcomeName(x.outcome), x.arrival_time_s,
+              x.path_length_m, x.min_clearance_m, x.collisions, x.steps, x.escapes);
+  for (const ClosestApproach& c : x.closest)
+    std::printf("    closest approach to %s: %.3f m at t = %.1f s\n", c.name.c_str(), c.distance_m, c.t_s);
+  return x;
+}
+
+void expectCleanArrival(const SimulationResult& r) {
+  EXPECT_EQ(r.outcome, Outcome::kArrived) << r.message;
+  EXPECT_EQ(r.collisions, 0);
+  EXPECT_GT(r.min_clearance_m, 0.0);
+  EXPECT_LE(r.final_goal_distance_m, r.arrival_tolerance_m);
+}
+
+// Largest distance of the trajectory from the expected path.
+double maxDeviation(const Scenario& sc, const SimulationResult& r) {
+  double d = 0.0;
+  for (const TrajectorySample& s : r.trajectory)
+    d = std::max(d, (s.position - sc.expected_path.nearestPoint(s.position)).norm());
+  return d;
+}
+
+// Tian 2016 straight path: arrives without collision. The line field's job is to hold the robot
+// on the expected path, so "worse without it" is measured as the largest deviation from the path
+// (tolerance: strictly larger without). The paper's local minimum without the line field is
+// not reproduced here; see the README.
+TEST(Scenarios, Tian2016StraightArrivesAndTheLineFieldHoldsThePath) {
+  const Scenario sc = load("tian2016_straight.yaml");
+  const SimulationResult with = run(sc);
+  expectCleanArrival(with);
+  ASSERT_EQ(with.closest.size(), 3u);
+  Scenario without = sc;
+  without.params.tian2016.k_l = 0.0;
+  const SimulationResult no_line = run(without);
+  const double dev_with = maxDeviation(sc, with), dev_without = maxDeviation(sc, no_line);
+  std::printf("    max deviation from the expected path: %.3f m with the line field, %.3f m without\n", dev_with,
+              dev_without);
+  EXPECT_LT(dev_with, dev_without);
+}
+
+// Tian 2016 polyline path through the paper's break points A and B: arrives without collision,
+// and with the line field sooner and along a shorter path than without it (tolerance: strictly;
+// the paper: 97 s against 161 s).
+TEST(Scenarios, Tian2016PolylineTheLineFieldArrivesSooner) {
+  const Scenario sc = load("tian2016_polyline.yaml");
+  const SimulationResult with = run(sc);
+  expectCleanArrival(with);
+  Scenario without = sc;
+  without.params.tian2016.k_l = 0.0;
+  const SimulationResult no_line = run(without);
+  expectCleanArrival(no_line);
+  std::printf("    arrival %.1f s with the line field, %.1f s without (paper: 97 s, 161 s)\n", with.arrival_time_s,
+              no_line.arrival_time_s);
+  EXPECT_LT(with.arrival_time_s, no_line.arrival_time_s);
+  EXPECT_LT(with.path_length_m, no_line.path_length_m);
+}
+
+// Wang 2014 U-trap: Khatib's APF has no escape and must say stuck (not timeout, not arrived);
+// the improved model passes. Tolerance: outcome only.
+TEST(Scenarios, Wang2014UTrapClassicStuckImprovedPasses) {
+  const SimulationResult classic = run(load("wang2014_u_trap_classic.yaml"));
+  EXPECT_EQ(classic.outcome, Outcome::kStuck);
+  EXPECT_EQ(classic.collisions, 0);
+  EXPECT_GT(classic.final_goal_distance_m, 1.0);
+  expectCleanArrival(run(load("wang2014_u_trap_wang2014.yaml")));
+}
+
+// Guo 2022 static: CVFF needs fewer iterations (steps) than VFF, as in the paper's Table 2
+// (64 vs 75 at p0 = 0.5; 62 vs 74 at p0 = 1). Tolerance: strictly fewer. The paper's shorter
+// path is not reproduced on this layout (printed, not asserted; see the README).
+TEST(Scenarios, Guo2022StaticCvffFewerIterationsThanVff) {
+  for (double p0 : {0.5, 1.0}) {
+    Scenario vff = load("guo2022_static_vff.yaml"), cvff = load("guo2022_static_cvff.yaml");
+    vff.params.vff.p0_m = cvff.params.vff.p0_m = p0;
+    const SimulationResult a = run(vff), b = run(cvff);
+    expectCleanArrival(a);
+    expectCleanArrival(b);
+    std::printf("    p0 = %.1f: VFF %d steps %.2f m, CVFF %d steps %.2f m\n", p0, a.steps, a.path_length_m, b.steps,
+                b.path_length_m);
+    EXPECT_LT(b.steps, a.steps);
+  }
+}
+
+// Guo 2022 dynamic: no collision; the closest approaches are reported beside the paper's
+// 5 dm and 8 dm (centre distances there; surface distances here).
+TEST(Scenarios, Guo2022DynamicNoCollision) {
+  const SimulationResult r = run(load("guo2022_dynamic.yaml"));
+  expectCleanArrival(r);
+  ASSERT_EQ(r.closest.size(), 2u);
+  std::printf("    paper: 0.5 m at t = 12 s and 0.8 m at t = 31 s\n");
+  for (const ClosestApproach& c : r.closest) EXPECT_GT(c.distance_m, 0.0);
+}
+
+// UUV 3-D: the sphere sits above the track, so the rotation direction sends the vehicle below
+// it. Tolerance: every sample within 1 m of the sphere's x lies below the track (z < 0).
+TEST(Scenarios, UuvPassesOnTheNearerSide) {
+  const Scenario sc = load("uuv_3d.yaml");
+  const SimulationResult r = run(sc);
+  expectCleanArrival(r);
+  int beside = 0;
+  for (const TrajectorySample& s : r.trajectory) {
+    if (std::abs(s.position.x() - 10.0) > 1.0) continue;
+    ++beside;
+    EXPECT_LT(s.position.z(), 0.0) << "t = " << s.t_s;
+  }
+  EXPECT_GT(beside, 0);
+}
+
+// The bundled district: along the main haulage roadway past an oncoming machine. Rock and the
+// machine are checked by the referee (exact FCL distances). Tolerance: arrival, no collision.
+TEST(Scenarios, DistrictRoadwayWithOncomingMachine) {
+  const SimulationResult r = run(load("district_oncoming.yaml"));
+  expectCleanArrival(r);
+  ASSERT_EQ(r.closest.size(), 1u);
+  EXPECT_GT(r.closest[0].distance_m, 0.0);
+}
+
+// Crossing traffic in open space: a 20 m straight path, 4-8 movers crossing it about when the
+// robot gets there, 1-3 static discs; the tian2016 preset as it is.
+Scenario crossingTraffic(std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  auto U = [&](double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); };
+  Scenario s;
+  s.name = "crossing-" + std::to_string(seed);
+  s.file = s.name;
+  s.seed = seed;
+  s.start = Vec3(0, 0, 0);
+  s.goal = Vec3(20, 0, 0);
+  s.expected_path.points = {s.start, s.goal};
+  s.params = LocalParams::preset(Method::kTian2016);
+  s.params.robot = {0.3, 1.0, 0.5};
+  s.dt_s = 0.1;
+  s.t_max_s = 120;
+  const int n_static = int(U(1, 4)), n_moving = int(U(4, 9));
+  for (int i = 0; i < n_static; ++i) s.static_obstacles.push_back({Vec3(U(4, 16), U(-1.5, 1.5), 0), U(0.3, 0.6)});
+  for (int i = 0; i < n_moving; ++i) {
+    NamedObstacle m;
+    m.name = "mover " + std::to_string(i + 1);
+    const double x = U(3, 17), side = U(0, 1) < 0.5 ? -1.0 : 1.0, speed = U(0.2, 0.6);
+    const double t_cross = x / 0.8 + U(-4, 4);
+    m.obstacle.shape = map::RobotShape::sphere(U(0.2, 0.4));
+    m.obstacle.velocity = Vec3(0, -side * speed, 0);
+    m.obstacle.position = Vec3(x, side * speed * t_cross, 0);
+    s.moving_obstacles.push_back(m);
+  }
+  return s;
+}
+
+// Tolerances (issue 7): >= 90 % arrive; an arrival never collides or stops short (the referee's
+// verdict); the rest end honestly stuck or timed out, never in a collision.
+TEST(Scenarios, RandomCrossingTraffic) {
+  constexpr int kSeeds = 200;
+  int counts[4] = {0, 0, 0, 0};
+  for (std::uint64_t seed = 0; seed < kSeeds; ++seed) {
+    const Scenario s = crossingTraffic(seed);
+    ASSERT_TRUE(s.validate().ok()) << seed;
+    StatusOr<SimulationResult> r = simulate(s, Environment::openSpace());
+    ASSERT_TRUE(r.ok()) << r.status().message();
+    ++counts[int(r->outcome)];
+    if (r->arrived()) {
+      EXPECT_EQ(r->collisions, 0) << seed;
+      EXPECT_LE(r->final_goal_distance_m, r->arrival_tolerance_m) << seed;
+    } else {
+      std::printf("    seed %d: %s (%s)\n", int(seed), outcomeName(r->outcome), r->message.c_str());
+    }
+  }
+  std::printf("    %d seeds: %d arrived, %d collision, %d stuck, %d timeout\n", kSeeds, counts[0], counts[1],
+              counts[2], counts[3]);
+  EXPECT_GE(counts[int(Outcome::kArrived)], kSeeds * 9 / 10);
+  EXPECT_EQ(counts[int(Outcome::kCollision)], 0);
+}
+
+TEST(Scenarios, SameSeedSameTrajectory) {
+  const Scenario s = crossingTraffic(7);
+  StatusOr<SimulationResult> a = simulate(s, Environment::openSpace());
+  StatusOr<SimulationResult> b = simulate(s, Environment::openSpace());
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->trajectory.size(), b->trajectory.size());
+  for (std::size_t i = 0; i < a->trajectory.size(); ++i) {
+    EXPECT_EQ(a->trajectory[i].position, b->trajectory[i].position);
+    EXPECT_EQ(a->trajectory[i].status, b->trajectory[i].status);
+  }
+}
+
+}  // namespace
+}  // namespace adit::local
