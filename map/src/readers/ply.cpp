@@ -43,10 +43,11 @@ int typeSize(const std::string& t) {
 
 bool isIntegerType(const std::string& t) { return t != "float" && t != "float32" && t != "double" && t != "float64"; }
 
-// Assimp's PLY parser (uninstrumented, from Debian) corrupted the heap under the fuzzer on a mesh
-// whose body did not match its header, so a mesh's body is walked here first: in ascii every
-// element is a line of exactly the numbers its properties take, in binary every list length is
-// a non-negative integer and every record lies inside the file.
+// A mesh's body is walked against its header before Assimp parses it, so a malformed body is
+// reported by line or offset and Assimp's PLY parser (which misbehaved under the fuzzer, see
+// tests/fuzz/README.md) only sees well-formed input: in ascii every element is a line of exactly
+// the numbers its properties take, in binary every list length is a non-negative integer and
+// every record lies inside the file.
 Status checkBody(const std::string& b, std::size_t pos, std::uint64_t line, const std::vector<PlyElement>& elems,
                  bool ascii, bool big_endian, const std::string& name) {
   for (const PlyElement& e : elems) {
