@@ -23,7 +23,7 @@ PKGS=(cmake g++ make pkg-config
       libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
       libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev libode-dev
       libgtest-dev libgmock-dev libbenchmark-dev
-      libopen3d-dev libassimp-dev libdxflib-dev)
+      libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev)
 
 missing=()
 for p in "${PKGS[@]}"; do

@@ -142,7 +142,12 @@ StatusOr<DxfSections> parseDxfSections(const std::string& text, const std::strin
   const YAML::Node secs = root.IsMap() ? root["sections"] : YAML::Node();
   if (!secs || !secs.IsMap() || secs.size() == 0)
     return invalidArgument(name + ": expected a 'sections:' mapping of layer names to cross-sections");
-  const std::string first = secs.begin()->first.as<std::string>();
+  // A YAML key can be a sequence or mapping ("? [a, b]"); as<std::string>() would throw on it.
+  const YAML::Node first_key = secs.begin()->first;
+  if (!first_key.IsScalar())
+    return invalidArgument(name + ":" + std::to_string(first_key.Mark().line + 1) +
+                           ": sections: a layer name must be a plain string (quote it)");
+  const std::string first = first_key.Scalar();
   ADIT_ASSIGN_OR_RETURN(SurveyNetwork net, parseWithStub(text, name, first, bool(root["resolution"])));
   DxfSections s;
   s.by_layer = net.sections;

@@ -62,6 +62,10 @@ StatusOr<Geometry> parseLas(const std::string& b, const std::string& name, const
     g.points[k] = Vec3(double(loadLE<std::int32_t>(b, o)) * scale[0] + offset[0],
                        double(loadLE<std::int32_t>(b, o + 4)) * scale[1] + offset[1],
                        double(loadLE<std::int32_t>(b, o + 8)) * scale[2] + offset[2]);
+    // Finite scale and offset can still overflow (1e300 x 2^31): the point is not a coordinate.
+    if (!g.points[k].allFinite())
+      return invalidArgument(at(name, o) + ": point " + std::to_string(k + 1) +
+                             " scales to a non-finite coordinate (header scale/offset too large)");
   }
   return g;
 }

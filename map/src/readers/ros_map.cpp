@@ -60,7 +60,8 @@ Status decodePgm(const std::string& b, const std::string& name, std::uint64_t ma
   }
   if (v[0] == 0 || v[1] == 0 || v[2] == 0 || v[2] > 65535)
     return invalidArgument(name + ": PGM header: width, height and maxval must be positive (maxval <= 65535)");
-  if (v[0] * v[1] > max_pixels)
+  // Each side first: 10 digits reach 2^32, and 2^32 x 2^32 wraps to 0 pixels in 64 bits.
+  if (v[0] > max_pixels || v[1] > max_pixels || v[0] * v[1] > max_pixels)
     return outOfRange(name + ": PGM of " + std::to_string(v[0]) + " x " + std::to_string(v[1]) +
                       " pixels exceeds the limit of " + std::to_string(max_pixels));
   *w = int(v[0]);
