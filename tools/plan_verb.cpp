@@ -75,7 +75,12 @@ PlanRefinementInfo refinePlan(const global::GlobalPlanner& planner, const Distan
   rp.sample_step_m = std::min(res, params.motion_step_voxels * res);
   // The planner's --clearance-weight also weighs the refiner's clearance penalty (0 = length only).
   rp.clearance_weight = params.clearance_weight;
-  const fusion::ClearanceFn clearance = fusion::fieldClearance(field, horizontal);
+  // Ground mode: the centre sits half a body above the floor, so the field there sees the floor;
+  // measure the ribs higher up, lifted as the planner's own clearance is (margin + two voxels).
+  const double lift = rp.planar ? params.safety_margin_m + 2.0 * res : 0.0;
+  const fusion::ClearanceFn clearance = [&field, horizontal, lift](const Vec3& p) {
+    return field.distance(p + Vec3(0, 0, lift)) - horizontal;
+  };
   // The planner's own motion check (exact robot shape, ground contact, slope) on every segment.
   const fusion::SegmentCheck check = [&planner](const Vec3& p, const Vec3& q) {
     return planner.validatePath(Polyline{{p, q}});
