@@ -108,8 +108,9 @@ class Navigator {
   void read(const std::function<void(const map::OccupancyMap&, const map::DistanceField&)>& fn) const;
 
   map::Polyline expectedPath() const;  ///< a copy, under the shared lock
+  /// The navigator's decisions so far; like replans(), for the cycle's own thread only.
   const std::vector<NavigatorEvent>& events() const;
-  int replans() const;
+  int replans() const;  ///< replans attempted, the one that found no route included
   const global::GlobalPlanner& globalPlanner() const;
 
  private:
