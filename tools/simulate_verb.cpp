@@ -110,7 +110,6 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
                  const map::Polyline* replanned = nullptr) {
   TopViewOptions opt;
   opt.title = sc.name + " (" + methodName(sc.params.method) + "): " + outcomeName(r.outcome);
-  Figure fig(opt);
   map::Aabb box;
   for (const TrajectorySample& s : r.trajectory) box.extend(s.position);
   for (const Vec3& p : sc.expected_path.points) box.extend(p);
@@ -118,6 +117,8 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
   const double t_end = r.trajectory.empty() ? 0.0 : r.trajectory.back().t_s;
   // Tracks only near the run: accelerating obstacles can leave for kilometres.
   const map::Aabb near = box.inflated(3.0);
+  std::vector<FigureLine> tracks;
+  std::vector<FigureDisc> ends;
   for (const NamedObstacle& m : sc.moving_obstacles) {
     FigureLine track;
     for (double t = 0.0; t <= t_end + 1e-9; t += std::max(t_end / 200.0, 0.05))
@@ -129,12 +130,27 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
     track.dashed = true;
     FigureDisc end;
     end.center = track.points.back();  // last position near the run
-    fig.addLine(std::move(track));
     end.radius_m = m.obstacle.shape.boundingRadius();
     end.fill = end.stroke = kFigureMoving;
     end.label = m.name;
-    if (mover_ends) fig.addDisc(end);
+    tracks.push_back(std::move(track));
+    if (mover_ends) ends.push_back(std::move(end));
   }
+  if (env.map()) {
+    // A run crosses a small part of a district: draw that part (with a margin for context) so
+    // that the robot, the falls and the paths are legible.
+    map::Aabb view = box;
+    view.extend(sc.start);
+    view.extend(sc.goal);
+    if (replanned)
+      for (const Vec3& p : replanned->points) view.extend(p);
+    for (const ScenarioEvent& e : sc.events) view.extend(map::Aabb(e.center, e.center).inflated(e.radius_m));
+    const Vec3 size = view.size();
+    opt.view_box_m = view.inflated(std::max(10.0, 0.12 * std::max(size.x(), size.y())));
+  }
+  Figure fig(opt);
+  for (FigureLine& l : tracks) fig.addLine(std::move(l));
+  for (FigureDisc& d : ends) fig.addDisc(std::move(d));
   if (env.map()) fig.setMap(env.map());
   else fig.setWorldBounds(box.inflated(1.0));
   for (const StaticSphere& s : sc.static_obstacles) {

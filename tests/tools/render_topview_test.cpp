@@ -440,3 +440,36 @@ TEST_F(FigureTest, InvalidOverlaysAreRefusedAndWriteNothing) {
 }
 
 }  // namespace adit::tools::figure_test
+
+namespace adit::tools::figure_test {
+
+TEST_F(FigureTest, ViewBoxDrawsOnlyThatPartOfTheMap) {
+  TopViewOptions o;
+  o.pixels_per_m = 20.0;
+  o.view_box_m = map::Aabb(map::Vec3(8, -3, -100), map::Vec3(16, 3, 100));
+  TopViewInfo info;
+  const fs::path out = dir_ / "view.png";
+  ASSERT_TRUE(renderTopView(junction(), o, out.string(), &info).ok());
+  EXPECT_NEAR(info.x_min_m, 8.0, 1e-9);
+  EXPECT_NEAR(info.y_max_m, 3.0, 1e-9);
+  EXPECT_EQ(info.map_width_px, 160);
+  EXPECT_EQ(info.map_height_px, 120);
+  Picture pic(out);
+  ASSERT_TRUE(pic.ok());
+  EXPECT_NE(pic.atWorld(info, 10, 0), kTopViewBackground);  // the main roadway, inside the view
+  // A view whose top row is the rock beside the main roadway (y < -2): the free roadway just
+  // above the view must not leak into that row.
+  TopViewOptions below = o;
+  below.view_box_m = map::Aabb(map::Vec3(8, -8, -100), map::Vec3(14, -2.5, 100));
+  TopViewInfo binfo;
+  const fs::path bout = dir_ / "below.png";
+  ASSERT_TRUE(renderTopView(junction(), below, bout.string(), &binfo).ok());
+  Picture bpic(bout);
+  ASSERT_TRUE(bpic.ok());
+  for (double x = 8.5; x < 14.0; x += 0.5) EXPECT_EQ(bpic.atWorld(binfo, x, -2.52), kTopViewBackground) << x;
+  TopViewOptions off = o;
+  off.view_box_m = map::Aabb(map::Vec3(500, 500, 0), map::Vec3(600, 600, 1));
+  EXPECT_FALSE(renderTopView(junction(), off, (dir_ / "off.png").string()).ok());
+}
+
+}  // namespace adit::tools::figure_test

@@ -603,8 +603,10 @@ RasterStats rasterise(const OccupancyMap& map, const TopViewOptions& o, const La
   // tolerance: a slice exactly on a voxel boundary (z = 0.5 on a 0.1 m map) then meets the voxel
   // above it, and only that one, instead of neither.
   const double band_lo = zlo / res, band_hi = zhi / res;
+  const double x1 = L.x0 + L.mw / s, y0 = L.y1 - L.mh / s;  // the map area's other edges
   map.forEachLeaf([&](const Vec3& c, double size, VoxelState state) {
     const double h = 0.5 * size;
+    if (c.x() + h <= L.x0 || c.x() - h >= x1 || c.y() + h <= y0 || c.y() - h >= L.y1) return;  // off the view
     if (slice) {
       const double kb = std::round((c.z() - h) / res), kt = std::round((c.z() + h) / res);
       if (kb > band_hi + 1e-6 || kt <= band_lo + 1e-6) return;  // [kb, kt) does not meet the band
@@ -1268,6 +1270,16 @@ Status Figure::draw(Output kind, const std::string& path, std::vector<unsigned c
     C.bounds = map_->bounds();
     if (C.bounds.empty() || !map::allFinite(C.bounds.min) || !map::allFinite(C.bounds.max))
       return adit::failedPrecondition("top view: the map has no known voxel to draw");
+    if (options_.view_box_m) {
+      const Aabb& v = *options_.view_box_m;
+      if (!map::allFinite(v.min) || !map::allFinite(v.max))
+        return adit::invalidArgument("top view: view_box_m is not finite");
+      for (int a = 0; a < 2; ++a) {
+        C.bounds.min[a] = std::max(C.bounds.min[a], v.min[a]);
+        C.bounds.max[a] = std::min(C.bounds.max[a], v.max[a]);
+      }
+      if (C.bounds.empty()) return adit::invalidArgument("top view: view_box_m does not overlap the map");
+    }
   } else {
     if (bounds_ && !bounds_->empty()) {
       if (!map::allFinite(bounds_->min) || !map::allFinite(bounds_->max))

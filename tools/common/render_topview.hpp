@@ -39,6 +39,9 @@ struct TopViewOptions {
   double min_roadway_width_m = 4.0;
   /// Hard cap on the whole picture (map area and annotations) [millions of pixels].
   double max_megapixels = 40.0;
+  /// With a map: draw only this x-y window of it (z ignored), e.g. the part of a district a run
+  /// crossed. Unset: the whole map.
+  std::optional<adit::map::Aabb> view_box_m;
 };
 
 /// Colours of the raster (0xRRGGBB), so that callers and tests can recognise them.
