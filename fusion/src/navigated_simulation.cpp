@@ -46,13 +46,6 @@ std::vector<Vec3> fallVoxels(const ScenarioEvent& e, const map::OccupancyMap& tr
   return out;
 }
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  const std::size_t k = std::min(v.size() - 1, std::size_t(q * double(v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(k), v.end());
-  return v[k];
-}
-
 }  // namespace
 
 StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Environment& truth) {
@@ -159,8 +152,8 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
     res.trajectory.push_back({t, state.position, state.velocity, c.command.status});
   }
   res.final_goal_distance_m = (state.position - sc.goal).norm();
-  res.step_time_p50_us = percentile(cycle_us, 0.5);
-  res.step_time_p99_us = percentile(cycle_us, 0.99);
+  res.step_time_p50_us = local::stepTimePercentile(cycle_us, 0.5);
+  res.step_time_p99_us = local::stepTimePercentile(cycle_us, 0.99);
   out.replans = nav.replans();
   out.events = nav.events();
   out.final_path = nav.expectedPath();

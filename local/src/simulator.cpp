@@ -106,14 +106,14 @@ class Referee {
   map::RobotShape robot_;
 };
 
-double percentile(std::vector<double> v, double q) {
+}  // namespace
+
+double stepTimePercentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   const std::size_t k = std::min(v.size() - 1, std::size_t(q * double(v.size() - 1) + 0.5));
   std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(k), v.end());
   return v[k];
 }
-
-}  // namespace
 
 void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, double t, RobotState& state, SimulationResult& res, const ExtraDistanceFn& extra) {
   const Referee referee(sc, env);
@@ -240,8 +240,8 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) 
     res.trajectory.push_back({t, state.position, state.velocity, c.status});
   }
   res.final_goal_distance_m = (state.position - sc.goal).norm();
-  res.step_time_p50_us = percentile(step_us, 0.5);
-  res.step_time_p99_us = percentile(step_us, 0.99);
+  res.step_time_p50_us = stepTimePercentile(step_us, 0.5);
+  res.step_time_p99_us = stepTimePercentile(step_us, 0.99);
   // The verdict is the referee's, not the planner's.
   const bool within = res.final_goal_distance_m <= res.arrival_tolerance_m;
   if (collisionVerdict(res)) {

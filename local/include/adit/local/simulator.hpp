@@ -103,6 +103,8 @@ using ExtraDistanceFn = std::function<void(const Vec3& p, double t_s, double& d,
 void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acceleration, double t_s, RobotState& state, SimulationResult& result, const ExtraDistanceFn& extra = {});
 /// Sets outcome kCollision and its message when the run collided; false otherwise.
 bool collisionVerdict(SimulationResult& result);
+/// The q-quantile (0..1, nearest rank) of per-step times, as the JSON's step_time_us reports it.
+double stepTimePercentile(std::vector<double> values, double q);
 
 /// Runs the scenario to arrival, a stuck verdict, or t_max. Errors: a scenario that fails
 /// validate(), a start or goal inside rock or overlapping an obstacle, a scenario that
