@@ -2,6 +2,8 @@
 // `adit simulate SCENARIO.yaml`: run a scenario through the local planner and report the run.
 // Thin: load, call adit::local::simulate (or adit::fusion::simulateNavigated for scenarios with
 // `expected_path: plan`, `robot.sensor_range` or `events`), write JSON / picture / page.
+// `adit simulate --batch N --map M`: N randomized navigated runs (adit/fusion/batch.hpp) on
+// worker processes, a CSV row per run and a JSON summary.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -10,13 +12,26 @@
 #include <cstdio>
 #include <optional>
 #include <iostream>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <new>
 
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "adit/fusion/batch.hpp"
 #include "adit/fusion/navigated_simulation.hpp"
 #include "adit/local/simulator.hpp"
 #include "adit/map/map_io.hpp"
 #include "common/animation_page.hpp"
 #include "common/cli.hpp"
 #include "common/figure.hpp"
+#include "common/progress.hpp"
 #include "verbs.hpp"
 
 namespace adit::tools {
@@ -32,6 +47,15 @@ struct SimulateArgs {
   std::string picture;
   std::string html;
   bool quiet = false;
+  // --batch
+  std::string map;
+  std::string csv;
+  int batch = 0;
+  bool batch_given = false;
+  int jobs = 1;
+  std::uint64_t seed = 1;
+  double t_max = 0.0;
+  double max_separation = 150.0;
 };
 
 nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
@@ -207,7 +231,19 @@ Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& 
   return writeAnimationPage(fig, in, path);
 }
 
+int runBatch(const SimulateArgs& a);
+
+// The JSON to `out` (atomically), or to stdout when `out` is empty.
+Status writeJson(const nlohmann::ordered_json& j, const std::string& out) {
+  const std::string json = j.dump(2) + "\n";
+  if (!out.empty()) return map::writeFileAtomically(out, [&](std::ostream& os) { return bool(os << json); });
+  std::fwrite(json.data(), 1, json.size(), stdout);
+  return Status();
+}
+
 int run(const SimulateArgs& a) {
+  if (a.batch_given) return runBatch(a);
+  if (a.scenario.empty()) return report(invalidArgument("a SCENARIO file is required (or --batch N --map M)"));
   // Check the output names before the (possibly long) run.
   for (const std::string* p : {&a.picture}) {
     if (p->empty()) continue;
@@ -239,13 +275,7 @@ int run(const SimulateArgs& a) {
 
   nlohmann::ordered_json j = toJson(*sc, *r);
   if (nav) addNavigatorJson(j, *sc, *nav);
-  const std::string json = j.dump(2) + "\n";
-  if (!a.out.empty()) {
-    Status s = map::writeFileAtomically(a.out, [&](std::ostream& os) { return bool(os << json); });
-    if (!s.ok()) return report(s);
-  } else {
-    std::fwrite(json.data(), 1, json.size(), stdout);
-  }
+  if (Status s = writeJson(j, a.out); !s.ok()) return report(s);
   if (!a.picture.empty())
     if (Status s = runFigure(*sc, *env, *r, true, replanned).render(a.picture); !s.ok()) return report(s);
   if (!a.html.empty())
@@ -260,6 +290,242 @@ int run(const SimulateArgs& a) {
   return r->arrived() ? kExitOk : kExitFailure;
 }
 
+// --- `adit simulate --batch N`: randomized navigated runs on one map (issue 8) ---------------
+
+// One run's record as a worker writes it for the parent: tab-separated, full precision.
+std::string batchRecord(const fusion::BatchRunResult& r) {
+  std::string msg = r.message;
+  std::replace_if(msg.begin(), msg.end(), [](char c) { return c == '\t' || c == '\n' || c == '\r'; }, ' ');
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "%d\t%llu\t%s\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t", r.index,
+                static_cast<unsigned long long>(r.seed), r.outcome.c_str(), r.arrival_time_s, r.path_length_m,
+                r.min_clearance_m, r.collisions, r.replans, r.step_p50_us, r.step_p99_us, r.final_goal_distance_m,
+                r.arrival_tolerance_m);
+  return buf + msg + "\n";
+}
+
+std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) {
+  std::vector<std::string> f;
+  std::size_t from = 0;
+  for (int k = 0; k < 12; ++k) {
+    const std::size_t tab = line.find('\t', from);
+    if (tab == std::string::npos) return std::nullopt;
+    f.push_back(line.substr(from, tab - from));
+    from = tab + 1;
+  }
+  fusion::BatchRunResult r;
+  auto num = [](const std::string& s) { return std::strtod(s.c_str(), nullptr); };
+  r.index = std::atoi(f[0].c_str());
+  r.seed = std::strtoull(f[1].c_str(), nullptr, 10);
+  r.outcome = f[2];
+  r.arrival_time_s = num(f[3]);
+  r.path_length_m = num(f[4]);
+  r.min_clearance_m = num(f[5]);
+  r.collisions = std::atoi(f[6].c_str());
+  r.replans = std::atoi(f[7].c_str());
+  r.step_p50_us = num(f[8]);
+  r.step_p99_us = num(f[9]);
+  r.final_goal_distance_m = num(f[10]);
+  r.arrival_tolerance_m = num(f[11]);
+  r.message = line.substr(from);
+  return r;
+}
+
+// The base scenario of a batch: the given scenario file, else the district rescue robot on --map.
+StatusOr<Scenario> batchBase(const SimulateArgs& a) {
+  StatusOr<Scenario> sc = internalError("no base");
+  if (!a.scenario.empty()) {
+    sc = loadScenario(a.scenario);
+  } else {
+    if (a.map.empty()) return invalidArgument("--batch needs --map (or a scenario file)");
+    sc = parseScenario("map: " + nlohmann::json(a.map).dump() +
+                           "\nstart: [0, 0, 0]\ngoal: [1, 0, 0]\nexpected_path: plan\n"
+                           "robot: {radius: 0.4, v_max: 1.0, a_max: 0.5, sensor_range: 8}\n"
+                           "method: tian2016\nparams: {rho0_m: 1.0}\ndt: 0.1\n",
+                       "batch");
+  }
+  if (!sc.ok()) return sc.status();
+  if (!a.scenario.empty() && !a.map.empty()) sc->map_path = a.map;
+  if (!sc->map_path) return invalidArgument(sc->file + ": map: --batch needs a map");
+  return sc;
+}
+
+// Workers are processes (OMPL's seed is process-global: see fusion/batch.hpp), forked after the
+// map is loaded so they share it copy-on-write. They pull run indices from a counter in shared
+// memory, write one record per run to their own file and one byte per run to the progress pipe.
+StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const SimulateArgs& a, const Scenario& base,
+                                                                const map::SurveyNetwork& survey,
+                                                                const Environment& truth,
+                                                                const fusion::BatchParams& bp, ProgressBar& bar) {
+  const int jobs = std::min(a.jobs, a.batch);
+  char dir_template[] = "/tmp/adit-batch-XXXXXX";
+  const char* dir = ::mkdtemp(dir_template);
+  if (!dir) return internalError(std::string("cannot create a temporary directory: ") + std::strerror(errno));
+  auto* next = static_cast<std::atomic<int>*>(
+      ::mmap(nullptr, sizeof(std::atomic<int>), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0));
+  if (next == MAP_FAILED) return internalError(std::string("mmap: ") + std::strerror(errno));
+  new (next) std::atomic<int>(0);
+  int progress[2];
+  if (::pipe(progress) != 0) return internalError(std::string("pipe: ") + std::strerror(errno));
+  std::fflush(nullptr);
+  std::vector<pid_t> pids;
+  auto file = [dir](int w) { return std::string(dir) + "/worker-" + std::to_string(w) + ".tsv"; };
+  for (int w = 0; w < jobs; ++w) {
+    const pid_t pid = ::fork();
+    if (pid < 0) return internalError(std::string("fork: ") + std::strerror(errno));
+    if (pid == 0) {
+      ::close(progress[0]);
+      std::FILE* out = std::fopen(file(w).c_str(), "w");
+      if (!out) ::_exit(1);
+      for (int i = next->fetch_add(1); i < a.batch; i = next->fetch_add(1)) {
+        fusion::BatchRunResult r;
+        StatusOr<Scenario> sc = fusion::makeBatchScenario(base, survey, truth, bp, i);
+        if (sc.ok()) {
+          r = fusion::runBatchScenario(*sc, truth, i);
+        } else {
+          r.index = i;
+          r.seed = fusion::batchRunSeed(bp.seed, i);
+          r.outcome = "error";
+          r.message = sc.status().message();
+        }
+        const std::string rec = batchRecord(r);
+        std::fwrite(rec.data(), 1, rec.size(), out);
+        std::fflush(out);
+        const char one = '.';
+        if (::write(progress[1], &one, 1) != 1) break;
+      }
+      ::_exit(std::fclose(out) == 0 ? 0 : 1);
+    }
+    pids.push_back(pid);
+  }
+  ::close(progress[1]);
+  int done = 0;
+  char buf[256];
+  for (ssize_t n; (n = ::read(progress[0], buf, sizeof buf)) != 0;) {
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    done += int(n);
+    bar.update("batch", double(done) / a.batch);
+  }
+  ::close(progress[0]);
+  bar.finish();
+  bool workers_ok = true;
+  for (pid_t pid : pids) {
+    int status = 0;
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
+    workers_ok = workers_ok && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  }
+  ::munmap(next, sizeof(std::atomic<int>));
+  std::vector<std::optional<fusion::BatchRunResult>> by_index(std::size_t(a.batch));
+  for (int w = 0; w < jobs; ++w) {
+    std::ifstream in(file(w));
+    for (std::string line; std::getline(in, line);)
+      if (std::optional<fusion::BatchRunResult> r = parseBatchRecord(line); r && r->index >= 0 && r->index < a.batch)
+        by_index[std::size_t(r->index)] = std::move(r);
+    std::remove(file(w).c_str());
+  }
+  ::rmdir(dir);
+  std::vector<fusion::BatchRunResult> runs;
+  for (std::size_t i = 0; i < by_index.size(); ++i) {
+    if (!by_index[i]) return internalError("batch: run " + std::to_string(i) + " was lost (a worker " +
+                                           (workers_ok ? "wrote no record" : "failed") + ")");
+    runs.push_back(std::move(*by_index[i]));
+  }
+  return runs;
+}
+
+nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base, const std::vector<fusion::BatchRunResult>& runs,
+                                    double wall_s) {
+  nlohmann::ordered_json outcomes;
+  for (const char* o : {"arrived", "collision", "stuck", "timeout", "no_route", "error"}) outcomes[o] = 0;
+  int arrived = 0, bad_arrivals = 0, dishonest = 0, replans = 0, runs_replanned = 0;
+  std::vector<double> p50, p99, arrival;
+  for (const fusion::BatchRunResult& r : runs) {
+    outcomes[r.outcome] = outcomes.value(r.outcome, 0) + 1;
+    replans += r.replans;
+    runs_replanned += r.replans > 0;
+    if (r.outcome == "error") continue;
+    p50.push_back(r.step_p50_us);
+    p99.push_back(r.step_p99_us);
+    if (r.outcome != "arrived") continue;
+    ++arrived;
+    arrival.push_back(r.arrival_time_s);
+    bad_arrivals += r.collisions > 0;
+    dishonest += !(r.final_goal_distance_m <= r.arrival_tolerance_m);
+  }
+  const double n = double(runs.size());
+  nlohmann::ordered_json j;
+  j["map"] = *base.map_path;
+  j["runs"] = runs.size();
+  j["seed"] = a.seed;
+  j["jobs"] = std::min(a.jobs, a.batch);
+  j["outcomes"] = outcomes;
+  j["success_rate"] = arrived / n;
+  j["collisions_among_arrivals"] = bad_arrivals;
+  j["arrivals_beyond_tolerance"] = dishonest;
+  j["replans"] = {{"total", replans}, {"runs_with_replans", runs_replanned}, {"mean", replans / n}};
+  j["no_route"] = outcomes["no_route"];
+  j["arrival_time"] = arrival.empty() ? nlohmann::ordered_json(nullptr)
+                                      : nlohmann::ordered_json{{"p50", stepTimePercentile(arrival, 0.5)},
+                                                               {"p90", stepTimePercentile(arrival, 0.9)}};
+  // Per-run percentiles only are kept: the median run's median step, the 99th-percentile run's p99.
+  j["step_time_us"] = {{"p50", p50.empty() ? 0.0 : stepTimePercentile(p50, 0.5)},
+                       {"p99", p99.empty() ? 0.0 : stepTimePercentile(p99, 0.99)}};
+  j["wall_time"] = wall_s;
+  return j;
+}
+
+int runBatch(const SimulateArgs& a) {
+  if (a.batch < 1) return report(invalidArgument("--batch must be >= 1 (got " + std::to_string(a.batch) + ")"));
+  if (a.jobs < 1) return report(invalidArgument("--jobs must be >= 1 (got " + std::to_string(a.jobs) + ")"));
+  if (!a.picture.empty() || !a.html.empty()) return report(invalidArgument("--picture and --html are for one run, not --batch"));
+  const auto wall0 = std::chrono::steady_clock::now();
+  StatusOr<Scenario> base = batchBase(a);
+  if (!base.ok()) return report(base.status());
+  const std::string& map_path = *base->map_path;
+  if (map_path.size() < 5 || map_path.substr(map_path.size() - 5) != ".yaml")
+    return report(invalidArgument(map_path + ": --batch draws start and goal on the survey: the map must be a survey (.yaml)"));
+  StatusOr<map::SurveyNetwork> survey = map::loadSurvey(map_path);
+  if (!survey.ok()) return report(survey.status());
+  StatusOr<Environment> truth = Environment::load(*base);
+  if (!truth.ok()) return report(truth.status());
+  fusion::BatchParams bp;
+  bp.seed = a.seed;
+  bp.t_max_s = a.t_max;
+  bp.max_separation_m = a.max_separation;
+  if (Status s = bp.validate(); !s.ok()) return report(s);
+  // Bad input shows in the first scenario: refuse it before forking.
+  if (StatusOr<Scenario> first = fusion::makeBatchScenario(*base, *survey, *truth, bp, 0); !first.ok())
+    return report(first.status());
+  if (!a.quiet)
+    std::fprintf(stderr, "adit: batch of %d runs on %s (seed %llu, %d workers)\n", a.batch, map_path.c_str(),
+                 static_cast<unsigned long long>(a.seed), std::min(a.jobs, a.batch));
+  ProgressBar bar(a.quiet);
+  StatusOr<std::vector<fusion::BatchRunResult>> runs = runBatchWorkers(a, *base, *survey, *truth, bp, bar);
+  if (!runs.ok()) return report(runs.status());
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  if (!a.csv.empty()) {
+    Status s = map::writeFileAtomically(a.csv, [&](std::ostream& os) {
+      os << fusion::batchCsvHeader() << "\n";
+      for (const fusion::BatchRunResult& r : *runs) os << fusion::batchCsvRow(r) << "\n";
+      return bool(os);
+    });
+    if (!s.ok()) return report(s);
+  }
+  const nlohmann::ordered_json j = batchSummary(a, *base, *runs, wall_s);
+  if (Status s = writeJson(j, a.out); !s.ok()) return report(s);
+  if (!a.quiet)
+    std::fprintf(stderr, "adit: %d runs: success rate %.3f, %d collisions among arrivals, %d errors, %.1f s\n", a.batch,
+                 j["success_rate"].get<double>(), j["collisions_among_arrivals"].get<int>(),
+                 j["outcomes"]["error"].get<int>(), wall_s);
+  // A batch is a valid run; it fails when a run could not be simulated or an arrival collided.
+  const bool ok = j["outcomes"]["error"].get<int>() == 0 && j["collisions_among_arrivals"].get<int>() == 0 &&
+                  j["arrivals_beyond_tolerance"].get<int>() == 0;
+  return ok ? kExitOk : kExitFailure;
+}
+
 }  // namespace
 
 void registerSimulateVerb(CLI::App& app, int* rc) {
@@ -268,12 +534,25 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
       "simulate",
       "Run a scenario (YAML) through the local planner. JSON on stdout or --out; exit 0 arrived, "
       "1 collision/stuck/timeout/no_route, 2 bad scenario");
-  cmd->add_option("SCENARIO", args->scenario, "Scenario file (.yaml)")->required();
-  cmd->add_option("--out", args->out, "Write the JSON here instead of stdout (atomically)");
+  cmd->add_option("SCENARIO", args->scenario, "Scenario file (.yaml); with --batch, optional: its robot and method");
+  cmd->add_option("--out", args->out, "Write the JSON (with --batch: the summary) here instead of stdout (atomically)");
+  cmd->add_option("--batch", args->batch,
+                  "Run N randomized navigated scenarios on --map (start/goal on the roadways, vehicles, roof "
+                  "falls); JSON summary; exit 1 if a run errored or an arrival collided");
+  cmd->add_option("--map", args->map, "With --batch: the survey map (.yaml)");
+  cmd->add_option("--seed", args->seed, "With --batch: the batch seed (each run's seed derives from it and its index)");
+  cmd->add_option("--jobs", args->jobs, "With --batch: worker processes (the table does not depend on it)");
+  cmd->add_option("--csv", args->csv, "With --batch: one CSV row per run, written atomically");
+  cmd->add_option("--max-separation", args->max_separation,
+                  "With --batch: largest straight-line start-goal distance [m] (default 150; at least 20)");
+  cmd->add_option("--t-max", args->t_max, "With --batch: simulated-time cap per run [s] (default: from the distance)");
   cmd->add_option("--picture", args->picture, "Top view of the run (.png or .svg)");
   cmd->add_option("--html", args->html, "Animated page of the run (.html, one offline file)");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
-  cmd->callback([args, rc] { *rc = run(*args); });
+  cmd->callback([args, rc, cmd] {
+    args->batch_given = cmd->count("--batch") > 0;
+    *rc = run(*args);
+  });
 }
 
 }  // namespace adit::tools

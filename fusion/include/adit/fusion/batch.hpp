@@ -1,0 +1,77 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// Randomized navigated scenarios for `adit simulate --batch` (issue 8). makeBatchScenario()
+/// turns (batch seed, run index) into one scenario on a surveyed map: start and goal on roadway
+/// centrelines (1.6 m above the floor, at least min_separation_m apart), 0..max_moving_obstacles
+/// vehicles driving along roadways, and with roof_fall_probability a roof fall on a roadway
+/// between them. Every random draw comes from a generator seeded by batchRunSeed(seed, index)
+/// alone, so a run does not depend on which worker runs it, nor in which order: the table is the
+/// same whatever the number of workers. runBatchScenario() runs one through simulateNavigated()
+/// and keeps the figures of the table.
+///
+/// Workers must be separate processes, not threads: the global planner seeds OMPL's
+/// process-global random generator, so two plans on two threads at once are not deterministic
+/// (global_planner.hpp). `adit simulate --batch --jobs J` forks J workers.
+///
+///   StatusOr<local::Scenario> sc = makeBatchScenario(base, *survey, truth, params, 17);
+///   BatchRunResult r = runBatchScenario(*sc, truth, 17, params.seed);
+
+#include <cstdint>
+#include <limits>
+#include <string>
+
+#include "adit/local/scenario.hpp"
+#include "adit/local/simulator.hpp"
+#include "adit/map/survey_network.hpp"
+#include "adit/status.hpp"
+
+namespace adit::fusion {
+
+struct BatchParams {
+  std::uint64_t seed = 1;
+  double min_separation_m = 20.0;   ///< straight-line distance between start and goal, at least
+  double max_separation_m = 150.0;  ///< and at most (keeps runs short on a large district)
+  int max_moving_obstacles = 3;     ///< 0..this many vehicles per run
+  double roof_fall_probability = 0.5;
+  double roof_fall_radius_m = 3.0;  ///< fills a district roadway's section
+  /// Simulated-time cap; 0: 120 s plus 6 s per metre of start-goal distance at v_max 1 m/s.
+  double t_max_s = 0.0;
+  Status validate() const;
+};
+
+/// The run's own seed: a SplitMix64 of the batch seed and the index.
+std::uint64_t batchRunSeed(std::uint64_t seed, int index);
+
+/// Scenario `index` of the batch: `base` gives the map, robot, method, params and dt; the rest is
+/// drawn. `truth` is the map loaded for `base` (start and goal must have the robot's clearance).
+/// Errors: bad params, a survey without roadways, no admissible start/goal pair in 1000 draws.
+StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const map::SurveyNetwork& survey,
+                                            const local::Environment& truth, const BatchParams& params, int index);
+
+/// One row of the table. outcome is local::outcomeName() or "error" (message says why).
+struct BatchRunResult {
+  int index = 0;
+  std::uint64_t seed = 0;
+  std::string outcome;
+  std::string message;
+  double arrival_time_s = std::numeric_limits<double>::quiet_NaN();
+  double path_length_m = 0.0;
+  double min_clearance_m = std::numeric_limits<double>::infinity();
+  int collisions = 0;
+  int replans = 0;
+  double step_p50_us = 0.0;
+  double step_p99_us = 0.0;
+  double final_goal_distance_m = 0.0;
+  double arrival_tolerance_m = 0.5;
+};
+
+BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index);
+
+/// `index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us`
+const char* batchCsvHeader();
+/// One CSV line (no newline); empty fields for NaN / infinite values. Timing columns vary
+/// between runs of the same seed; the others do not.
+std::string batchCsvRow(const BatchRunResult& r);
+
+}  // namespace adit::fusion

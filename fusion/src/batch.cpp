@@ -1,0 +1,204 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/fusion/batch.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "adit/fusion/navigated_simulation.hpp"
+#include "adit/map/distance_field.hpp"
+
+namespace adit::fusion {
+
+namespace {
+
+// The robot's centre above the roadway floor, as in the bundled district scenarios.
+constexpr double kCentreAboveFloorM = 1.6;
+constexpr int kMaxDraws = 1000;
+
+struct Segment {
+  Vec3 a, b;
+  double length;
+};
+
+// Every centreline segment of the survey, for drawing points uniformly along the roadways.
+std::vector<Segment> segments(const map::SurveyNetwork& survey) {
+  std::vector<Segment> out;
+  for (const map::SurveyRoadway& r : survey.roadways) {
+    const map::Polyline c = survey.centreline(r);
+    for (std::size_t i = 0; i + 1 < c.points.size(); ++i)
+      out.push_back({c.points[i], c.points[i + 1], (c.points[i + 1] - c.points[i]).norm()});
+  }
+  return out;
+}
+
+struct RoadwayPoint {
+  Vec3 position;
+  Vec3 direction;  // unit, along the roadway
+};
+
+class Drawer {
+ public:
+  Drawer(const std::vector<Segment>& segs, std::uint64_t seed) : segs_(segs), rng_(seed) {
+    std::vector<double> w;
+    for (const Segment& s : segs) w.push_back(s.length);
+    pick_ = std::discrete_distribution<std::size_t>(w.begin(), w.end());
+  }
+  RoadwayPoint point() {
+    const Segment& s = segs_[pick_(rng_)];
+    const double t = uniform(0.0, 1.0);
+    return {s.a + t * (s.b - s.a) + Vec3(0, 0, kCentreAboveFloorM), (s.b - s.a) / s.length};
+  }
+  double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng_); }
+  int integer(int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng_); }
+
+ private:
+  const std::vector<Segment>& segs_;
+  std::mt19937_64 rng_;
+  std::discrete_distribution<std::size_t> pick_;
+};
+
+std::string number(double v) {
+  if (!std::isfinite(v)) return "";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3f", v);
+  return buf;
+}
+
+}  // namespace
+
+Status BatchParams::validate() const {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!positive(min_separation_m)) return invalidArgument("batch: min_separation_m must be > 0 (got " + std::to_string(min_separation_m) + ")");
+  if (!positive(max_separation_m) || max_separation_m < min_separation_m)
+    return invalidArgument("--max-separation (max_separation_m) must be >= min_separation_m (got " + std::to_string(max_separation_m) + ")");
+  if (max_moving_obstacles < 0 || max_moving_obstacles > 100)
+    return invalidArgument("batch: max_moving_obstacles must be in 0..100 (got " + std::to_string(max_moving_obstacles) + ")");
+  if (!(roof_fall_probability >= 0.0 && roof_fall_probability <= 1.0))
+    return invalidArgument("batch: roof_fall_probability must be in [0, 1] (got " + std::to_string(roof_fall_probability) + ")");
+  if (!positive(roof_fall_radius_m)) return invalidArgument("batch: roof_fall_radius_m must be > 0 (got " + std::to_string(roof_fall_radius_m) + ")");
+  if (!(std::isfinite(t_max_s) && t_max_s >= 0.0)) return invalidArgument("--t-max (t_max_s) must be >= 0 (got " + std::to_string(t_max_s) + ")");
+  return Status();
+}
+
+std::uint64_t batchRunSeed(std::uint64_t seed, int index) {
+  // SplitMix64 (Steele, Lea, Flood 2014) of the seed advanced by the index: neighbouring
+  // indices give unrelated streams.
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ull * (std::uint64_t(index) + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const map::SurveyNetwork& survey,
+                                            const local::Environment& truth, const BatchParams& params, int index) {
+  ADIT_RETURN_IF_ERROR(params.validate());
+  if (index < 0) return invalidArgument("batch: run index must be >= 0 (got " + std::to_string(index) + ")");
+  if (!truth.field()) return invalidArgument(base.file + ": map: a batch needs a map");
+  const std::vector<Segment> segs = segments(survey);
+  if (segs.empty()) return invalidArgument(base.file + ": map: the survey has no roadway");
+  const std::uint64_t run_seed = batchRunSeed(params.seed, index);
+  Drawer draw(segs, run_seed);
+  const double r = base.params.robot.radius_m;
+  auto roomy = [&](const Vec3& p) { return truth.field()->isFree(p) && truth.field()->distance(p) > r + 0.4; };
+
+  local::Scenario sc = base;
+  sc.name = "batch-" + std::to_string(index);
+  sc.seed = run_seed;
+  sc.plan_expected_path = true;
+  sc.expected_path.points.clear();
+  sc.moving_obstacles.clear();
+  sc.events.clear();
+  bool found = false;
+  for (int k = 0; k < kMaxDraws && !found; ++k) {
+    const Vec3 s = draw.point().position, g = draw.point().position;
+    const double d = (g - s).norm();
+    if (d < params.min_separation_m || d > params.max_separation_m || !roomy(s) || !roomy(g)) continue;
+    sc.start = s;
+    sc.goal = g;
+    found = true;
+  }
+  if (!found)
+    return invalidArgument(base.file + ": map: no start/goal pair " + std::to_string(params.min_separation_m) + ".." +
+                           std::to_string(params.max_separation_m) + " m apart on the roadways in " +
+                           std::to_string(kMaxDraws) + " draws");
+  sc.expected_path.points = {sc.start, sc.goal};
+  const double dist = (sc.goal - sc.start).norm();
+  sc.t_max_s = params.t_max_s > 0.0 ? params.t_max_s : 120.0 + 6.0 * dist / base.params.robot.v_max_mps;
+
+  // Vehicles: on a roadway away from the start, driving along it either way.
+  const int vehicles = draw.integer(0, params.max_moving_obstacles);
+  for (int v = 0; v < vehicles; ++v) {
+    for (int k = 0; k < kMaxDraws; ++k) {
+      const RoadwayPoint p = draw.point();
+      const double speed = draw.uniform(0.2, 0.8) * (draw.integer(0, 1) ? 1.0 : -1.0);
+      if ((p.position - sc.start).norm() < 10.0 || !roomy(p.position)) continue;
+      local::NamedObstacle o;
+      o.name = "vehicle-" + std::to_string(v + 1);
+      o.obstacle.shape = map::RobotShape::sphere(0.6);
+      o.obstacle.position = p.position;
+      o.obstacle.velocity = speed * p.direction;
+      sc.moving_obstacles.push_back(o);
+      break;
+    }
+  }
+
+  // A roof fall on a roadway between start and goal (the box they span, grown by 10 m), clear of
+  // both ends, while the robot is on its way.
+  if (draw.uniform(0.0, 1.0) < params.roof_fall_probability) {
+    map::Aabb box(sc.start, sc.start);
+    box.extend(sc.goal);
+    box = box.inflated(10.0);
+    const double keep_off = params.roof_fall_radius_m + r + 3.0;
+    for (int k = 0; k < kMaxDraws; ++k) {
+      const Vec3 c = draw.point().position;
+      if (!box.contains(c) || (c - sc.start).norm() < keep_off || (c - sc.goal).norm() < keep_off) continue;
+      local::ScenarioEvent e;
+      e.t_s = draw.uniform(2.0, 2.0 + 0.5 * dist / base.params.robot.v_max_mps);
+      e.center = c;
+      e.radius_m = params.roof_fall_radius_m;
+      sc.events.push_back(e);
+      break;
+    }
+  }
+  ADIT_RETURN_IF_ERROR(sc.validate());
+  return sc;
+}
+
+BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index) {
+  BatchRunResult out;
+  out.index = index;
+  out.seed = scenario.seed;
+  StatusOr<NavigatedRun> n = simulateNavigated(scenario, truth);
+  if (!n.ok()) {
+    out.outcome = "error";
+    out.message = n.status().message();
+    return out;
+  }
+  const local::SimulationResult& r = n->run;
+  out.outcome = local::outcomeName(r.outcome);
+  out.message = r.message;
+  out.arrival_time_s = r.arrival_time_s;
+  out.path_length_m = r.path_length_m;
+  out.min_clearance_m = r.min_clearance_m;
+  out.collisions = r.collisions;
+  out.replans = n->replans;
+  out.step_p50_us = r.step_time_p50_us;
+  out.step_p99_us = r.step_time_p99_us;
+  out.final_goal_distance_m = r.final_goal_distance_m;
+  out.arrival_tolerance_m = r.arrival_tolerance_m;
+  return out;
+}
+
+const char* batchCsvHeader() {
+  return "index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us";
+}
+
+std::string batchCsvRow(const BatchRunResult& r) {
+  return std::to_string(r.index) + "," + std::to_string(r.seed) + "," + r.outcome + "," + number(r.arrival_time_s) +
+         "," + number(r.path_length_m) + "," + number(r.min_clearance_m) + "," + std::to_string(r.replans) + "," +
+         number(r.step_p50_us) + "," + number(r.step_p99_us);
+}
+
+}  // namespace adit::fusion
