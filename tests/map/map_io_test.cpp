@@ -862,17 +862,18 @@ TEST(MapIoAtomicWrite, ReplacedFileKeepsItsPermissions) {
 }
 
 TEST(MapIoAtomicWrite, CharacterDeviceIsWrittenThroughNotReplaced) {
-  ScratchDir dir;
-  const std::string path = dir.path("null.bt");
-  // A copy of /dev/null (major 1, minor 3); creating device nodes needs root (CAP_MKNOD).
-  if (::mknod(path.c_str(), S_IFCHR | 0666, makedev(1, 3)) != 0)
-    GTEST_SKIP() << "cannot create a character device here (" << std::strerror(errno) << ")";
-  ASSERT_TRUE(writeOctomap(*fixture().map, path).ok());
-  EXPECT_EQ(fs::status(path).type(), fs::file_type::character);
-  EXPECT_EQ(dir.entries(), std::vector<std::string>{"null.bt"});
-  // /dev/null itself, as a user would give it.
+  // /dev/null itself, as a user would give it: needs no privilege, so it always runs.
   EXPECT_TRUE(writeFileAtomically("/dev/null", [](std::ostream& os) { return bool(os << "x"); }).ok());
   EXPECT_EQ(fs::status("/dev/null").type(), fs::file_type::character);
+  // A copy of /dev/null (major 1, minor 3) in a scratch directory, where a temp file and a rename
+  // would be visible; creating device nodes needs root (CAP_MKNOD), which the quick start has.
+  ScratchDir dir;
+  const std::string path = dir.path("null.bt");
+  if (::mknod(path.c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0) {
+    ASSERT_TRUE(writeOctomap(*fixture().map, path).ok());
+    EXPECT_EQ(fs::status(path).type(), fs::file_type::character);
+    EXPECT_EQ(dir.entries(), std::vector<std::string>{"null.bt"});
+  }
 }
 
 TEST(MapIoAtomicWrite, FifoIsWrittenThroughToItsReader) {
