@@ -20,6 +20,7 @@
 #include "adit/map/readers/ros_map.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
+#include "common/points_csv.hpp"
 #include "common/progress.hpp"
 
 namespace adit::tools {
@@ -27,20 +28,6 @@ namespace adit::tools {
 using namespace adit::map;
 
 namespace {
-
-StatusOr<Vec3> parseXyzOption(const std::string& text, const char* option) {
-  std::string t = text;
-  for (char& c : t)
-    if (c == ',') c = ' ';
-  std::istringstream is(t);
-  Vec3 v;
-  for (int i = 0; i < 3; ++i)
-    if (!(is >> v[i]) || !std::isfinite(v[i]))
-      return invalidArgument(std::string(option) + ": expected three finite numbers x,y,z, got '" + text + "'");
-  std::string rest;
-  if (is >> rest) return invalidArgument(std::string(option) + ": expected x,y,z, got '" + text + "'");
-  return v;
-}
 
 std::string xyz(const Vec3& v) {
   char b[128];
@@ -206,7 +193,7 @@ int runImportConvert(const ConvertArgs& a) {
   if (!policy.ok()) return report(policy.status());
   std::optional<Vec3> requested_origin;
   if (!a.origin.empty()) {
-    StatusOr<Vec3> o = parseXyzOption(a.origin, "--origin");
+    StatusOr<Vec3> o = parsePoint(a.origin, "--origin");
     if (!o.ok()) return report(o.status());
     requested_origin = *o;
   }
@@ -235,7 +222,7 @@ int runImportConvert(const ConvertArgs& a) {
   p.unknown_policy = *policy;
   std::optional<Vec3> seed_in;
   if (!a.seed.empty()) {
-    StatusOr<Vec3> s = parseXyzOption(a.seed, "--seed");
+    StatusOr<Vec3> s = parsePoint(a.seed, "--seed");
     if (!s.ok()) return report(s.status());
     seed_in = *s;
   }
