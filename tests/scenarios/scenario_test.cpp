@@ -109,12 +109,15 @@ TEST(Scenarios, Wang2014UTrapClassicStuckImprovedPasses) {
 // (64 vs 75 at p0 = 0.5; 62 vs 74 at p0 = 1). Tolerance: strictly fewer. Its shorter trajectory
 // (17.378 vs 19.175 dm; 19.036 vs 20.412 dm) is reproduced at p0 = 0.5 only (strictly shorter);
 // at p0 = 1 CVFF's path is 0.8 % longer here (tolerance: within 2 %). The paper gives its layout
-// only in a figure, and other faithful readings did not give both at both p0 either: eq. 15's
-// kinematic step (direction F/|F| each iteration, no acceleration limit, step l0 whatever |F|),
-// with l0 = 0.1, 0.25, 0.5 and 1 grid unit, gave CVFF fewer and shorter at p0 = 0.5 but not at
-// p0 = 1 (l0 = 0.1, 0.25: 157 vs 156 and 66 vs 65 steps, CVFF longer), or collided at p0 = 0.5
-// (l0 = 0.5), or CVFF worse at both (l0 = 1). The paper's own length per iteration (0.26-0.31)
-// is not constant, so its step is not eq. 15's fixed l0 either (see the README).
+// only in a figure, and no other faithful reading gave both at both p0 on this layout:
+// - eq. 15's kinematic step (direction F/|F| each iteration, no acceleration limit, step l0
+//   whatever |F|: overrides dt = l0, robot.a_max = 20 or 100, params.full_speed_force = 0.001),
+//   l0 = 0.1 and 0.25 grid units: fewer and shorter at p0 = 0.5, but at p0 = 1 CVFF 157 vs 156
+//   and 66 vs 65 steps, longer; l0 = 0.5: both collide at p0 = 0.5; l0 = 1: CVFF worse at both;
+// - a point robot (radius 0.01, d measured from the aircraft's coordinates as in eq. 5), with
+//   either motion: at p0 = 1 CVFF again longer (15.40 vs 15.37 m; 15.22 vs 15.13 m).
+// The paper's own length per iteration (0.26-0.31) is not constant, so its step is not eq. 15's
+// fixed l0 either (see the README).
 TEST(Scenarios, Guo2022StaticCvffFewerIterationsThanVff) {
   for (double p0 : {0.5, 1.0}) {
     Scenario vff = load("guo2022_static_vff.yaml"), cvff = load("guo2022_static_cvff.yaml");
