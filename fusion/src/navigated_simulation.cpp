@@ -24,26 +24,83 @@ Eigen::Isometry3d at(const Vec3& p) {
   return x;
 }
 
-// A roof fall that has happened: its ball, and the voxels of it the robot has not sensed yet.
+// A roof fall that has happened: its ball, and the voxels of its surface the robot has not
+// seen yet. Only the surface can ever be seen (every other fall voxel lies behind it), so the
+// believed map learns a shell: as good as the whole ball for planning.
 struct Fall {
   ScenarioEvent event;
-  std::vector<Vec3> unseen;
+  std::vector<Vec3> unseen;   // exposed fall voxels
+  std::vector<Vec3> normal;   // per unseen voxel: the sum of its open neighbours' directions
 };
 
-// The voxel centres inside the ball that were free roadway in the true map: what a sensor can see.
-std::vector<Vec3> fallVoxels(const ScenarioEvent& e, const map::OccupancyMap& truth) {
+bool inBall(const Vec3& p, const ScenarioEvent& e) { return (p - e.center).norm() <= e.radius_m; }
+
+// The fall's voxels (centres inside the ball that were free roadway in the true map) that touch
+// free roadway outside the ball.
+Fall makeFall(const ScenarioEvent& e, const map::OccupancyMap& truth) {
   const double res = truth.resolution();
-  std::vector<Vec3> out;
+  Fall f{e, {}, {}};
   const int n = int(std::ceil(e.radius_m / res)) + 1;
   auto centre = [res](double c) { return (std::floor(c / res) + 0.5) * res; };
   const Vec3 c0(centre(e.center.x()), centre(e.center.y()), centre(e.center.z()));
+  const Vec3 dirs[6] = {Vec3::UnitX(), -Vec3::UnitX(), Vec3::UnitY(), -Vec3::UnitY(), Vec3::UnitZ(), -Vec3::UnitZ()};
   for (int i = -n; i <= n; ++i)
     for (int j = -n; j <= n; ++j)
       for (int k = -n; k <= n; ++k) {
         const Vec3 p = c0 + res * Vec3(i, j, k);
-        if ((p - e.center).norm() <= e.radius_m && truth.isFree(p)) out.push_back(p);
+        if (!inBall(p, e) || !truth.isFree(p)) continue;
+        Vec3 open = Vec3::Zero();
+        for (const Vec3& d : dirs)
+          if (const Vec3 q = p + res * d; !inBall(q, e) && truth.isFree(q)) open += d;
+        if (open.norm() > 0.0) {
+          f.unseen.push_back(p);
+          f.normal.push_back(open);
+        }
       }
-  return out;
+  return f;
+}
+
+// The simulated range sensor: the unseen fall surface within range, facing the robot, with a
+// clear line of sight through the true world (the map's rock and every fall, voxel by voxel along
+// the ray insertRays() will trace). What it sees moves to `returns`.
+void sense(std::vector<Fall>& falls, const map::OccupancyMap& truth, const Vec3& eye, double range,
+           std::vector<Vec3>& returns, std::vector<Vec3>& candidates, std::vector<std::size_t>& where,
+           std::vector<char>& visible) {
+  returns.clear();
+  auto opaque = [&falls](const Vec3& c) {
+    for (const Fall& f : falls)
+      if (inBall(c, f.event)) return true;
+    return false;
+  };
+  for (Fall& f : falls) {
+    if ((f.event.center - eye).norm() - f.event.radius_m > range) continue;
+    candidates.clear();
+    where.clear();
+    for (std::size_t i = 0; i < f.unseen.size(); ++i) {
+      const Vec3 to_eye = eye - f.unseen[i];
+      if (to_eye.norm() <= range && f.normal[i].dot(to_eye) > 0.0) {
+        candidates.push_back(f.unseen[i]);
+        where.push_back(i);
+      }
+    }
+    if (candidates.empty()) continue;
+    truth.lineOfSight(eye, candidates, visible, opaque);
+    std::size_t kept = 0;
+    std::vector<char> seen(f.unseen.size(), 0);
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+      if (visible[c]) seen[where[c]] = 1;
+    for (std::size_t i = 0; i < f.unseen.size(); ++i) {
+      if (seen[i]) {
+        returns.push_back(f.unseen[i]);
+        continue;
+      }
+      f.unseen[kept] = f.unseen[i];
+      f.normal[kept] = f.normal[i];
+      ++kept;
+    }
+    f.unseen.resize(kept);
+    f.normal.resize(kept);
+  }
 }
 
 }  // namespace
@@ -100,7 +157,11 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   res.closest.resize(nm);
   for (std::size_t i = 0; i < nm; ++i) res.closest[i].name = sc.moving_obstacles[i].name;
   std::vector<map::MovingObstacle> tracks(nm);
-  std::vector<Vec3> sensed;
+  SensorScan scan;
+  scan.max_range_m = range;
+  std::vector<Vec3> candidates;
+  std::vector<std::size_t> where;
+  std::vector<char> visible;
   std::vector<Fall> falls;
   std::size_t next_event = 0;
   std::vector<double> cycle_us;
@@ -114,23 +175,18 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   for (std::size_t k = 0; k < max_steps; ++k) {
     // The true world changes; the robot senses what of it is in range.
     while (next_event < sc.events.size() && sc.events[next_event].t_s <= t + 1e-9) {
-      falls.push_back({sc.events[next_event], fallVoxels(sc.events[next_event], *truth.map())});
+      falls.push_back(makeFall(sc.events[next_event], *truth.map()));
       ++next_event;
     }
-    sensed.clear();
-    for (Fall& f : falls) {
-      auto seen = std::partition(f.unseen.begin(), f.unseen.end(),
-                                 [&](const Vec3& p) { return (p - state.position).norm() > range; });
-      sensed.insert(sensed.end(), seen, f.unseen.end());
-      f.unseen.erase(seen, f.unseen.end());
-    }
+    scan.origin = state.position;
+    sense(falls, *truth.map(), state.position, range, scan.returns, candidates, where, visible);
     for (std::size_t i = 0; i < nm; ++i) {
       const map::MovingObstacle& m = sc.moving_obstacles[i].obstacle;
       tracks[i] = m;
       tracks[i].position = m.positionAt(t);
       tracks[i].velocity = m.velocityAt(t);
     }
-    const NavigatorCycle c = nav.cycle(t, state, sensed, tracks, sc.dt_s);
+    const NavigatorCycle c = nav.cycleWithScan(t, state, scan, tracks, sc.dt_s);
     ++res.steps;
     if (c.replanned) out.max_replan_time_s = std::max(out.max_replan_time_s, c.replan_time_s);
     else {

@@ -144,6 +144,16 @@ Status Navigator::setExpectedPath(map::Polyline path) {
 
 NavigatorCycle Navigator::cycle(double t_s, const local::RobotState& state, const std::vector<Vec3>& sensed_rock,
                                 const std::vector<map::MovingObstacle>& tracks, double dt_s) {
+  return run(t_s, state, &sensed_rock, nullptr, tracks, dt_s);
+}
+
+NavigatorCycle Navigator::cycleWithScan(double t_s, const local::RobotState& state, const SensorScan& scan,
+                                        const std::vector<map::MovingObstacle>& tracks, double dt_s) {
+  return run(t_s, state, nullptr, &scan, tracks, dt_s);
+}
+
+NavigatorCycle Navigator::run(double t_s, const local::RobotState& state, const std::vector<Vec3>* sensed_rock,
+                              const SensorScan* scan, const std::vector<map::MovingObstacle>& tracks, double dt_s) {
   const auto t0 = std::chrono::steady_clock::now();
   Impl& m = *impl_;
   NavigatorCycle out;
@@ -163,26 +173,31 @@ NavigatorCycle Navigator::cycle(double t_s, const local::RobotState& state, cons
   map::Aabb changed;
   {
     std::unique_lock lock(m.mutex);
-    // 1. The map transaction: only points the map still holds free change anything.
-    m.fresh.clear();
-    for (const Vec3& p : sensed_rock)
-      if (allFinite(p) && m.loaded.map.isFree(p)) {
-        m.fresh.push_back(p);
-        changed.extend(p);
-      }
-    if (!m.fresh.empty()) {
-      out.inserted_points = int(m.fresh.size());
-      changed = changed.inflated(m.field->resolution());
-      Status s = m.loaded.map.setVoxels(m.fresh, map::VoxelState::kOccupied);
-      if (s.ok()) s = m.field->update(m.loaded.map, changed, &out.field_update);
-      if (!s.ok()) {
-        m.events.push_back({t_s, "map_update_failed", s.message(), 0.0, {}, ""});
-      } else {
+    // 1. The map transaction: the scan's rays (returns become rock, what they pass free), or
+    // rock points of which only those the map still holds free change anything.
+    Status s;
+    if (scan) {
+      StatusOr<map::MapChange> c = m.loaded.map.insertRays(scan->origin, scan->returns, scan->max_range_m);
+      if (c.ok()) out.map_change = *c;
+      else s = c.status();
+    } else {
+      m.fresh.clear();
+      for (const Vec3& p : *sensed_rock)
+        if (allFinite(p) && m.loaded.map.isFree(p)) m.fresh.push_back(p);
+      if (!m.fresh.empty()) s = m.loaded.map.setVoxels(m.fresh, map::VoxelState::kOccupied, &out.map_change);
+    }
+    out.inserted_points = int(out.map_change.to_occupied);
+    if (s.ok() && !out.map_change.empty()) {
+      changed = out.map_change.box.inflated(m.field->resolution());
+      s = m.field->update(m.loaded.map, changed, &out.field_update);
+      if (s.ok()) {
         out.field_updated = true;
-        if (std::optional<Vec3> at = m.blockedAt(state.position, changed))
-          replan_reason = "expected path blocked at " + pointText(*at);
+        if (out.map_change.to_occupied > 0)
+          if (std::optional<Vec3> at = m.blockedAt(state.position, changed))
+            replan_reason = "expected path blocked at " + pointText(*at);
       }
     }
+    if (!s.ok()) m.events.push_back({t_s, "map_update_failed", s.message(), 0.0, {}, ""});
   }
   // 2. The local step on the (possibly updated) field; stuck asks for a replan too.
   out.command = m.local->step(state, m.path, tracks, dt_s);

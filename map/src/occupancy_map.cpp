@@ -261,4 +261,27 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
   return change;
 }
 
+void OccupancyMap::lineOfSight(const Vec3& origin, const std::vector<Vec3>& targets, std::vector<char>& visible,
+                               const std::function<bool(const Vec3&)>& opaque) const {
+  visible.assign(targets.size(), 0);
+  if (!allFinite(origin)) return;
+  octomap::KeyRay ray;  // one per call: its buffer is large
+  const octomap::point3d o(float(origin.x()), float(origin.y()), float(origin.z()));
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    const Vec3& p = targets[i];
+    if (!allFinite(p) || !tree_->computeRayKeys(o, octomap::point3d(float(p.x()), float(p.y()), float(p.z())), ray))
+      continue;
+    bool clear = true;
+    for (const octomap::OcTreeKey& k : ray) {
+      const octomap::point3d c = tree_->keyToCoord(k);
+      const Vec3 centre(c.x(), c.y(), c.z());
+      if (!isFree(centre) || (opaque && opaque(centre))) {
+        clear = false;
+        break;
+      }
+    }
+    visible[i] = clear ? 1 : 0;
+  }
+}
+
 }  // namespace adit::map

@@ -66,6 +66,42 @@ TEST(Navigator, SensedRockBesideThePathUpdatesTheFieldLocallyWithoutReplanning) 
   EXPECT_FALSE(again.field_updated);
 }
 
+// A scan is inserted as rays: a boulder the map holds is cleared once the sensor sees through
+// where it was (it has been moved), and the field is updated over the reported box.
+TEST(Navigator, ScanRaysClearRubbleThatIsGone) {
+  Navigator nav = makeNavigator();
+  const Vec3 boulder(12, 0.0, 1.6);
+  ASSERT_GT(nav.cycle(0.0, at(kStart), ball(boulder, 0.3), {}, 0.1).inserted_points, 0);
+  const Vec3 on_ray = boulder + Vec3(0.1, 0.1, 0.1);
+  nav.read([&](const map::OccupancyMap& m, const map::DistanceField& f) {
+    EXPECT_FALSE(m.isFree(boulder));
+    EXPECT_FALSE(f.isFree(on_ray));
+  });
+  SensorScan scan;
+  scan.origin = kStart;
+  scan.max_range_m = 15.0;
+  scan.returns = {Vec3(17.1, 0.1, 1.7)};  // a return far beyond, straight through the boulder
+  const NavigatorCycle c = nav.cycleWithScan(0.1, at(kStart), scan, {}, 0.1);
+  EXPECT_GT(c.map_change.to_free, 0u);
+  EXPECT_EQ(c.map_change.to_occupied, 1u);
+  EXPECT_EQ(c.inserted_points, 1);
+  EXPECT_TRUE(c.field_updated);
+  EXPECT_TRUE(c.map_change.box.contains(on_ray));
+  nav.read([&](const map::OccupancyMap& m, const map::DistanceField& f) {
+    EXPECT_TRUE(m.isFree(on_ray));                  // on the ray's line: cleared
+    EXPECT_TRUE(f.isFree(on_ray));                  // and the field knows
+    EXPECT_FALSE(m.isFree(Vec3(17.1, 0.1, 1.7)));  // the return: rock
+  });
+  // A bad scan is refused as a whole and reported, the robot keeps driving.
+  SensorScan bad = scan;
+  bad.max_range_m = -1.0;
+  const NavigatorCycle b = nav.cycleWithScan(0.2, at(kStart), bad, {}, 0.1);
+  EXPECT_FALSE(b.field_updated);
+  ASSERT_FALSE(nav.events().empty());
+  EXPECT_EQ(nav.events().back().type, "map_update_failed");
+  EXPECT_EQ(b.status, NavigatorStatus::kDriving);
+}
+
 TEST(Navigator, RoofFallAcrossTheOnlyRoadwayStopsWithNoRoute) {
   Navigator nav = makeNavigator();
   const NavigatorCycle c = nav.cycle(4.0, at(Vec3(8, 0, 1.6)), ball(Vec3(20, 0, 1.6), 3.0), {}, 0.1);

@@ -120,5 +120,31 @@ TEST(MapUpdate, BadScansAreRefusedAndChangeNothing) {
   EXPECT_TRUE(none->empty());
 }
 
+TEST(MapUpdate, LineOfSightStopsAtRockAndAgreesWithTheRays) {
+  OccupancyMap map = test::voxelizeOrFail(test::junctionNetwork(0.2));
+  const Vec3 origin(2.1, 0.1, 1.1);
+  // Along the main roadway: seen. Into the rock beside it and beyond: not.
+  std::vector<char> visible;
+  map.lineOfSight(origin, {{9.1, 0.1, 1.1}, {9.1, 6.1, 1.1}, {std::nan(""), 0, 0}}, visible);
+  ASSERT_EQ(visible.size(), 3u);
+  EXPECT_EQ(visible[0], 1);
+  EXPECT_EQ(visible[1], 0);
+  EXPECT_EQ(visible[2], 0);
+  // Whatever is visible, the rays toward it clear no rock: insertRays only frees free voxels.
+  std::mt19937_64 rng(5);
+  std::vector<Vec3> targets;
+  for (int i = 0; i < 300; ++i) targets.push_back(test::randomPoint(rng, map.bounds()));
+  map.lineOfSight(origin, targets, visible);
+  std::vector<Vec3> seen;
+  for (std::size_t i = 0; i < targets.size(); ++i)
+    if (visible[i] && map.isFree(targets[i])) seen.push_back(targets[i]);
+  ASSERT_GT(seen.size(), 10u);
+  StatusOr<MapChange> c = map.insertRays(origin, seen, 1e3);
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(c->to_free, 0u);
+  EXPECT_GT(c->to_occupied, 0u);
+  for (const Vec3& p : seen) EXPECT_FALSE(map.isFree(p)) << p.transpose();  // every seen target became rock
+}
+
 }  // namespace
 }  // namespace adit::map

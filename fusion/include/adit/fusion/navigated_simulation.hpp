@@ -11,9 +11,10 @@
 ///   local::simulate() does;
 /// - the BELIEVED world: the Navigator's own copy of the map (loaded separately, so it shares no
 ///   octree with the true one). It learns a fall only through the sensor: every period the
-///   fall's voxels that were free roadway in the true map and lie within `robot.sensor_range` of
-///   the robot are handed to Navigator::cycle() as sensed rock points (the sensor sees through
-///   dust and round corners: there is no line-of-sight test).
+///   fall's surface voxels (free roadway in the true map, touching open roadway) within
+///   `robot.sensor_range` that the robot's centre can see (OccupancyMap::lineOfSight through the
+///   true map and every fall, voxel by voxel along the ray insertRays() traces; it sees through
+///   dust) go to Navigator::cycleWithScan() as one scan, inserted as rays.
 ///
 /// A run ends in arrival, collision, no_route (the navigator found every roadway sealed and
 /// stopped), stuck, or t_max.

@@ -72,10 +72,19 @@ struct NavigatorEvent {
   std::string message;  ///< the global layer's message (no_route)
 };
 
+/// One range scan (a lidar sweep) for ray insertion: the returns the sensor saw from `origin`;
+/// returns beyond `max_range_m` count as rays without a return (they only clear).
+struct SensorScan {
+  Vec3 origin = Vec3::Zero();
+  std::vector<Vec3> returns;
+  double max_range_m = 10.0;
+};
+
 struct NavigatorCycle {
   local::StepCommand command;     ///< zero set-points unless kDriving
   NavigatorStatus status = NavigatorStatus::kDriving;
   int inserted_points = 0;        ///< sensed rock voxels new to the map this cycle
+  map::MapChange map_change;      ///< what the cycle's map transaction changed (box, counts)
   bool field_updated = false;
   map::DistanceFieldUpdateReport field_update;
   bool replanned = false;
@@ -102,6 +111,11 @@ class Navigator {
   /// kRefused with a zero command.
   NavigatorCycle cycle(double t_s, const local::RobotState& state, const std::vector<Vec3>& sensed_rock,
                        const std::vector<map::MovingObstacle>& tracks, double dt_s);
+  /// The same with a range scan, inserted as rays (OccupancyMap::insertRays): what the rays pass
+  /// becomes free again, so rubble that has been cleared away stops blocking the map. A cleared
+  /// roadway is not replanned into by itself; the next replan may use it.
+  NavigatorCycle cycleWithScan(double t_s, const local::RobotState& state, const SensorScan& scan,
+                       const std::vector<map::MovingObstacle>& tracks, double dt_s);
 
   /// Runs `fn` on the believed map and field under the shared lock (the readers' side of the
   /// one-writer rule).
@@ -116,6 +130,8 @@ class Navigator {
  private:
   struct Impl;
   explicit Navigator(std::unique_ptr<Impl> impl);
+  NavigatorCycle run(double t_s, const local::RobotState& state, const std::vector<Vec3>* sensed_rock,
+                     const SensorScan* scan, const std::vector<map::MovingObstacle>& tracks, double dt_s);
   std::unique_ptr<Impl> impl_;
 };
 

@@ -117,6 +117,12 @@ class OccupancyMap {
   /// map). Refuses, changing nothing, a non-finite origin or return, a range <= 0, or a ray
   /// leaving OctoMap's key range.
   StatusOr<MapChange> insertRays(const Vec3& origin, const std::vector<Vec3>& returns, double max_range_m);
+  /// Line of sight for a simulated range sensor: visible[i] is 1 when every voxel the segment
+  /// origin → targets[i] crosses before the target's own voxel is free (the voxels insertRays()
+  /// would clear), else 0. Targets off the key range or non-finite are not visible. `opaque`, if
+  /// given, marks more voxels (by centre) that block sight, e.g. rock the map does not hold yet.
+  void lineOfSight(const Vec3& origin, const std::vector<Vec3>& targets, std::vector<char>& visible,
+                   const std::function<bool(const Vec3&)>& opaque = {}) const;
 
   const octomap::OcTree& octree() const { return *tree_; }
   std::shared_ptr<const octomap::OcTree> sharedOctree() const { return tree_; }
