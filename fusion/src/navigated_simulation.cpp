@@ -48,7 +48,8 @@ std::vector<Vec3> fallVoxels(const ScenarioEvent& e, const map::OccupancyMap& tr
 
 }  // namespace
 
-StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Environment& truth) {
+StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Environment& truth,
+                                         const NavigatedOptions& options) {
   const auto wall0 = std::chrono::steady_clock::now();
   ADIT_RETURN_IF_ERROR(sc.validate());
   if (!sc.map_path || !truth.map() || !truth.checker())
@@ -70,6 +71,8 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   NavigatorParams np;
   np.local = sc.params;
   np.global.seed = std::uint32_t(sc.seed);
+  np.refine_plan = sc.plan_expected_path && options.refine_plan;
+  np.refine_replans = options.refine_replans;
   ADIT_ASSIGN_OR_RETURN(Navigator nav, Navigator::create(std::move(believed), np, sc.goal));
 
   NavigatedRun out;
@@ -89,6 +92,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
     ADIT_RETURN_IF_ERROR(nav.setExpectedPath(sc.expected_path));
   }
   out.initial_path = nav.expectedPath();
+  out.refinement = nav.initialRefinement();
 
   const double range = sc.sensor_range_m.value_or(kDefaultSensorRangeM);
   const std::size_t nm = sc.moving_obstacles.size();
