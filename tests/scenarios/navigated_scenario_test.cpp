@@ -120,6 +120,11 @@ TEST(NavigatedScenario, DistrictInspectionPassesTheOncomingMachineOnARefinedPath
   }
   std::printf("    refined path: field distance >= %.3f m (robot radius %.1f m)\n", lowest, radius);
   EXPECT_GT(lowest, radius + 0.5 * field.resolution());
+  // The run's clearance from rock alone (min_clearance counts the machine too), from the field.
+  double rock = 1e9;
+  for (const local::TrajectorySample& s : r.run.trajectory) rock = std::min(rock, field.distance(s.position) - radius);
+  std::printf("    trajectory: clearance from rock >= %.3f m\n", rock);
+  EXPECT_GT(rock, 0.0);
 }
 
 }  // namespace
