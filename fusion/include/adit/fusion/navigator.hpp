@@ -59,7 +59,8 @@ struct NavigatorParams {
   /// reports kStuck instead of replanning forever.
   int max_stuck_replans = 3;
   /// plan() refines the expected path's break points (refinePlan, plan_refinement.hpp: genetic
-  /// trust region, every segment re-validated by the global planner's motion check).
+  /// trust region, every segment re-validated by the global planner's motion check). It runs
+  /// inside plan()'s exclusive lock: readers wait for it (0.1-1.8 s on the district's paths).
   bool refine_plan = false;
   /// Replans are refined too (with refine_plan). Off by default: a replan happens mid-run, in
   /// the cycle that found the path blocked, and the refinement's time adds to that cycle's.
