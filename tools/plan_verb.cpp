@@ -4,15 +4,13 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <sstream>
 
-#include "adit/fusion/break_point_refiner.hpp"
+#include "adit/fusion/plan_refinement.hpp"
 #include "adit/global/global_planner.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
@@ -62,44 +60,21 @@ int exitCodeFor(const GlobalPlanResult& r) {
   return kExitNoPath;
 }
 
-// --refine: the genetic trust-region break-point refinement of the planned path. `r` becomes the
-// refined path (or stays, if the refiner keeps the input); the returned info holds the unrefined
-// figures. Clearances before and after use the same measure (see PlanRefinementInfo).
-PlanRefinementInfo refinePlan(const global::GlobalPlanner& planner, const DistanceField& field,
-                              const GlobalPlannerParams& params, GlobalPlanResult* r, bool quiet) {
-  const double res = field.resolution();
-  const double horizontal = planner.requiredClearance() - params.safety_margin_m - 0.5 * res;
-  fusion::BreakPointRefinerParams rp = fusion::BreakPointRefinerParams::forField(res, params.safety_margin_m);
-  rp.planar = params.mode == global::PlanMode::kGround;
-  // Sample as finely as the planner's motion check, which re-validates every refined segment.
-  rp.sample_step_m = std::min(res, params.motion_step_voxels * res);
-  // The planner's --clearance-weight also weighs the refiner's clearance penalty (0 = length only).
-  rp.clearance_weight = params.clearance_weight;
-  // Ground mode: the centre sits half a body above the floor, so the field there sees the floor;
-  // measure the ribs higher up, lifted as the planner's own clearance is (margin + two voxels).
-  const double lift = rp.planar ? params.safety_margin_m + 2.0 * res : 0.0;
-  const fusion::ClearanceFn clearance = [&field, horizontal, lift](const Vec3& p) {
-    return field.distance(p + Vec3(0, 0, lift)) - horizontal;
-  };
-  // The planner's own motion check (exact robot shape, ground contact, slope) on every segment.
-  const fusion::SegmentCheck check = [&planner](const Vec3& p, const Vec3& q) {
-    return planner.validatePath(Polyline{{p, q}});
-  };
-  const auto t0 = std::chrono::steady_clock::now();
-  fusion::BreakPointRefinement ref = fusion::refineBreakPoints(r->path, clearance, rp, check);
+// --refine: the genetic trust-region break-point refinement of the planned path (shared with the
+// Navigator, adit/fusion/plan_refinement.hpp). `r` becomes the refined path (or stays, if the
+// refiner keeps the input); the returned info holds the unrefined figures.
+PlanRefinementInfo refinePlan(const global::GlobalPlanner& planner, const DistanceField& field, GlobalPlanResult* r,
+                              bool quiet) {
+  const fusion::PlanRefinement ref = fusion::refinePlan(planner, field, r);
   PlanRefinementInfo info;
-  info.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  info.time_s = ref.time_s;
   info.length_m = ref.before.length_m;
   info.min_clearance_m = ref.before.min_clearance_m;
   info.mean_clearance_m = ref.before.mean_clearance_m;
-  info.path = r->path;
+  info.path = ref.before_path;
   info.outcome = fusion::refineOutcomeName(ref.outcome);
   info.message = ref.message;
-  info.iterations = ref.optimization.iterations;
-  r->path = ref.path;
-  r->length_m = ref.after.length_m;
-  r->min_clearance_m = ref.after.min_clearance_m;
-  r->mean_clearance_m = ref.after.mean_clearance_m;
+  info.iterations = ref.iterations;
   if (!quiet) std::fprintf(stderr, "refine: %s: %s (%.3f s)\n", info.outcome.c_str(), ref.message.c_str(), info.time_s);
   return info;
 }
@@ -149,7 +124,7 @@ int runPlan(const PlanArgs& a) {
   const int code = exitCodeFor(r);
   if (!r.solved()) std::fprintf(stderr, "adit: %s: %s\n", global::outcomeName(r.outcome), r.message.c_str());
   std::optional<PlanRefinementInfo> refined;
-  if (a.refine && r.solved()) refined = refinePlan(*planner, world->field, *params, &r, a.quiet);
+  if (a.refine && r.solved()) refined = refinePlan(*planner, world->field, &r, a.quiet);
   const PlanRefinementInfo* before = refined ? &*refined : nullptr;
 
   if (!a.out.empty()) {

@@ -48,6 +48,7 @@ struct SimulateArgs {
   std::string picture;
   std::string html;
   bool quiet = false;
+  bool no_refine = false, refine_replans = false;
   // --batch
   std::string map;
   std::string csv;
@@ -115,6 +116,7 @@ void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const fusio
   for (const fusion::NavigatorEvent& e : n.events) {
     nlohmann::ordered_json ev{{"t", e.t_s}, {"type", e.type}, {"reason", e.reason}};
     if (e.type != "map_update_failed") ev["replan_time"] = e.replan_time_s;
+    if (e.refine_time_s > 0.0) ev["refine_time"] = e.refine_time_s;
     if (!e.route.empty()) ev["route"] = e.route;
     if (!e.message.empty()) ev["message"] = e.message;
     events.push_back(ev);
@@ -125,6 +127,21 @@ void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const fusio
   j["events"] = events;
   j["initial_path"] = pathJson(n.initial_path);
   j["final_path"] = pathJson(n.final_path);
+  if (n.refinement) {
+    // The initial expected path before and after the break-point refinement (initial_path is after).
+    auto quality = [](const fusion::PathQuality& q) {
+      return nlohmann::ordered_json{{"length", q.length_m},
+                                    {"min_clearance", q.min_clearance_m},
+                                    {"mean_clearance", q.mean_clearance_m},
+                                    {"break_points", q.break_points}};
+    };
+    const fusion::PlanRefinement& f = *n.refinement;
+    nlohmann::ordered_json before = quality(f.before);
+    before["path"] = pathJson(f.before_path);
+    j["refinement"] = {{"outcome", fusion::refineOutcomeName(f.outcome)}, {"message", f.message},
+                       {"time", f.time_s},  {"iterations", f.iterations},
+                       {"before", before},  {"after", quality(f.after)}};
+  }
 }
 
 // The run drawn on the map (or open space): static obstacles, moving-obstacle tracks, the
@@ -263,7 +280,10 @@ int run(const SimulateArgs& a) {
   std::optional<fusion::NavigatedRun> nav;
   StatusOr<SimulationResult> r = internalError("not run");
   if (sc->needsNavigator()) {
-    StatusOr<fusion::NavigatedRun> n = fusion::simulateNavigated(*sc, *env);
+    fusion::NavigatedOptions options;
+    options.refine_plan = !a.no_refine;
+    options.refine_replans = a.refine_replans;
+    StatusOr<fusion::NavigatedRun> n = fusion::simulateNavigated(*sc, *env, options);
     if (!n.ok()) return report(n.status());
     nav = std::move(n).value();
     r = nav->run;
@@ -283,6 +303,12 @@ int run(const SimulateArgs& a) {
   if (!a.html.empty())
     if (Status s = writePage(*sc, runFigure(*sc, *env, *r, false, replanned), *r, a.html); !s.ok()) return report(s);
   if (!a.quiet) {
+    if (nav && nav->refinement) {
+      const fusion::PlanRefinement& f = *nav->refinement;
+      std::fprintf(stderr, "refined expected path (%s, %.3f s): %.2f -> %.2f m, min clearance %.3f -> %.3f m\n",
+                   fusion::refineOutcomeName(f.outcome), f.time_s, f.before.length_m, f.after.length_m,
+                   f.before.min_clearance_m, f.after.min_clearance_m);
+    }
     std::fprintf(stderr, "adit: %s: %s", sc->name.c_str(), outcomeName(r->outcome));
     if (r->arrived()) std::fprintf(stderr, " at t = %.1f s", r->arrival_time_s);
     if (nav) std::fprintf(stderr, ", %d replans (longest %.3f s)", nav->replans, nav->max_replan_time_s);
@@ -559,6 +585,10 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   cmd->add_option("--t-max", args->t_max, "With --batch: simulated-time cap per run [s] (default: from the distance)");
   cmd->add_option("--picture", args->picture, "Top view of the run (.png or .svg)");
   cmd->add_option("--html", args->html, "Animated page of the run (.html, one offline file)");
+  cmd->add_flag("--no-refine", args->no_refine,
+                "expected_path: plan: keep the global layer's path as planned (no break-point refinement)");
+  cmd->add_flag("--refine-replans", args->refine_replans,
+                "expected_path: plan: refine every replanned path too (the replan takes longer)");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   cmd->callback([args, rc, cmd] {
     args->batch_given = cmd->count("--batch") > 0;

@@ -105,7 +105,8 @@ void sense(std::vector<Fall>& falls, const map::OccupancyMap& truth, const Vec3&
 
 }  // namespace
 
-StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Environment& truth) {
+StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Environment& truth,
+                                         const NavigatedOptions& options) {
   const auto wall0 = std::chrono::steady_clock::now();
   ADIT_RETURN_IF_ERROR(sc.validate());
   if (!sc.map_path || !truth.map() || !truth.checker())
@@ -127,6 +128,8 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   NavigatorParams np;
   np.local = sc.params;
   np.global.seed = std::uint32_t(sc.seed);
+  np.refine_plan = sc.plan_expected_path && options.refine_plan;
+  np.refine_replans = options.refine_replans;
   // A simulation must give the same run on any machine under any load: the searches stop on
   // iteration counts (solved: max_iterations; unsolved: ~2 s of an idle machine), and the clock
   // only as a last resort, far beyond them.
@@ -151,6 +154,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
     ADIT_RETURN_IF_ERROR(nav.setExpectedPath(sc.expected_path));
   }
   out.initial_path = nav.expectedPath();
+  out.refinement = nav.initialRefinement();
 
   const double range = sc.sensor_range_m.value_or(kDefaultSensorRangeM);
   const std::size_t nm = sc.moving_obstacles.size();

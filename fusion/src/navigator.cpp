@@ -59,16 +59,25 @@ struct Navigator::Impl {
   map::Polyline path;
   std::vector<NavigatorEvent> events;
   std::vector<Vec3> fresh;  // sensed points new to the map (reused between cycles)
+  std::optional<PlanRefinement> initial_refinement;
+  double last_refine_time_s = 0.0;  // of the latest planFrom()
   int replans = 0;
   int stuck_replans = 0;
   bool no_route = false;
   mutable std::shared_mutex mutex;
 
-  // Global plan from `from`; fills `path` or says why not. Caller holds the exclusive lock.
-  StatusOr<global::GlobalPlanResult> planFrom(const Vec3& from) {
+  // Global plan from `from`, refined if `refine`; fills `path` or says why not. Caller holds the
+  // exclusive lock.
+  StatusOr<global::GlobalPlanResult> planFrom(const Vec3& from, bool refine) {
+    last_refine_time_s = 0.0;
     global::GlobalPlanResult r = global->plan(from, goal);
     if (!r.solved()) {
       return failedPrecondition(std::string("no route from ") + pointText(from) + " to the goal: " + r.message);
+    }
+    if (refine) {
+      PlanRefinement ref = refinePlan(*global, *field, &r);
+      last_refine_time_s = ref.time_s;
+      if (!initial_refinement) initial_refinement = std::move(ref);
     }
     path = r.path;
     local->reset();
@@ -126,7 +135,8 @@ StatusOr<Navigator> Navigator::create(map::LoadedMap loaded, const NavigatorPara
 
 Status Navigator::plan(const Vec3& start) {
   std::unique_lock lock(impl_->mutex);
-  ADIT_ASSIGN_OR_RETURN(global::GlobalPlanResult r, impl_->planFrom(start));
+  impl_->initial_refinement.reset();
+  ADIT_ASSIGN_OR_RETURN(global::GlobalPlanResult r, impl_->planFrom(start, impl_->params.refine_plan));
   (void)r;
   return {};
 }
@@ -210,12 +220,13 @@ NavigatorCycle Navigator::run(double t_s, const local::RobotState& state, const 
     std::unique_lock lock(m.mutex);
     const auto r0 = std::chrono::steady_clock::now();
     if (!changed.empty()) m.global->mapChanged(changed);
-    StatusOr<global::GlobalPlanResult> r = m.planFrom(state.position);
+    StatusOr<global::GlobalPlanResult> r =
+        m.planFrom(state.position, m.params.refine_plan && m.params.refine_replans);
     out.replan_time_s = secondsSince(r0);
     out.replanned = true;
     ++m.replans;
     if (r.ok()) {
-      m.events.push_back({t_s, "replan", *replan_reason, out.replan_time_s, r->route, ""});
+      m.events.push_back({t_s, "replan", *replan_reason, out.replan_time_s, r->route, "", m.last_refine_time_s});
     } else {
       m.no_route = true;
       m.events.push_back({t_s, "no_route", *replan_reason, out.replan_time_s, {}, r.status().message()});
@@ -253,6 +264,7 @@ map::Polyline Navigator::expectedPath() const {
 
 const std::vector<NavigatorEvent>& Navigator::events() const { return impl_->events; }
 int Navigator::replans() const { return impl_->replans; }
+const std::optional<PlanRefinement>& Navigator::initialRefinement() const { return impl_->initial_refinement; }
 const global::GlobalPlanner& Navigator::globalPlanner() const { return *impl_->global; }
 
 }  // namespace adit::fusion

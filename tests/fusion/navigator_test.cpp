@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstdio>
 #include <thread>
 
 #include "adit/fusion/navigator.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "support/synthetic_roadway.hpp"
 
 namespace adit::fusion {
 namespace {
@@ -166,6 +168,71 @@ TEST(Navigator, ReaderThreadSeesWholeTransactionsOnly) {
   reader.join();
   EXPECT_GT(reads.load(), 0);
   EXPECT_EQ(violations.load(), 0);
+}
+
+// A generated bend (three segments; the plan has break points to refine).
+const Vec3 kBendStart(1.4, 0.5, 1.5), kBendGoal(18.5, 10.8, 2.5);
+
+Navigator bendNavigator(bool refine_plan, bool refine_replans) {
+  map::SurveyNetwork net = test::bentRoadway(map::CrossSection::rectangle(4.0, 3.0), 0.2);
+  map::LoadedMap loaded{test::voxelizeOrFail(net), net};
+  NavigatorParams p;
+  p.local.robot.radius_m = 0.4;
+  p.global.seed = 3;
+  p.refine_plan = refine_plan;
+  p.refine_replans = refine_replans;
+  StatusOr<Navigator> nav = Navigator::create(std::move(loaded), p, kBendGoal);
+  EXPECT_TRUE(nav.ok()) << nav.status().message();
+  Status s = nav->plan(kBendStart);
+  EXPECT_TRUE(s.ok()) << s.message();
+  return std::move(nav).value();
+}
+
+TEST(Navigator, RefinePlanFollowsTheRefinedPlan) {
+  const Navigator plain = bendNavigator(false, false);
+  const Navigator refined = bendNavigator(true, false);
+  EXPECT_FALSE(plain.initialRefinement().has_value());
+  ASSERT_TRUE(refined.initialRefinement().has_value());
+  const PlanRefinement& ref = *refined.initialRefinement();
+  ASSERT_EQ(ref.outcome, RefineOutcome::kRefined) << ref.message;
+  // The same plan (same seed) as the plain navigator's, then refined: the expected path is the
+  // refined one, and the global planner's motion check accepts it.
+  const map::Polyline p = plain.expectedPath(), q = refined.expectedPath();
+  ASSERT_EQ(ref.before_path.size(), p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) EXPECT_EQ(ref.before_path.points[i], p.points[i]);
+  EXPECT_NEAR(q.length(), ref.after.length_m, 1e-9);
+  EXPECT_NE(q.points[1], p.points[1]);
+  const Status valid = refined.globalPlanner().validatePath(q);
+  EXPECT_TRUE(valid.ok()) << valid.message();
+}
+
+// A boulder sensed on the expected path: the navigator replans round it; the replan is refined
+// only with refine_replans, and the event says how long the refinement took.
+TEST(Navigator, ReplansAreRefinedOnlyWhenAskedTo) {
+  for (const bool refine_replans : {false, true}) {
+    Navigator nav = bendNavigator(true, refine_replans);
+    const map::Polyline path = nav.expectedPath();
+    const Vec3 boulder = 0.5 * (path.points[1] + path.points[2]);
+    const NavigatorCycle c = nav.cycle(1.0, at(kBendStart), ball(boulder, 0.4), {}, 0.1);
+    ASSERT_TRUE(c.replanned) << refine_replans;
+    EXPECT_EQ(c.status, NavigatorStatus::kDriving);
+    ASSERT_EQ(nav.events().size(), 1u);
+    const NavigatorEvent& e = nav.events()[0];
+    EXPECT_EQ(e.type, "replan");
+    if (refine_replans) {
+      EXPECT_GT(e.refine_time_s, 0.0);
+      EXPECT_LE(e.refine_time_s, e.replan_time_s);
+    } else {
+      EXPECT_EQ(e.refine_time_s, 0.0);
+    }
+    std::printf("boulder replan, refine_replans=%d: replan %.4f s, of it refinement %.4f s\n", int(refine_replans),
+                e.replan_time_s, e.refine_time_s);
+    const Status valid = nav.globalPlanner().validatePath(nav.expectedPath());
+    EXPECT_TRUE(valid.ok()) << valid.message();
+    // The initial refinement is still the first plan's.
+    ASSERT_TRUE(nav.initialRefinement().has_value());
+    EXPECT_NEAR(nav.initialRefinement()->after.length_m, path.length(), 1e-9);
+  }
 }
 
 }  // namespace

@@ -25,6 +25,7 @@
 ///   std::cout << run->replans << " replans, " << local::outcomeName(run->run.outcome) << "\n";
 
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "adit/fusion/navigator.hpp"
@@ -50,13 +51,24 @@ struct NavigatedRun {
   double max_cycle_time_s = 0.0;
   /// Smallest distance from the robot's surface to any roof-fall ball over the run (inf without).
   double min_fall_clearance_m = std::numeric_limits<double>::infinity();
+  /// `expected_path: plan` with refinement: the initial path before (initial_path is after) and
+  /// after the break-point refinement, with its time.
+  std::optional<PlanRefinement> refinement;
   double end_time_s = 0.0;             ///< simulated time when the run ended
   double wall_time_s = 0.0;            ///< the whole simulation, map loading included
+};
+
+/// How the navigator treats a planned expected path (`expected_path: plan`; a given one is never
+/// refined).
+struct NavigatedOptions {
+  bool refine_plan = true;       ///< NavigatorParams::refine_plan
+  bool refine_replans = false;   ///< NavigatorParams::refine_replans
 };
 
 /// Runs the scenario (its map is required: the navigator plans on it). Errors: those of
 /// local::simulate() for bad input, a scenario without a map, static_obstacles (not supported by
 /// the navigator).
-StatusOr<NavigatedRun> simulateNavigated(const local::Scenario& scenario, const local::Environment& truth);
+StatusOr<NavigatedRun> simulateNavigated(const local::Scenario& scenario, const local::Environment& truth,
+                                         const NavigatedOptions& options = {});
 
 }  // namespace adit::fusion

@@ -37,9 +37,11 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "adit/fusion/plan_refinement.hpp"
 #include "adit/global/global_planner.hpp"
 #include "adit/local/local_planner.hpp"
 #include "adit/map/distance_field.hpp"
@@ -56,6 +58,13 @@ struct NavigatorParams {
   /// Replans allowed for kStuck verdicts (a blocked path always replans); beyond, the navigator
   /// reports kStuck instead of replanning forever.
   int max_stuck_replans = 3;
+  /// plan() refines the expected path's break points (refinePlan, plan_refinement.hpp: genetic
+  /// trust region, every segment re-validated by the global planner's motion check). It runs
+  /// inside plan()'s exclusive lock: readers wait for it (0.1-1.8 s on the district's paths).
+  bool refine_plan = false;
+  /// Replans are refined too (with refine_plan). Off by default: a replan happens mid-run, in
+  /// the cycle that found the path blocked, and the refinement's time adds to that cycle's.
+  bool refine_replans = false;
   Status validate() const;
 };
 
@@ -67,9 +76,10 @@ struct NavigatorEvent {
   double t_s = 0.0;
   std::string type;     ///< "replan" | "no_route" | "map_update_failed"
   std::string reason;   ///< "expected path blocked at (x, y, z)", "local planner stuck", ...
-  double replan_time_s = 0.0;
+  double replan_time_s = 0.0;      ///< planning plus refinement
   std::vector<std::string> route;  ///< roadways of the new route (replan)
   std::string message;  ///< the global layer's message (no_route)
+  double refine_time_s = 0.0;  ///< of replan_time_s, the refinement's (refine_replans)
 };
 
 /// One range scan (a lidar sweep) for ray insertion: the returns the sensor saw from `origin`;
@@ -101,8 +111,9 @@ class Navigator {
   Navigator& operator=(Navigator&&) noexcept;
   ~Navigator();
 
-  /// Plans the expected path from `start` with the global layer. Error: failedPrecondition with
-  /// the planner's message when there is no route.
+  /// Plans the expected path from `start` with the global layer, refined when
+  /// NavigatorParams::refine_plan says so (see initialRefinement()). Error: failedPrecondition
+  /// with the planner's message when there is no route.
   Status plan(const Vec3& start);
   /// Uses `path` (ending at the goal) instead of planning.
   Status setExpectedPath(map::Polyline path);
@@ -125,6 +136,9 @@ class Navigator {
   /// The navigator's decisions so far; like replans(), for the cycle's own thread only.
   const std::vector<NavigatorEvent>& events() const;
   int replans() const;  ///< replans attempted, the one that found no route included
+  /// How plan() refined the expected path: before/after length and clearance, time; empty
+  /// without refine_plan or before plan().
+  const std::optional<PlanRefinement>& initialRefinement() const;
   const global::GlobalPlanner& globalPlanner() const;
 
  private:

@@ -1,0 +1,51 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/fusion/plan_refinement.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+namespace adit::fusion {
+
+PlanRefinement refinePlan(const global::GlobalPlanner& planner, const map::DistanceField& field,
+                          global::GlobalPlanResult* r) {
+  PlanRefinement out;
+  if (r == nullptr || !r->solved()) {
+    out.message = "no solved plan to refine";
+    return out;
+  }
+  const global::GlobalPlannerParams& params = planner.params();
+  const double res = field.resolution();
+  const double horizontal = planner.requiredClearance() - params.safety_margin_m - 0.5 * res;
+  BreakPointRefinerParams rp = BreakPointRefinerParams::forField(res, params.safety_margin_m);
+  rp.planar = params.mode == global::PlanMode::kGround;
+  // Sample as finely as the planner's motion check, which re-validates every refined segment.
+  rp.sample_step_m = std::min(res, params.motion_step_voxels * res);
+  rp.clearance_weight = params.clearance_weight;
+  // Ground mode: the centre sits half a body above the floor, so the field there sees the floor;
+  // measure the ribs higher up, lifted as the planner's own clearance is (margin + two voxels).
+  const double lift = rp.planar ? params.safety_margin_m + 2.0 * res : 0.0;
+  const ClearanceFn clearance = [&field, horizontal, lift](const map::Vec3& p) {
+    return field.distance(p + map::Vec3(0, 0, lift)) - horizontal;
+  };
+  const SegmentCheck check = [&planner](const map::Vec3& p, const map::Vec3& q) {
+    return planner.validatePath(map::Polyline{{p, q}});
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  BreakPointRefinement ref = refineBreakPoints(r->path, clearance, rp, check);
+  out.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.outcome = ref.outcome;
+  out.message = ref.message;
+  out.before_path = r->path;
+  out.before = ref.before;
+  out.after = ref.after;
+  out.objective_before = ref.objective_before;
+  out.objective_after = ref.objective_after;
+  out.iterations = ref.optimization.iterations;
+  r->path = ref.path;
+  r->length_m = ref.after.length_m;
+  r->min_clearance_m = ref.after.min_clearance_m;
+  r->mean_clearance_m = ref.after.mean_clearance_m;
+  return out;
+}
+
+}  // namespace adit::fusion
