@@ -142,8 +142,10 @@ int runPlan(const PlanArgs& a) {
     if (!s.ok()) return report(s);
   }
   if (!a.quiet) {
-    std::fprintf(stderr, "%s: %s (%s, %.3f s)\n", global::outcomeName(r.outcome), r.message.c_str(), r.planner.c_str(),
-                 r.planning_time_s);
+    // A failure was said once already, above (even with --quiet).
+    if (r.solved())
+      std::fprintf(stderr, "%s: %s (%s, %.3f s)\n", global::outcomeName(r.outcome), r.message.c_str(), r.planner.c_str(),
+                   r.planning_time_s);
     if (!a.out.empty()) std::fprintf(stderr, "wrote %s\n", a.out.c_str());
     if (!a.picture.empty()) std::fprintf(stderr, "wrote %s\n", a.picture.c_str());
   }
