@@ -21,6 +21,7 @@ int run(int argc, char** argv) {
   adit::tools::registerPlanVerb(app, &rc);
   adit::tools::registerBenchVerb(app, &rc);
   adit::tools::registerSimulateVerb(app, &rc);
+  adit::tools::registerCampaignVerb(app, &rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

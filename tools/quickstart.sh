@@ -17,13 +17,15 @@ BUILD_DIR="${BUILD_DIR:-build}"
 JOBS="${JOBS:-$(nproc)}"
 
 # Debian 12 packages adit builds against. OMPL's CMake config also needs its boost and ODE
-# companions (the global planner).
+# companions (the global planner). slurm-wlm and munge: the campaign test's throw-away one-node
+# Slurm cluster (tests/tools/campaign_slurm.sh starts its own daemons, never the system's).
 PKGS=(cmake g++ make pkg-config
       liboctomap-dev libfcl-dev libccd-dev libeigen3-dev
       libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
       libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev libode-dev
       libgtest-dev libgmock-dev libbenchmark-dev
-      libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev)
+      libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev
+      slurm-wlm munge)
 
 missing=()
 for p in "${PKGS[@]}"; do
@@ -34,7 +36,20 @@ if [ ${#missing[@]} -gt 0 ]; then
   SUDO=""
   [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -q
-  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+  # Installing munge and slurm-wlm must not start their daemons (a fresh container has no init to
+  # run them; a host needs none of them): a policy-rc.d that denies every start, for the install
+  # only, unless one is there already (Debian's container images ship one).
+  policy=/usr/sbin/policy-rc.d
+  added_policy=""
+  if [ ! -e "$policy" ]; then
+    printf '#!/bin/sh\n# tools/quickstart.sh: no daemon starts while it installs packages\nexit 101\n' | $SUDO tee "$policy" >/dev/null
+    $SUDO chmod 755 "$policy"
+    added_policy=1
+  fi
+  install_rc=0
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}" || install_rc=$?
+  if [ -n "$added_policy" ]; then $SUDO rm -f "$policy"; fi
+  [ "$install_rc" -eq 0 ] || exit "$install_rc"
 fi
 
 echo "== configuring and building ($BUILD_DIR, Release, $JOBS jobs)" >&2

@@ -12,24 +12,17 @@
 #include <cstdio>
 #include <optional>
 #include <iostream>
-#include <atomic>
-#include <cerrno>
 #include <chrono>
 #include <cstdlib>
-#include <cstring>
-#include <fstream>
 #include <limits>
-#include <new>
 
-#include <sys/mman.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include "adit/fusion/batch.hpp"
 #include "adit/fusion/navigated_simulation.hpp"
 #include "adit/local/simulator.hpp"
 #include "adit/map/map_io.hpp"
 #include "common/animation_page.hpp"
+#include "common/batch_runner.hpp"
 #include "common/cli.hpp"
 #include "common/figure.hpp"
 #include "common/progress.hpp"
@@ -47,6 +40,7 @@ struct SimulateArgs {
   std::string out;
   std::string picture;
   std::string html;
+  std::string replay;  // CAMPAIGN:INDEX
   bool quiet = false;
   bool no_refine = false, refine_replans = false;
   // --batch
@@ -261,8 +255,12 @@ Status writeJson(const nlohmann::ordered_json& j, const std::string& out) {
 }
 
 int run(const SimulateArgs& a) {
+  if (a.batch_given && !a.replay.empty()) return report(invalidArgument("--replay is one run, not --batch"));
   if (a.batch_given) return runBatch(a);
-  if (a.scenario.empty()) return report(invalidArgument("a SCENARIO file is required (or --batch N --map M)"));
+  if (!a.replay.empty() && !a.scenario.empty())
+    return report(invalidArgument("--replay CAMPAIGN:INDEX takes no SCENARIO file (got " + a.scenario + ")"));
+  if (a.scenario.empty() && a.replay.empty())
+    return report(invalidArgument("a SCENARIO file is required (or --batch N --map M, or --replay CAMPAIGN:INDEX)"));
   // Check the output names before the (possibly long) run.
   for (const std::string* p : {&a.picture}) {
     if (p->empty()) continue;
@@ -272,7 +270,7 @@ int run(const SimulateArgs& a) {
   }
   if (!a.html.empty() && (a.html.size() < 5 || a.html.substr(a.html.size() - 5) != ".html"))
     return report(invalidArgument(a.html + ": --html must end in .html"));
-  StatusOr<Scenario> sc = loadScenario(a.scenario);
+  StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
   if (!sc.ok()) return report(sc.status());
   if (!a.quiet) std::fprintf(stderr, "adit: simulating %s with %s\n", sc->name.c_str(), methodName(sc->params.method));
   StatusOr<Environment> env = Environment::load(*sc);
@@ -319,153 +317,6 @@ int run(const SimulateArgs& a) {
 }
 
 // --- `adit simulate --batch N`: randomized navigated runs on one map (issue 8) ---------------
-
-// One run's record as a worker writes it for the parent: tab-separated, full precision.
-std::string batchRecord(const fusion::BatchRunResult& r) {
-  std::string msg = r.message;
-  std::replace_if(msg.begin(), msg.end(), [](char c) { return c == '\t' || c == '\n' || c == '\r'; }, ' ');
-  char buf[512];
-  std::snprintf(buf, sizeof buf, "%d\t%llu\t%s\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t", r.index,
-                static_cast<unsigned long long>(r.seed), r.outcome.c_str(), r.arrival_time_s, r.path_length_m,
-                r.min_clearance_m, r.collisions, r.replans, r.step_p50_us, r.step_p99_us, r.final_goal_distance_m,
-                r.arrival_tolerance_m);
-  return buf + msg + "\n";
-}
-
-std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) {
-  std::vector<std::string> f;
-  std::size_t from = 0;
-  for (int k = 0; k < 12; ++k) {
-    const std::size_t tab = line.find('\t', from);
-    if (tab == std::string::npos) return std::nullopt;
-    f.push_back(line.substr(from, tab - from));
-    from = tab + 1;
-  }
-  fusion::BatchRunResult r;
-  auto num = [](const std::string& s) { return std::strtod(s.c_str(), nullptr); };
-  r.index = std::atoi(f[0].c_str());
-  r.seed = std::strtoull(f[1].c_str(), nullptr, 10);
-  r.outcome = f[2];
-  r.arrival_time_s = num(f[3]);
-  r.path_length_m = num(f[4]);
-  r.min_clearance_m = num(f[5]);
-  r.collisions = std::atoi(f[6].c_str());
-  r.replans = std::atoi(f[7].c_str());
-  r.step_p50_us = num(f[8]);
-  r.step_p99_us = num(f[9]);
-  r.final_goal_distance_m = num(f[10]);
-  r.arrival_tolerance_m = num(f[11]);
-  r.message = line.substr(from);
-  return r;
-}
-
-// The base scenario of a batch: the given scenario file, else the district rescue robot on --map.
-StatusOr<Scenario> batchBase(const SimulateArgs& a) {
-  StatusOr<Scenario> sc = internalError("no base");
-  if (!a.scenario.empty()) {
-    sc = loadScenario(a.scenario);
-  } else {
-    if (a.map.empty()) return invalidArgument("--batch needs --map (or a scenario file)");
-    sc = parseScenario("map: " + nlohmann::json(a.map).dump() +
-                           "\nstart: [0, 0, 0]\ngoal: [1, 0, 0]\nexpected_path: plan\n"
-                           "robot: {radius: 0.4, v_max: 1.0, a_max: 0.5, sensor_range: 8}\n"
-                           "method: tian2016\nparams: {rho0_m: 1.0}\ndt: 0.1\n",
-                       "batch");
-  }
-  if (!sc.ok()) return sc.status();
-  if (!a.scenario.empty() && !a.map.empty()) sc->map_path = a.map;
-  if (!sc->map_path) return invalidArgument(sc->file + ": map: --batch needs a map");
-  return sc;
-}
-
-// Workers are processes (OMPL's seed is process-global: see fusion/batch.hpp), forked after the
-// map is loaded so they share it copy-on-write. They pull run indices from a counter in shared
-// memory, write one record per run to their own file and one byte per run to the progress pipe.
-StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const SimulateArgs& a, const Scenario& base,
-                                                                const map::SurveyNetwork& survey,
-                                                                const Environment& truth,
-                                                                const fusion::BatchParams& bp, ProgressBar& bar) {
-  const int jobs = std::min(a.jobs, a.batch);
-  char dir_template[] = "/tmp/adit-batch-XXXXXX";
-  const char* dir = ::mkdtemp(dir_template);
-  if (!dir) return internalError(std::string("cannot create a temporary directory: ") + std::strerror(errno));
-  auto* next = static_cast<std::atomic<int>*>(
-      ::mmap(nullptr, sizeof(std::atomic<int>), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0));
-  if (next == MAP_FAILED) return internalError(std::string("mmap: ") + std::strerror(errno));
-  new (next) std::atomic<int>(0);
-  int progress[2];
-  if (::pipe(progress) != 0) return internalError(std::string("pipe: ") + std::strerror(errno));
-  bar.update("batch", 0.0);  // the stage's clock starts now, not at the first finished run
-  std::fflush(nullptr);
-  std::vector<pid_t> pids;
-  auto file = [dir](int w) { return std::string(dir) + "/worker-" + std::to_string(w) + ".tsv"; };
-  for (int w = 0; w < jobs; ++w) {
-    const pid_t pid = ::fork();
-    if (pid < 0) return internalError(std::string("fork: ") + std::strerror(errno));
-    if (pid == 0) {
-      ::close(progress[0]);
-      std::FILE* out = std::fopen(file(w).c_str(), "w");
-      if (!out) ::_exit(1);
-      for (int k = next->fetch_add(1); k < a.batch; k = next->fetch_add(1)) {
-        const int i = a.first + k;
-        fusion::BatchRunResult r;
-        StatusOr<Scenario> sc = fusion::makeBatchScenario(base, survey, truth, bp, i);
-        if (sc.ok()) {
-          r = fusion::runBatchScenario(*sc, truth, i);
-        } else {
-          r.index = i;
-          r.seed = fusion::batchRunSeed(bp.seed, i);
-          r.outcome = "error";
-          r.message = sc.status().message();
-        }
-        const std::string rec = batchRecord(r);
-        std::fwrite(rec.data(), 1, rec.size(), out);
-        std::fflush(out);
-        const char one = '.';
-        if (::write(progress[1], &one, 1) != 1) break;
-      }
-      ::_exit(std::fclose(out) == 0 ? 0 : 1);
-    }
-    pids.push_back(pid);
-  }
-  ::close(progress[1]);
-  int done = 0;
-  char buf[256];
-  for (ssize_t n; (n = ::read(progress[0], buf, sizeof buf)) != 0;) {
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      break;
-    }
-    done += int(n);
-    bar.update("batch", double(done) / a.batch);
-  }
-  ::close(progress[0]);
-  bar.finish();
-  bool workers_ok = true;
-  for (pid_t pid : pids) {
-    int status = 0;
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
-    workers_ok = workers_ok && WIFEXITED(status) && WEXITSTATUS(status) == 0;
-  }
-  ::munmap(next, sizeof(std::atomic<int>));
-  std::vector<std::optional<fusion::BatchRunResult>> by_index(std::size_t(a.batch));
-  for (int w = 0; w < jobs; ++w) {
-    std::ifstream in(file(w));
-    for (std::string line; std::getline(in, line);)
-      if (std::optional<fusion::BatchRunResult> r = parseBatchRecord(line);
-          r && r->index >= a.first && r->index - a.first < a.batch)
-        by_index[std::size_t(r->index - a.first)] = std::move(r);
-    std::remove(file(w).c_str());
-  }
-  ::rmdir(dir);
-  std::vector<fusion::BatchRunResult> runs;
-  for (std::size_t i = 0; i < by_index.size(); ++i) {
-    if (!by_index[i]) return internalError("batch: run " + std::to_string(a.first + int(i)) + " was lost (a worker " +
-                                           (workers_ok ? "wrote no record" : "failed") + ")");
-    runs.push_back(std::move(*by_index[i]));
-  }
-  return runs;
-}
 
 nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base, const std::vector<fusion::BatchRunResult>& runs,
                                     double wall_s) {
@@ -517,28 +368,24 @@ int runBatch(const SimulateArgs& a) {
   if (a.jobs < 1) return report(invalidArgument("--jobs must be >= 1 (got " + std::to_string(a.jobs) + ")"));
   if (!a.picture.empty() || !a.html.empty()) return report(invalidArgument("--picture and --html are for one run, not --batch"));
   const auto wall0 = std::chrono::steady_clock::now();
-  StatusOr<Scenario> base = batchBase(a);
-  if (!base.ok()) return report(base.status());
-  const std::string& map_path = *base->map_path;
-  if (map_path.size() < 5 || map_path.substr(map_path.size() - 5) != ".yaml")
-    return report(invalidArgument(map_path + ": --batch draws start and goal on the survey: the map must be a survey (.yaml)"));
-  StatusOr<map::SurveyNetwork> survey = map::loadSurvey(map_path);
-  if (!survey.ok()) return report(survey.status());
-  StatusOr<Environment> truth = Environment::load(*base);
-  if (!truth.ok()) return report(truth.status());
+  StatusOr<BatchSetup> setup = loadBatchSetup(a.scenario, a.map);
+  if (!setup.ok()) return report(setup.status());
+  const std::string& map_path = *setup->base.map_path;
   fusion::BatchParams bp;
   bp.seed = a.seed;
   bp.t_max_s = a.t_max;
   bp.max_separation_m = a.max_separation;
   if (Status s = bp.validate(); !s.ok()) return report(s);
   // Bad input shows in the first scenario: refuse it before forking.
-  if (StatusOr<Scenario> first = fusion::makeBatchScenario(*base, *survey, *truth, bp, 0); !first.ok())
+  if (StatusOr<Scenario> first = fusion::makeBatchScenario(setup->base, setup->survey, setup->truth, bp, 0); !first.ok())
     return report(first.status());
   if (!a.quiet)
     std::fprintf(stderr, "adit: batch of %d runs on %s (seed %llu, %d workers)\n", a.batch, map_path.c_str(),
                  static_cast<unsigned long long>(a.seed), std::min(a.jobs, a.batch));
   ProgressBar bar(a.quiet);
-  StatusOr<std::vector<fusion::BatchRunResult>> runs = runBatchWorkers(a, *base, *survey, *truth, bp, bar);
+  std::vector<int> indices(std::size_t(a.batch));
+  for (int k = 0; k < a.batch; ++k) indices[std::size_t(k)] = a.first + k;
+  StatusOr<std::vector<fusion::BatchRunResult>> runs = runBatchWorkers(*setup, bp, indices, a.jobs, bar);
   if (!runs.ok()) return report(runs.status());
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   if (!a.csv.empty()) {
@@ -549,7 +396,7 @@ int runBatch(const SimulateArgs& a) {
     });
     if (!s.ok()) return report(s);
   }
-  const nlohmann::ordered_json j = batchSummary(a, *base, *runs, wall_s);
+  const nlohmann::ordered_json j = batchSummary(a, setup->base, *runs, wall_s);
   if (Status s = writeJson(j, a.out); !s.ok()) return report(s);
   if (!a.quiet)
     std::fprintf(stderr, "adit: %d runs: success rate %.3f, %d collisions among arrivals, %d errors, %.1f s\n", a.batch,
@@ -583,6 +430,9 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   cmd->add_option("--max-separation", args->max_separation,
                   "With --batch: largest straight-line start-goal distance [m] (default 150; at least 20)");
   cmd->add_option("--t-max", args->t_max, "With --batch: simulated-time cap per run [s] (default: from the distance)");
+  cmd->add_option("--replay", args->replay,
+                  "Re-run scenario INDEX of a campaign (`adit campaign run`) as one navigated run: "
+                  "CAMPAIGN:INDEX, CAMPAIGN a campaign directory or shard JSON");
   cmd->add_option("--picture", args->picture, "Top view of the run (.png or .svg)");
   cmd->add_option("--html", args->html, "Animated page of the run (.html, one offline file)");
   cmd->add_flag("--no-refine", args->no_refine,

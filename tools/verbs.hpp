@@ -17,4 +17,7 @@ void registerBenchVerb(CLI::App& app, int* rc);
 /// `adit simulate SCENARIO.yaml`.
 void registerSimulateVerb(CLI::App& app, int* rc);
 
+/// `adit campaign run|merge`.
+void registerCampaignVerb(CLI::App& app, int* rc);
+
 }  // namespace adit::tools

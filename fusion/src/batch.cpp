@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "adit/fusion/batch.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -79,6 +81,21 @@ Status BatchParams::validate() const {
     return invalidArgument("batch: roof_fall_probability must be in [0, 1] (got " + std::to_string(roof_fall_probability) + ")");
   if (!positive(roof_fall_radius_m)) return invalidArgument("batch: roof_fall_radius_m must be > 0 (got " + std::to_string(roof_fall_radius_m) + ")");
   if (!(std::isfinite(t_max_s) && t_max_s >= 0.0)) return invalidArgument("--t-max (t_max_s) must be >= 0 (got " + std::to_string(t_max_s) + ")");
+  if (!(std::isfinite(vehicle_speed_min_mps) && vehicle_speed_min_mps >= 0.0 && std::isfinite(vehicle_speed_max_mps) &&
+        vehicle_speed_max_mps >= vehicle_speed_min_mps))
+    return invalidArgument("batch: vehicle speed range must satisfy 0 <= min <= max (got " +
+                           std::to_string(vehicle_speed_min_mps) + ".." + std::to_string(vehicle_speed_max_mps) + ")");
+  if (!positive(vehicle_radius_m)) return invalidArgument("batch: vehicle_radius_m must be > 0 (got " + std::to_string(vehicle_radius_m) + ")");
+  // A range is unset (both 0) or 0 < min <= max.
+  auto range = [&](double lo, double hi, const char* what) {
+    if (lo == 0.0 && hi == 0.0) return Status();
+    if (!positive(lo) || !positive(hi) || hi < lo)
+      return invalidArgument(std::string("batch: ") + what + " range must satisfy 0 < min <= max (got " +
+                             std::to_string(lo) + ".." + std::to_string(hi) + ")");
+    return Status();
+  };
+  ADIT_RETURN_IF_ERROR(range(robot_radius_min_m, robot_radius_max_m, "robot radius"));
+  ADIT_RETURN_IF_ERROR(range(robot_speed_min_mps, robot_speed_max_mps, "robot speed"));
   return Status();
 }
 
@@ -100,10 +117,22 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const m
   if (segs.empty()) return invalidArgument(base.file + ": map: the survey has no roadway");
   const std::uint64_t run_seed = batchRunSeed(params.seed, index);
   Drawer draw(segs, run_seed);
-  const double r = base.params.robot.radius_m;
+  local::Scenario sc = base;
+  if (params.robot_radius_max_m > 0.0 || params.robot_speed_max_mps > 0.0) {
+    // A stream of its own: the draws below stay those of a run without robot ranges.
+    std::mt19937_64 robot_rng(batchRunSeed(run_seed ^ 0x524F424F54ull, 0));
+    auto uniform = [&robot_rng](double lo, double hi) {
+      return lo == hi ? lo : std::uniform_real_distribution<double>(lo, hi)(robot_rng);
+    };
+    if (params.robot_radius_max_m > 0.0)
+      sc.params.robot.radius_m = uniform(params.robot_radius_min_m, params.robot_radius_max_m);
+    if (params.robot_speed_max_mps > 0.0)
+      sc.params.robot.v_max_mps = uniform(params.robot_speed_min_mps, params.robot_speed_max_mps);
+  }
+  const double r = sc.params.robot.radius_m;
+  const double v_max = sc.params.robot.v_max_mps;
   auto roomy = [&](const Vec3& p) { return truth.field()->isFree(p) && truth.field()->distance(p) > r + 0.4; };
 
-  local::Scenario sc = base;
   sc.name = "batch-" + std::to_string(index);
   sc.seed = run_seed;
   sc.plan_expected_path = true;
@@ -125,18 +154,18 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const m
                            std::to_string(kMaxDraws) + " draws");
   sc.expected_path.points = {sc.start, sc.goal};
   const double dist = (sc.goal - sc.start).norm();
-  sc.t_max_s = params.t_max_s > 0.0 ? params.t_max_s : 120.0 + 6.0 * dist / base.params.robot.v_max_mps;
+  sc.t_max_s = params.t_max_s > 0.0 ? params.t_max_s : 120.0 + 6.0 * dist / v_max;
 
   // Vehicles: on a roadway away from the start, driving along it either way.
   const int vehicles = draw.integer(0, params.max_moving_obstacles);
   for (int v = 0; v < vehicles; ++v) {
     for (int k = 0; k < kMaxDraws; ++k) {
       const RoadwayPoint p = draw.point();
-      const double speed = draw.uniform(0.2, 0.8) * (draw.integer(0, 1) ? 1.0 : -1.0);
+      const double speed = draw.uniform(params.vehicle_speed_min_mps, params.vehicle_speed_max_mps) * (draw.integer(0, 1) ? 1.0 : -1.0);
       if ((p.position - sc.start).norm() < 10.0 || !roomy(p.position)) continue;
       local::NamedObstacle o;
       o.name = "vehicle-" + std::to_string(v + 1);
-      o.obstacle.shape = map::RobotShape::sphere(0.6);
+      o.obstacle.shape = map::RobotShape::sphere(params.vehicle_radius_m);
       o.obstacle.position = p.position;
       o.obstacle.velocity = speed * p.direction;
       sc.moving_obstacles.push_back(o);
@@ -155,7 +184,7 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const m
       const Vec3 c = draw.point().position;
       if (!box.contains(c) || (c - sc.start).norm() < keep_off || (c - sc.goal).norm() < keep_off) continue;
       local::ScenarioEvent e;
-      e.t_s = draw.uniform(2.0, 2.0 + 0.5 * dist / base.params.robot.v_max_mps);
+      e.t_s = draw.uniform(2.0, 2.0 + 0.5 * dist / v_max);
       e.center = c;
       e.radius_m = params.roof_fall_radius_m;
       sc.events.push_back(e);
@@ -164,6 +193,79 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const m
   }
   ADIT_RETURN_IF_ERROR(sc.validate());
   return sc;
+}
+
+StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::string& file,
+                                       const BatchParams& defaults) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    return invalidArgument(file + ":" + std::to_string(e.mark.line + 1) + ": not YAML: " + e.msg);
+  }
+  if (!root.IsDefined() || root.IsNull()) return defaults;
+  if (!root.IsMap()) return invalidArgument(file + ": the generator must be a YAML mapping");
+  auto where = [&file](const YAML::Node& n, const std::string& key) {
+    return file + ":" + std::to_string(n.Mark().line + 1) + ": " + key;
+  };
+  auto number = [&](const YAML::Node& n, const std::string& key) -> StatusOr<double> {
+    if (!n.IsScalar()) return invalidArgument(where(n, key) + ": expected a number");
+    try {
+      const double v = n.as<double>();
+      if (!std::isfinite(v)) return invalidArgument(where(n, key) + ": must be finite (got " + n.Scalar() + ")");
+      return v;
+    } catch (const YAML::Exception&) {
+      return invalidArgument(where(n, key) + ": expected a number (got '" + n.Scalar() + "')");
+    }
+  };
+  auto pair = [&](const YAML::Node& n, const std::string& key, double& lo, double& hi) -> Status {
+    if (!n.IsSequence() || n.size() != 2) return invalidArgument(where(n, key) + ": expected [min, max]");
+    ADIT_ASSIGN_OR_RETURN(lo, number(n[0], key + "[0]"));
+    ADIT_ASSIGN_OR_RETURN(hi, number(n[1], key + "[1]"));
+    if (lo > hi) return invalidArgument(where(n, key) + ": min > max");
+    return Status();
+  };
+  BatchParams p = defaults;
+  for (const auto& kv : root) {
+    if (!kv.first.IsScalar()) return invalidArgument(where(kv.first, "key") + ": expected a name");
+    const std::string key = kv.first.Scalar();
+    const YAML::Node& v = kv.second;
+    if (key == "separation") {
+      ADIT_RETURN_IF_ERROR(pair(v, key, p.min_separation_m, p.max_separation_m));
+    } else if (key == "max_moving_obstacles") {
+      ADIT_ASSIGN_OR_RETURN(const double n, number(v, key));
+      if (n != std::floor(n) || n < 0 || n > 100) return invalidArgument(where(v, key) + ": expected an integer in 0..100");
+      p.max_moving_obstacles = int(n);
+    } else if (key == "vehicle_speed") {
+      ADIT_RETURN_IF_ERROR(pair(v, key, p.vehicle_speed_min_mps, p.vehicle_speed_max_mps));
+    } else if (key == "vehicle_radius") {
+      ADIT_ASSIGN_OR_RETURN(p.vehicle_radius_m, number(v, key));
+    } else if (key == "roof_fall") {
+      if (!v.IsMap()) return invalidArgument(where(v, key) + ": expected {probability: P, radius: R}");
+      for (const auto& f : v) {
+        const std::string sub = f.first.IsScalar() ? f.first.Scalar() : std::string("?");
+        if (sub == "probability") {
+          ADIT_ASSIGN_OR_RETURN(p.roof_fall_probability, number(f.second, "roof_fall.probability"));
+        } else if (sub == "radius") {
+          ADIT_ASSIGN_OR_RETURN(p.roof_fall_radius_m, number(f.second, "roof_fall.radius"));
+        } else {
+          return invalidArgument(where(f.first, "roof_fall." + sub) + ": unknown key (probability, radius)");
+        }
+      }
+    } else if (key == "robot_radius") {
+      ADIT_RETURN_IF_ERROR(pair(v, key, p.robot_radius_min_m, p.robot_radius_max_m));
+    } else if (key == "robot_speed") {
+      ADIT_RETURN_IF_ERROR(pair(v, key, p.robot_speed_min_mps, p.robot_speed_max_mps));
+    } else if (key == "t_max") {
+      ADIT_ASSIGN_OR_RETURN(p.t_max_s, number(v, key));
+    } else {
+      return invalidArgument(where(kv.first, key) +
+                             ": unknown key (separation, max_moving_obstacles, vehicle_speed, vehicle_radius, "
+                             "roof_fall, robot_radius, robot_speed, t_max)");
+    }
+  }
+  if (Status s = p.validate(); !s.ok()) return invalidArgument(file + ": " + s.message());
+  return p;
 }
 
 BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index) {

@@ -35,6 +35,14 @@ struct BatchParams {
   int max_moving_obstacles = 3;     ///< 0..this many vehicles per run
   double roof_fall_probability = 0.5;
   double roof_fall_radius_m = 3.0;  ///< fills a district roadway's section
+  double vehicle_speed_min_mps = 0.2;  ///< each vehicle's speed is uniform in [min, max]
+  double vehicle_speed_max_mps = 0.8;
+  double vehicle_radius_m = 0.6;
+  /// Robot radius and top speed ranges; 0 (the default): the base scenario's robot. When set,
+  /// they are drawn from a stream of their own (seeded from the run's seed), so the other draws,
+  /// and therefore the default tables of `--batch`, do not change.
+  double robot_radius_min_m = 0.0, robot_radius_max_m = 0.0;
+  double robot_speed_min_mps = 0.0, robot_speed_max_mps = 0.0;
   /// Simulated-time cap; 0: 120 s plus 6 s per metre of start-goal distance at v_max 1 m/s.
   double t_max_s = 0.0;
   Status validate() const;
@@ -65,6 +73,21 @@ struct BatchRunResult {
   double final_goal_distance_m = 0.0;
   double arrival_tolerance_m = 0.5;
 };
+
+/// The scenario generator's ranges from a small YAML (every key optional, defaults as above;
+/// `seed` is not read: it is the campaign's):
+///   separation: [20, 150]          # start-goal straight-line distance range [m]
+///   max_moving_obstacles: 3
+///   vehicle_speed: [0.2, 0.8]      # [m/s]
+///   vehicle_radius: 0.6            # [m]
+///   roof_fall: {probability: 0.5, radius: 3.0}
+///   robot_radius: [0.3, 0.5]       # [m]; absent: the base scenario's robot
+///   robot_speed: [0.8, 1.2]        # v_max [m/s]; absent: the base scenario's
+///   t_max: 0                       # simulated-time cap [s]; 0: from the distance
+/// Errors name the file, line and key: unknown keys, non-numbers, ranges with min > max,
+/// values that validate() refuses.
+StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::string& file,
+                                       const BatchParams& defaults = {});
 
 BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index);
 

@@ -1,0 +1,43 @@
+# SPDX-License-Identifier: BSD-3-Clause
+# `adit campaign merge` refuses (exit 2, naming the files) missing, duplicate and foreign shards,
+# and writes no report then. Uses the shards of campaign_shards.cmake (fixture campaign_shards).
+# Args: ADIT, OUT, SEED.
+set(C ${OUT}/campaign)
+set(F ${C}/refusals)
+file(REMOVE_RECURSE ${F})
+file(MAKE_DIRECTORY ${F}/seed ${F}/map)
+
+function(refused what expect)
+  execute_process(COMMAND ${ADIT} campaign merge ${ARGN} --out ${F}/report.json
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 2)
+    message(FATAL_ERROR "${what}: expected exit 2, got ${rc}:\n${err}")
+  endif()
+  if(NOT err MATCHES "${expect}")
+    message(FATAL_ERROR "${what}: stderr does not match '${expect}':\n${err}")
+  endif()
+  if(EXISTS ${F}/report.json)
+    message(FATAL_ERROR "${what}: a report was written")
+  endif()
+  message(STATUS "${what}: refused:\n${err}")
+endfunction()
+
+refused(missing "missing shards of the campaign of [^\n]*: shard-2-of-4.json"
+        ${C}/m4/shard-0-of-4.json ${C}/m4/shard-1-of-4.json ${C}/m4/shard-3-of-4.json)
+refused(duplicate "rerun/shard-1-of-4.json: duplicate of shard 1 \\(also [^\n]*m4/shard-1-of-4.json\\)"
+        ${C}/m4 ${C}/rerun)
+refused(other_shard_count "m4/shard-1-of-4.json: a shard of another campaign than [^\n]*m2/shard-0-of-2.json: shards \\(4 vs 2\\)"
+        ${C}/m2/shard-0-of-2.json ${C}/m4/shard-1-of-4.json)
+
+# Shard 1 of 2 as another seed or another map would have written it.
+file(READ ${C}/m2/shard-1-of-2.json shard)
+string(REPLACE "\"seed\": ${SEED}," "\"seed\": 99${SEED}," other_seed "${shard}")
+file(WRITE ${F}/seed/shard-1-of-2.json "${other_seed}")
+refused(other_seed "seed/shard-1-of-2.json: a shard of another campaign than [^\n]*: seed \\(99${SEED} vs ${SEED}\\)"
+        ${C}/m2/shard-0-of-2.json ${F}/seed)
+string(REGEX REPLACE "\"map_hash\": \"fnv1a64:[0-9a-f]+\"" "\"map_hash\": \"fnv1a64:0123456789abcdef\"" other_map "${shard}")
+file(WRITE ${F}/map/shard-1-of-2.json "${other_map}")
+refused(other_map "map/shard-1-of-2.json: a shard of another campaign than [^\n]*: map content"
+        ${C}/m2/shard-0-of-2.json ${F}/map/shard-1-of-2.json)
+refused(not_a_shard "m1_report.json: no shard.index.*shard-0-of-1.csv: not JSON"
+        ${C}/m1_report.json ${C}/m1/shard-0-of-1.csv ${C}/m2)

@@ -1,0 +1,279 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "common/batch_runner.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <new>
+#include <optional>
+#include <regex>
+
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "adit/map/map_io.hpp"
+
+namespace adit::tools {
+
+namespace {
+
+// One run's record as a worker writes it for the parent: tab-separated, full precision.
+std::string batchRecord(const fusion::BatchRunResult& r) {
+  std::string msg = r.message;
+  std::replace_if(msg.begin(), msg.end(), [](char c) { return c == '\t' || c == '\n' || c == '\r'; }, ' ');
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "%d\t%llu\t%s\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t", r.index,
+                static_cast<unsigned long long>(r.seed), r.outcome.c_str(), r.arrival_time_s, r.path_length_m,
+                r.min_clearance_m, r.collisions, r.replans, r.step_p50_us, r.step_p99_us, r.final_goal_distance_m,
+                r.arrival_tolerance_m);
+  return buf + msg + "\n";
+}
+
+std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) {
+  std::vector<std::string> f;
+  std::size_t from = 0;
+  for (int k = 0; k < 12; ++k) {
+    const std::size_t tab = line.find('\t', from);
+    if (tab == std::string::npos) return std::nullopt;
+    f.push_back(line.substr(from, tab - from));
+    from = tab + 1;
+  }
+  fusion::BatchRunResult r;
+  auto num = [](const std::string& s) { return std::strtod(s.c_str(), nullptr); };
+  r.index = std::atoi(f[0].c_str());
+  r.seed = std::strtoull(f[1].c_str(), nullptr, 10);
+  r.outcome = f[2];
+  r.arrival_time_s = num(f[3]);
+  r.path_length_m = num(f[4]);
+  r.min_clearance_m = num(f[5]);
+  r.collisions = std::atoi(f[6].c_str());
+  r.replans = std::atoi(f[7].c_str());
+  r.step_p50_us = num(f[8]);
+  r.step_p99_us = num(f[9]);
+  r.final_goal_distance_m = num(f[10]);
+  r.arrival_tolerance_m = num(f[11]);
+  r.message = line.substr(from);
+  return r;
+}
+
+fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams& params, int index) {
+  StatusOr<local::Scenario> sc = fusion::makeBatchScenario(setup.base, setup.survey, setup.truth, params, index);
+  if (sc.ok()) return fusion::runBatchScenario(*sc, setup.truth, index);
+  fusion::BatchRunResult r;
+  r.index = index;
+  r.seed = fusion::batchRunSeed(params.seed, index);
+  r.outcome = "error";
+  r.message = sc.status().message();
+  return r;
+}
+
+nlohmann::ordered_json range(double lo, double hi) { return nlohmann::ordered_json::array({lo, hi}); }
+
+}  // namespace
+
+StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std::string& map) {
+  StatusOr<local::Scenario> sc = internalError("no base");
+  if (!scenario_file.empty()) {
+    sc = local::loadScenario(scenario_file);
+  } else {
+    if (map.empty()) return invalidArgument("--batch needs --map (or a scenario file)");
+    sc = local::parseScenario("map: " + nlohmann::json(map).dump() +
+                                  "\nstart: [0, 0, 0]\ngoal: [1, 0, 0]\nexpected_path: plan\n"
+                                  "robot: {radius: 0.4, v_max: 1.0, a_max: 0.5, sensor_range: 8}\n"
+                                  "method: tian2016\nparams: {rho0_m: 1.0}\ndt: 0.1\n",
+                              "batch");
+  }
+  if (!sc.ok()) return sc.status();
+  if (!scenario_file.empty() && !map.empty()) sc->map_path = map;
+  if (!sc->map_path) return invalidArgument(sc->file + ": map: --batch needs a map");
+  const std::string& map_path = *sc->map_path;
+  if (map_path.size() < 5 || map_path.substr(map_path.size() - 5) != ".yaml")
+    return invalidArgument(map_path + ": --batch draws start and goal on the survey: the map must be a survey (.yaml)");
+  ADIT_ASSIGN_OR_RETURN(map::SurveyNetwork survey, map::loadSurvey(map_path));
+  ADIT_ASSIGN_OR_RETURN(local::Environment truth, local::Environment::load(*sc));
+  return BatchSetup{std::move(sc).value(), std::move(survey), std::move(truth)};
+}
+
+StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& setup,
+                                                                const fusion::BatchParams& params,
+                                                                const std::vector<int>& indices, int jobs_wanted,
+                                                                ProgressBar& bar, const char* stage) {
+  const int total = int(indices.size());
+  if (total == 0) return std::vector<fusion::BatchRunResult>{};
+  const int jobs = std::max(1, std::min(jobs_wanted, total));
+  char dir_template[] = "/tmp/adit-batch-XXXXXX";
+  const char* dir = ::mkdtemp(dir_template);
+  if (!dir) return internalError(std::string("cannot create a temporary directory: ") + std::strerror(errno));
+  // Workers pull positions in `indices` from a counter in shared memory, write one record per
+  // run to their own file and one byte per run to the progress pipe.
+  auto* next = static_cast<std::atomic<int>*>(
+      ::mmap(nullptr, sizeof(std::atomic<int>), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0));
+  if (next == MAP_FAILED) return internalError(std::string("mmap: ") + std::strerror(errno));
+  new (next) std::atomic<int>(0);
+  int progress[2];
+  if (::pipe(progress) != 0) return internalError(std::string("pipe: ") + std::strerror(errno));
+  bar.update(stage, 0.0);  // the stage's clock starts now, not at the first finished run
+  std::fflush(nullptr);
+  std::vector<pid_t> pids;
+  auto file = [dir](int w) { return std::string(dir) + "/worker-" + std::to_string(w) + ".tsv"; };
+  for (int w = 0; w < jobs; ++w) {
+    const pid_t pid = ::fork();
+    if (pid < 0) return internalError(std::string("fork: ") + std::strerror(errno));
+    if (pid == 0) {
+      ::close(progress[0]);
+      std::FILE* out = std::fopen(file(w).c_str(), "w");
+      if (!out) ::_exit(1);
+      for (int k = next->fetch_add(1); k < total; k = next->fetch_add(1)) {
+        const std::string rec = batchRecord(runOne(setup, params, indices[std::size_t(k)]));
+        std::fwrite(rec.data(), 1, rec.size(), out);
+        std::fflush(out);
+        const char one = '.';
+        if (::write(progress[1], &one, 1) != 1) break;
+      }
+      ::_exit(std::fclose(out) == 0 ? 0 : 1);
+    }
+    pids.push_back(pid);
+  }
+  ::close(progress[1]);
+  int done = 0;
+  char buf[256];
+  for (ssize_t n; (n = ::read(progress[0], buf, sizeof buf)) != 0;) {
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    done += int(n);
+    bar.update(stage, double(done) / total);
+  }
+  ::close(progress[0]);
+  bar.finish();
+  bool workers_ok = true;
+  for (pid_t pid : pids) {
+    int status = 0;
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
+    workers_ok = workers_ok && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  }
+  ::munmap(next, sizeof(std::atomic<int>));
+  std::vector<std::optional<fusion::BatchRunResult>> by_index;
+  by_index.resize(std::size_t(total));
+  std::vector<std::pair<int, std::size_t>> position;  // index -> position in `indices`
+  for (std::size_t k = 0; k < indices.size(); ++k) position.emplace_back(indices[k], k);
+  std::sort(position.begin(), position.end());
+  for (int w = 0; w < jobs; ++w) {
+    std::ifstream in(file(w));
+    for (std::string line; std::getline(in, line);) {
+      std::optional<fusion::BatchRunResult> r = parseBatchRecord(line);
+      if (!r) continue;
+      const auto it = std::lower_bound(position.begin(), position.end(), std::make_pair(r->index, std::size_t(0)));
+      if (it != position.end() && it->first == r->index) by_index[it->second] = std::move(r);
+    }
+    std::remove(file(w).c_str());
+  }
+  ::rmdir(dir);
+  std::vector<fusion::BatchRunResult> runs;
+  for (std::size_t k = 0; k < by_index.size(); ++k) {
+    if (!by_index[k]) return internalError("batch: run " + std::to_string(indices[k]) + " was lost (a worker " +
+                                           (workers_ok ? "wrote no record" : "failed") + ")");
+    runs.push_back(std::move(*by_index[k]));
+  }
+  return runs;
+}
+
+StatusOr<std::string> fileContentHash(const std::string& path) {
+  ADIT_ASSIGN_OR_RETURN(const std::string bytes, map::readFile(path));
+  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64 offset basis and prime
+  for (unsigned char c : bytes) h = (h ^ c) * 0x100000001b3ull;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
+  return std::string(buf);
+}
+
+nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id) {
+  const fusion::BatchParams& g = id.generator;
+  nlohmann::ordered_json gen;
+  gen["separation"] = range(g.min_separation_m, g.max_separation_m);
+  gen["max_moving_obstacles"] = g.max_moving_obstacles;
+  gen["vehicle_speed"] = range(g.vehicle_speed_min_mps, g.vehicle_speed_max_mps);
+  gen["vehicle_radius"] = g.vehicle_radius_m;
+  gen["roof_fall"] = {{"probability", g.roof_fall_probability}, {"radius", g.roof_fall_radius_m}};
+  gen["robot_radius"] = range(g.robot_radius_min_m, g.robot_radius_max_m);
+  gen["robot_speed"] = range(g.robot_speed_min_mps, g.robot_speed_max_mps);
+  gen["t_max"] = g.t_max_s;
+  nlohmann::ordered_json j;
+  j["map"] = id.map;
+  j["map_hash"] = id.map_hash;
+  j["seed"] = id.seed;
+  j["scenarios"] = id.scenarios;
+  j["shards"] = id.shards;
+  j["generator"] = gen;
+  j["adit_version"] = id.adit_version;
+  return j;
+}
+
+StatusOr<CampaignIdentity> campaignIdentityFromJson(const nlohmann::json& j, const std::string& file) {
+  if (!j.is_object() || !j.contains("campaign") || !j["campaign"].is_object())
+    return invalidArgument(file + ": not a campaign shard (no \"campaign\" object)");
+  const nlohmann::json& c = j["campaign"];
+  CampaignIdentity id;
+  try {
+    id.map = c.at("map").get<std::string>();
+    id.map_hash = c.at("map_hash").get<std::string>();
+    id.seed = c.at("seed").get<std::uint64_t>();
+    id.scenarios = c.at("scenarios").get<int>();
+    id.shards = c.at("shards").get<int>();
+    id.adit_version = c.value("adit_version", std::string());
+    if (!c.at("generator").is_object()) return invalidArgument(file + ": campaign.generator: expected an object");
+  } catch (const nlohmann::json::exception& e) {
+    return invalidArgument(file + ": campaign: " + e.what());
+  }
+  if (id.scenarios < 1 || id.shards < 1 || id.shards > id.scenarios)
+    return invalidArgument(file + ": campaign: scenarios and shards must satisfy 1 <= shards <= scenarios");
+  // JSON is YAML: the generator object is read by the generator's own reader.
+  ADIT_ASSIGN_OR_RETURN(id.generator, fusion::parseBatchParams(c["generator"].dump(), file + ": campaign.generator"));
+  id.generator.seed = id.seed;
+  return id;
+}
+
+StatusOr<local::Scenario> replayScenario(const std::string& spec) {
+  const std::size_t colon = spec.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == spec.size())
+    return invalidArgument("--replay " + spec + ": expected CAMPAIGN:INDEX (a campaign directory or shard JSON)");
+  const std::string campaign = spec.substr(0, colon), index_text = spec.substr(colon + 1);
+  char* end = nullptr;
+  errno = 0;
+  const long index = std::strtol(index_text.c_str(), &end, 10);
+  if (errno != 0 || *end != '\0' || index < 0 || index > 2147483647L)
+    return invalidArgument("--replay " + spec + ": INDEX must be an integer >= 0 (got '" + index_text + "')");
+  std::string shard = campaign;
+  std::error_code ec;
+  if (std::filesystem::is_directory(campaign, ec)) {
+    shard.clear();
+    static const std::regex name(R"(shard-[0-9]+-of-[0-9]+\.json)");
+    std::vector<std::string> found;
+    for (const auto& e : std::filesystem::directory_iterator(campaign, ec))
+      if (std::regex_match(e.path().filename().string(), name)) found.push_back(e.path().string());
+    if (found.empty()) return invalidArgument(campaign + ": no shard-K-of-M.json in this campaign directory");
+    std::sort(found.begin(), found.end());
+    shard = found.front();
+  }
+  ADIT_ASSIGN_OR_RETURN(const std::string text, map::readFile(shard));
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded()) return invalidArgument(shard + ": not JSON");
+  ADIT_ASSIGN_OR_RETURN(const CampaignIdentity id, campaignIdentityFromJson(j, shard));
+  if (index >= id.scenarios)
+    return invalidArgument("--replay " + spec + ": the campaign has scenarios 0.." + std::to_string(id.scenarios - 1));
+  ADIT_ASSIGN_OR_RETURN(const std::string hash, fileContentHash(id.map));
+  if (hash != id.map_hash)
+    return invalidArgument(id.map + ": the map changed since the campaign (" + hash + ", recorded " + id.map_hash +
+                           " in " + shard + ")");
+  ADIT_ASSIGN_OR_RETURN(const BatchSetup setup, loadBatchSetup("", id.map));
+  return fusion::makeBatchScenario(setup.base, setup.survey, setup.truth, id.generator, int(index));
+}
+
+}  // namespace adit::tools

@@ -1,0 +1,81 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// The machinery shared by `adit simulate --batch` and `adit campaign run|merge` and
+/// `adit simulate --replay`: the base scenario of a batch (the district rescue robot on a survey
+/// map), the map, survey and true world loaded once, and runBatchWorkers(), which runs a list of
+/// scenario indices (adit/fusion/batch.hpp) on forked worker processes. Workers are processes,
+/// not threads, because OMPL's seed is process-global; they are forked after the map is loaded
+/// so they share it copy-on-write. A run's row depends only on (seed, index, generator), never
+/// on the worker that ran it, so any split of the indices gives the same rows.
+///
+/// A campaign's identity (CampaignIdentity) is what makes two shards parts of one campaign: the
+/// map's content hash, seed, scenario count, shard count and generator ranges. It is written
+/// into every shard's JSON and is enough to rebuild any scenario (replayScenario()).
+///
+///   ADIT_ASSIGN_OR_RETURN(BatchSetup setup, loadBatchSetup("", "maps/district.yaml"));
+///   ADIT_ASSIGN_OR_RETURN(auto rows, runBatchWorkers(setup, params, {0, 4, 8}, 2, bar));
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "adit/fusion/batch.hpp"
+#include "adit/local/scenario.hpp"
+#include "adit/local/simulator.hpp"
+#include "adit/map/survey_network.hpp"
+#include "adit/status.hpp"
+#include "common/progress.hpp"
+
+namespace adit::tools {
+
+/// What every run of a batch shares: the base scenario (robot, method, params), the survey the
+/// starts and goals are drawn on, and the true world.
+struct BatchSetup {
+  local::Scenario base;
+  map::SurveyNetwork survey;
+  local::Environment truth;
+};
+
+/// The base scenario is `scenario_file` when given (its map replaced by `map` when both are
+/// given), else the district rescue robot (radius 0.4 m, v_max 1 m/s, sensor 8 m, tian2016) on
+/// `map`. The map must be a survey (.yaml). Errors name the file.
+StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std::string& map);
+
+/// Runs scenario `indices` of the batch `params` on min(jobs, indices.size()) forked workers,
+/// feeding `bar` (stage `stage`). The rows come back in the order of `indices`. A scenario that
+/// cannot be generated or simulated is a row with outcome "error"; a worker that dies loses its
+/// rows and the call fails (internal error) naming the first lost index.
+StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& setup,
+                                                                const fusion::BatchParams& params,
+                                                                const std::vector<int>& indices, int jobs,
+                                                                ProgressBar& bar, const char* stage = "batch");
+
+/// Which campaign a shard belongs to.
+struct CampaignIdentity {
+  std::string map;       ///< the map path as given (informative: shards compare by map_hash)
+  std::string map_hash;  ///< "fnv1a64:<16 hex digits>" of the map file's bytes
+  std::uint64_t seed = 1;
+  int scenarios = 0;     ///< N: scenario indices 0..N-1
+  int shards = 1;        ///< M
+  fusion::BatchParams generator;
+  std::string adit_version;
+};
+
+/// FNV-1a 64 of the file's bytes, as "fnv1a64:<hex>". Errors: the file cannot be read.
+StatusOr<std::string> fileContentHash(const std::string& path);
+
+/// {"map", "map_hash", "seed", "scenarios", "shards", "generator": {...}, "adit_version"}; the
+/// generator object uses the keys of the generator YAML (fusion::parseBatchParams).
+nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id);
+/// The inverse; errors name `file` and the missing or bad field.
+StatusOr<CampaignIdentity> campaignIdentityFromJson(const nlohmann::json& j, const std::string& file);
+
+/// Scenario INDEX of a recorded campaign, from "CAMPAIGN:INDEX" where CAMPAIGN is a campaign
+/// directory (any shard-K-of-M.json in it) or a shard JSON. Checks that the map has not changed
+/// since (content hash). Errors: bad spec, no shard JSON, index outside 0..N-1, changed map.
+StatusOr<local::Scenario> replayScenario(const std::string& spec);
+
+}  // namespace adit::tools
