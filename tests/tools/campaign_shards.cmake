@@ -2,13 +2,13 @@
 # `adit campaign run|merge` (issue 9): a tiny campaign run in one process (M = 1) and in M = 2 and
 # M = 4 shards gives the same rows, byte for byte once sorted by index (the two wall-clock
 # step-time columns left out), and merged counts equal to the one-process run's. A shard re-run
-# alone reproduces its file; --replay rebuilds a scenario from the campaign and runs it again
-# with the same outcome and path length.
-# Args: ADIT, MAP, OUT (a fresh directory is made under it), N, SEED.
+# alone reproduces its file; the report's replay command for a failure rebuilds the scenario from
+# the campaign and runs it again with the same seed, outcome and path length.
+# Args: ADIT, MAP, OUT (a fresh directory is made under it), N, SEED, GENERATOR (YAML).
 cmake_policy(SET CMP0007 NEW)  # keep the empty CSV fields in lists
 set(C ${OUT}/campaign)
 file(REMOVE_RECURSE ${C})
-set(GEN --t-max 60 --max-separation 30)
+set(GEN --generator ${GENERATOR})
 
 function(adit_run)
   execute_process(COMMAND ${ADIT} ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -88,23 +88,31 @@ if(NOT first_run STREQUAL second_run OR NOT first_counts STREQUAL second_counts)
   message(FATAL_ERROR "shard 1 of 4 re-run differs:\n${first_run}\n${first_counts}\nvs\n${second_run}\n${second_counts}")
 endif()
 
-# Replay scenario 1 from the campaign directory: the row's outcome and path length again.
-execute_process(COMMAND ${ADIT} simulate -q --replay ${C}/m2:1 --out ${C}/replay_1.json RESULT_VARIABLE rc ERROR_VARIABLE err)
-if(NOT rc MATCHES "^[01]$")
-  message(FATAL_ERROR "--replay ${C}/m2:1: exit ${rc}: ${err}")
+# The merged report's first failure, replayed with the command the report gives: the same
+# seed, outcome and path length as its row.
+file(READ ${C}/m2_report.json report)
+string(JSON failure_index GET "${report}" failures 0 index)
+string(JSON command GET "${report}" failures 0 replay)
+if(NOT command MATCHES "^adit simulate --replay (.+:${failure_index})$")
+  message(FATAL_ERROR "failure ${failure_index}: unexpected replay command '${command}'")
 endif()
-file(READ ${C}/replay_1.json replay)
+set(spec "${CMAKE_MATCH_1}")
+execute_process(COMMAND ${ADIT} simulate -q --replay ${spec} --out ${C}/replay.json RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 1)
+  message(FATAL_ERROR "${command}: exit ${rc} (a failure exits 1): ${err}")
+endif()
+file(READ ${C}/replay.json replay)
 string(JSON outcome GET "${replay}" outcome)
 string(JSON length GET "${replay}" path_length)
 string(JSON seed GET "${replay}" seed)
-string(REGEX MATCH "(^|\n)1,[^\n]*" row1 "${reference}")
+string(REGEX MATCH "(^|\n)${failure_index},[^\n]*" row1 "${reference}")
 string(REGEX REPLACE "^\n" "" row1 "${row1}")
 string(REPLACE "," ";" fields "${row1}")
 list(GET fields 1 row_seed)
 list(GET fields 2 row_outcome)
 list(GET fields 4 row_length)
 if(NOT outcome STREQUAL row_outcome OR NOT seed STREQUAL row_seed)
-  message(FATAL_ERROR "replay of 1: ${outcome} (seed ${seed}), the campaign's row: ${row1}")
+  message(FATAL_ERROR "${command}: ${outcome} (seed ${seed}), the campaign's row: ${row1}")
 endif()
 # The CSV rounds to 3 decimals (printf); the replay's JSON has full precision: round it the same
 # way in integer arithmetic (a tie exactly at the 4th decimal cannot occur for a measured length).
@@ -119,6 +127,6 @@ endif()
 string(REPLACE "." "" row_milli "${row_length}")
 math(EXPR row_milli "${row_milli}")
 if(NOT rounded EQUAL row_milli)
-  message(FATAL_ERROR "replay of 1: path length ${length}, the campaign's row: ${row1}")
+  message(FATAL_ERROR "${command}: path length ${length}, the campaign's row: ${row1}")
 endif()
-message(STATUS "same rows and counts for M = 1, 2, 4:\n${reference}\n${counts_1}")
+message(STATUS "same rows and counts for M = 1, 2, 4:\n${reference}\n${counts_1}\n${command}: ${outcome}, ${length} m")

@@ -7,9 +7,9 @@
 # (squeue polling, with a timeout), merges, and checks that the merge equals the one-process run
 # of the campaign_shards fixture: the same rows (sorted by index, without the two wall-clock
 # step-time columns) and the same merged counts.
-# Usage: campaign_slurm.sh ADIT MAP SBATCH_SCRIPT OUT N SEED M REFERENCE_DIR
+# Usage: campaign_slurm.sh ADIT MAP SBATCH_SCRIPT OUT N SEED M REFERENCE_DIR GENERATOR
 set -euo pipefail
-ADIT=$1 MAP=$2 SCRIPT=$3 OUT=$4 N=$5 SEED=$6 M=$7 REF=$8
+ADIT=$1 MAP=$2 SCRIPT=$3 OUT=$4 N=$5 SEED=$6 M=$7 REF=$8 GENERATOR=$9
 
 T=$(mktemp -d /tmp/adit-slurm-test.XXXXXX)
 chmod 755 "$T"  # munged needs o+x on its socket's directories
@@ -95,7 +95,7 @@ C=$OUT/campaign_slurm
 rm -rf "$C"
 mkdir -p "$C"
 jid=$(ADIT=$ADIT sbatch --parsable --array=0-$((M - 1)) --cpus-per-task=1 -o "$T/out/%A_%a.out" \
-  "$SCRIPT" "$MAP" "$N" "$SEED" "$M" "$C" -q --t-max 60 --max-separation 30)
+  "$SCRIPT" "$MAP" "$N" "$SEED" "$M" "$C" -q --generator "$GENERATOR")
 echo "submitted array job $jid ($M shards)"
 deadline=$((SECONDS + 300))
 while [ -n "$(squeue -h -j "$jid" 2>/dev/null)" ]; do
