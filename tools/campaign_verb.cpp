@@ -59,6 +59,8 @@ struct Stats {
   long long replans = 0, runs_with_replans = 0, arrival_time_ms = 0, path_length_mm = 0;
   std::optional<double> min_clearance_m;
   std::array<long long, kStepEdgesUs.size() + 1> step_p50{}, step_p99{};
+  // Outcome counts by scenario feature: feature -> bucket label -> outcome -> count.
+  std::map<std::string, std::map<std::string, std::map<std::string, long long>>> by_feature;
 
   Stats() {
     for (const char* o : kOutcomes) outcomes[o] = 0;
@@ -66,9 +68,23 @@ struct Stats {
   static std::size_t bucket(double us) {
     return std::size_t(std::upper_bound(kStepEdgesUs.begin(), kStepEdgesUs.end(), us) - kStepEdgesUs.begin());
   }
+  // "[lo, hi)" of the fixed-width bucket holding v (e.g. width 10: "20-30").
+  static std::string bucketLabel(double v, double width, int decimals) {
+    const double lo = std::floor(v / width + 1e-9) * width;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.*f-%.*f", decimals, lo, decimals, lo + width);
+    return buf;
+  }
   void add(const fusion::BatchRunResult& r) {
     ++scenarios;
     ++outcomes[r.outcome];
+    if (r.separation_m > 0.0) {
+      ++by_feature["vehicles"][std::to_string(r.vehicles)][r.outcome];
+      ++by_feature["roof_fall"][r.roof_fall ? "yes" : "no"][r.outcome];
+      ++by_feature["separation_m"][bucketLabel(r.separation_m, 10.0, 0)][r.outcome];
+      ++by_feature["robot_radius_m"][bucketLabel(r.robot_radius_m, 0.05, 2)][r.outcome];
+      ++by_feature["robot_speed_mps"][bucketLabel(r.robot_speed_mps, 0.1, 1)][r.outcome];
+    }
     replans += r.replans;
     runs_with_replans += r.replans > 0;
     if (r.outcome == "error") return;
@@ -91,6 +107,9 @@ struct Stats {
     arrival_time_ms += o.arrival_time_ms;
     path_length_mm += o.path_length_mm;
     if (o.min_clearance_m) min_clearance_m = std::min(min_clearance_m.value_or(*o.min_clearance_m), *o.min_clearance_m);
+    for (const auto& [feature, buckets] : o.by_feature)
+      for (const auto& [label, counts] : buckets)
+        for (const auto& [outcome, n] : counts) by_feature[feature][label][outcome] += n;
     for (std::size_t k = 0; k < step_p50.size(); ++k) {
       step_p50[k] += o.step_p50[k];
       step_p99[k] += o.step_p99[k];
@@ -108,6 +127,7 @@ struct Stats {
     j["arrival_time_ms_sum"] = arrival_time_ms;
     j["path_length_mm_sum"] = path_length_mm;
     j["min_clearance"] = min_clearance_m ? Json(*min_clearance_m) : Json(nullptr);
+    j["outcomes_by_feature"] = Json(by_feature);
     return j;
   }
   Json stepJson() const {
@@ -127,6 +147,7 @@ struct Stats {
       s.arrival_time_ms = c.at("arrival_time_ms_sum").get<long long>();
       s.path_length_mm = c.at("path_length_mm_sum").get<long long>();
       if (!c.at("min_clearance").is_null()) s.min_clearance_m = c.at("min_clearance").get<double>();
+      s.by_feature = c.at("outcomes_by_feature").get<decltype(s.by_feature)>();
       const nlohmann::json& t = j.at("step_time_us");
       if (t.at("bucket_upper_edges").get<std::vector<double>>() !=
           std::vector<double>(kStepEdgesUs.begin(), kStepEdgesUs.end()))
@@ -389,6 +410,17 @@ int merge(const CampaignArgs& a) {
   const long long arrived = total.outcomes["arrived"];
   j["success_rate"] = arrived / n;
   j["mean_arrival_time"] = arrived > 0 ? Json(total.arrival_time_ms / 1000.0 / double(arrived)) : Json(nullptr);
+  // The rates behind the plots of outcome against scenario features (the plots: not done).
+  Json by_feature;
+  for (const auto& [feature, buckets] : total.by_feature)
+    for (const auto& [label, counts] : buckets) {
+      long long runs = 0;
+      for (const auto& c : counts) runs += c.second;
+      const auto it = counts.find("arrived");
+      const long long ok = it == counts.end() ? 0 : it->second;
+      by_feature[feature][label] = {{"scenarios", runs}, {"success_rate", double(ok) / double(runs)}};
+    }
+  j["success_rate_by_feature"] = by_feature;
   j["failures"] = failure_list;
   if (!a.csv.empty()) {
     std::sort(rows.begin(), rows.end(), [](const auto& x, const auto& y) { return x.first < y.first; });

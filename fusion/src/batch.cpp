@@ -272,6 +272,11 @@ BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::En
   BatchRunResult out;
   out.index = index;
   out.seed = scenario.seed;
+  out.vehicles = int(scenario.moving_obstacles.size());
+  out.roof_fall = !scenario.events.empty();
+  out.separation_m = (scenario.goal - scenario.start).norm();
+  out.robot_radius_m = scenario.params.robot.radius_m;
+  out.robot_speed_mps = scenario.params.robot.v_max_mps;
   StatusOr<NavigatedRun> n = simulateNavigated(scenario, truth);
   if (!n.ok()) {
     out.outcome = "error";

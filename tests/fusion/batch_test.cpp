@@ -135,5 +135,83 @@ TEST_F(BatchTest, RunsAreHonestAndIndependentOfOrder) {
   }
 }
 
+// The campaign generator's YAML (issue 9): every key maps onto BatchParams; mistakes name the
+// file, line and key.
+TEST(BatchParamsTest, ParsesTheGeneratorYaml) {
+  StatusOr<BatchParams> p = parseBatchParams(
+      "separation: [10, 40]\nmax_moving_obstacles: 2\nvehicle_speed: [0.1, 0.5]\nvehicle_radius: 0.8\n"
+      "roof_fall: {probability: 0.25, radius: 2.0}\nrobot_radius: [0.3, 0.5]\nrobot_speed: [0.8, 1.2]\nt_max: 90\n",
+      "gen.yaml");
+  ASSERT_TRUE(p.ok()) << p.status().toString();
+  EXPECT_EQ(p->min_separation_m, 10.0);
+  EXPECT_EQ(p->max_separation_m, 40.0);
+  EXPECT_EQ(p->max_moving_obstacles, 2);
+  EXPECT_EQ(p->vehicle_speed_min_mps, 0.1);
+  EXPECT_EQ(p->vehicle_speed_max_mps, 0.5);
+  EXPECT_EQ(p->vehicle_radius_m, 0.8);
+  EXPECT_EQ(p->roof_fall_probability, 0.25);
+  EXPECT_EQ(p->roof_fall_radius_m, 2.0);
+  EXPECT_EQ(p->robot_radius_min_m, 0.3);
+  EXPECT_EQ(p->robot_radius_max_m, 0.5);
+  EXPECT_EQ(p->robot_speed_min_mps, 0.8);
+  EXPECT_EQ(p->robot_speed_max_mps, 1.2);
+  EXPECT_EQ(p->t_max_s, 90.0);
+  // Empty: the defaults (those of `adit simulate --batch`).
+  StatusOr<BatchParams> d = parseBatchParams("", "empty.yaml");
+  ASSERT_TRUE(d.ok());
+  EXPECT_EQ(d->max_separation_m, BatchParams().max_separation_m);
+  EXPECT_EQ(d->robot_radius_max_m, 0.0);
+
+  auto error = [](const std::string& text) {
+    StatusOr<BatchParams> r = parseBatchParams(text, "gen.yaml");
+    return r.ok() ? std::string("accepted") : r.status().message();
+  };
+  EXPECT_NE(error("t_max: 60\nrobot_sped: [1, 2]\n").find("gen.yaml:2: robot_sped: unknown key"), std::string::npos);
+  EXPECT_NE(error("separation: [40, 10]\n").find("gen.yaml:1: separation: min > max"), std::string::npos);
+  EXPECT_NE(error("vehicle_radius: fast\n").find("vehicle_radius: expected a number (got 'fast')"), std::string::npos);
+  EXPECT_NE(error("max_moving_obstacles: 2.5\n").find("expected an integer"), std::string::npos);
+  EXPECT_NE(error("roof_fall: {probability: 2}\n").find("roof_fall_probability must be in [0, 1]"), std::string::npos);
+  EXPECT_NE(error("robot_speed: [0, 1]\n").find("robot speed range"), std::string::npos);
+  EXPECT_NE(error("[1, 2]\n").find("must be a YAML mapping"), std::string::npos);
+  EXPECT_NE(error("separation: [10, 40\n").find("gen.yaml:"), std::string::npos);
+}
+
+// Robot ranges: every scenario's robot inside them, the same for the same index, and drawn from
+// a stream of their own (the vehicles, drawn after start and goal, come out the same whenever
+// start and goal do).
+TEST_F(BatchTest, RobotRangesAreDrawnPerScenario) {
+  BatchParams p = shortRuns();
+  p.robot_radius_min_m = 0.3;
+  p.robot_radius_max_m = 0.5;
+  p.robot_speed_min_mps = 0.8;
+  p.robot_speed_max_mps = 1.2;
+  std::vector<double> radii;
+  int same_draws = 0;
+  for (int i = 0; i < 10; ++i) {
+    StatusOr<local::Scenario> a = makeBatchScenario(*base_, *survey_, *truth_, p, i);
+    StatusOr<local::Scenario> b = makeBatchScenario(*base_, *survey_, *truth_, p, i);
+    StatusOr<local::Scenario> plain = makeBatchScenario(*base_, *survey_, *truth_, shortRuns(), i);
+    ASSERT_TRUE(a.ok() && b.ok() && plain.ok());
+    const local::RobotLimits& r = a->params.robot;
+    EXPECT_GE(r.radius_m, 0.3);
+    EXPECT_LE(r.radius_m, 0.5);
+    EXPECT_GE(r.v_max_mps, 0.8);
+    EXPECT_LE(r.v_max_mps, 1.2);
+    EXPECT_EQ(r.radius_m, b->params.robot.radius_m);
+    EXPECT_EQ(r.v_max_mps, b->params.robot.v_max_mps);
+    EXPECT_EQ(plain->params.robot.radius_m, base_->params.robot.radius_m);
+    if (a->start == plain->start && a->goal == plain->goal) {
+      ++same_draws;
+      ASSERT_EQ(a->moving_obstacles.size(), plain->moving_obstacles.size());
+      for (std::size_t k = 0; k < a->moving_obstacles.size(); ++k)
+        EXPECT_EQ(a->moving_obstacles[k].obstacle.position, plain->moving_obstacles[k].obstacle.position);
+    }
+    radii.push_back(r.radius_m);
+  }
+  EXPECT_GT(same_draws, 0);
+  std::sort(radii.begin(), radii.end());
+  EXPECT_LT(radii.front(), radii.back());
+}
+
 }  // namespace
 }  // namespace adit::fusion

@@ -39,8 +39,8 @@ struct BatchParams {
   double vehicle_speed_max_mps = 0.8;
   double vehicle_radius_m = 0.6;
   /// Robot radius and top speed ranges; 0 (the default): the base scenario's robot. When set,
-  /// they are drawn from a stream of their own (seeded from the run's seed), so the other draws,
-  /// and therefore the default tables of `--batch`, do not change.
+  /// they are drawn from a stream of their own (seeded from the run's seed), so the main
+  /// stream is not shifted, and without them the tables of `--batch` do not change.
   double robot_radius_min_m = 0.0, robot_radius_max_m = 0.0;
   double robot_speed_min_mps = 0.0, robot_speed_max_mps = 0.0;
   /// Simulated-time cap; 0: 120 s plus 6 s per metre of start-goal distance at v_max 1 m/s.
@@ -72,6 +72,13 @@ struct BatchRunResult {
   double step_p99_us = 0.0;
   double final_goal_distance_m = 0.0;
   double arrival_tolerance_m = 0.5;
+  // The scenario's features (for outcome rates by feature; not in the CSV): 0 for an "error"
+  // row whose scenario could not be drawn.
+  int vehicles = 0;
+  bool roof_fall = false;
+  double separation_m = 0.0;  ///< straight-line start-goal distance
+  double robot_radius_m = 0.0;
+  double robot_speed_mps = 0.0;  ///< v_max
 };
 
 /// The scenario generator's ranges from a small YAML (every key optional, defaults as above;
