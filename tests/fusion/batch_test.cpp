@@ -143,19 +143,14 @@ TEST(BatchParamsTest, ParsesTheGeneratorYaml) {
       "roof_fall: {probability: 0.25, radius: 2.0}\nrobot_radius: [0.3, 0.5]\nrobot_speed: [0.8, 1.2]\nt_max: 90\n",
       "gen.yaml");
   ASSERT_TRUE(p.ok()) << p.status().toString();
-  EXPECT_EQ(p->min_separation_m, 10.0);
-  EXPECT_EQ(p->max_separation_m, 40.0);
-  EXPECT_EQ(p->max_moving_obstacles, 2);
-  EXPECT_EQ(p->vehicle_speed_min_mps, 0.1);
-  EXPECT_EQ(p->vehicle_speed_max_mps, 0.5);
-  EXPECT_EQ(p->vehicle_radius_m, 0.8);
-  EXPECT_EQ(p->roof_fall_probability, 0.25);
-  EXPECT_EQ(p->roof_fall_radius_m, 2.0);
-  EXPECT_EQ(p->robot_radius_min_m, 0.3);
-  EXPECT_EQ(p->robot_radius_max_m, 0.5);
-  EXPECT_EQ(p->robot_speed_min_mps, 0.8);
-  EXPECT_EQ(p->robot_speed_max_mps, 1.2);
-  EXPECT_EQ(p->t_max_s, 90.0);
+  const std::vector<std::pair<double, double>> got_expected = {
+      {p->min_separation_m, 10.0},     {p->max_separation_m, 40.0},    {double(p->max_moving_obstacles), 2.0},
+      {p->vehicle_speed_min_mps, 0.1}, {p->vehicle_speed_max_mps, 0.5}, {p->vehicle_radius_m, 0.8},
+      {p->roof_fall_probability, 0.25}, {p->roof_fall_radius_m, 2.0},  {p->robot_radius_min_m, 0.3},
+      {p->robot_radius_max_m, 0.5},    {p->robot_speed_min_mps, 0.8},  {p->robot_speed_max_mps, 1.2},
+      {p->t_max_s, 90.0}};
+  for (std::size_t k = 0; k < got_expected.size(); ++k)
+    EXPECT_EQ(got_expected[k].first, got_expected[k].second) << "field " << k;
   // Empty: the defaults (those of `adit simulate --batch`).
   StatusOr<BatchParams> d = parseBatchParams("", "empty.yaml");
   ASSERT_TRUE(d.ok());
