@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: BSD-3-Clause
 # `adit campaign merge` refuses (exit 2, naming the files) missing, duplicate and foreign shards,
-# and writes no report then. Uses the shards of campaign_shards.cmake (fixture campaign_shards).
+# and writes no report then; `adit simulate --replay` refuses a map changed since the campaign
+# and an index outside it. Uses the shards of campaign_shards.cmake (fixture campaign_shards).
 # Args: ADIT, OUT, SEED.
 set(C ${OUT}/campaign)
 set(F ${C}/refusals)
@@ -41,3 +42,13 @@ refused(other_map "map/shard-1-of-2.json: a shard of another campaign than [^\n]
         ${C}/m2/shard-0-of-2.json ${F}/map/shard-1-of-2.json)
 refused(not_a_shard "m1_report.json: no shard.index.*shard-0-of-1.csv: not JSON"
         ${C}/m1_report.json ${C}/m1/shard-0-of-1.csv ${C}/m2)
+
+# Replay: the recorded map hash no longer matches the map; an index beyond N.
+function(replay_refused spec expect)
+  execute_process(COMMAND ${ADIT} simulate -q --replay ${spec} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 2 OR NOT err MATCHES "${expect}")
+    message(FATAL_ERROR "--replay ${spec}: expected exit 2 and '${expect}', got ${rc}:\n${err}")
+  endif()
+endfunction()
+replay_refused(${F}/map/shard-1-of-2.json:1 "campaign_loop.yaml: the map changed since the campaign \\(fnv1a64:[0-9a-f]+, recorded fnv1a64:0123456789abcdef in [^)]*map/shard-1-of-2.json\\)")
+replay_refused(${C}/m2:8 "--replay [^ ]*m2:8: the campaign has scenarios 0..7")

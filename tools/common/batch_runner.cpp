@@ -100,7 +100,7 @@ StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std:
   if (!sc->map_path) return invalidArgument(sc->file + ": map: --batch needs a map");
   const std::string& map_path = *sc->map_path;
   if (map_path.size() < 5 || map_path.substr(map_path.size() - 5) != ".yaml")
-    return invalidArgument(map_path + ": --batch draws start and goal on the survey: the map must be a survey (.yaml)");
+    return invalidArgument(map_path + ": start and goal are drawn on the survey's roadways: the map must be a survey (.yaml)");
   ADIT_ASSIGN_OR_RETURN(map::SurveyNetwork survey, map::loadSurvey(map_path));
   ADIT_ASSIGN_OR_RETURN(local::Environment truth, local::Environment::load(*sc));
   return BatchSetup{std::move(sc).value(), std::move(survey), std::move(truth)};
