@@ -372,7 +372,8 @@ int merge(const CampaignArgs& a) {
     total.add(*st);
     for (const auto& f : s->json.value("failures", nlohmann::json::array())) {
       Json e = f;
-      e["replay"] = "adit simulate --replay " + s->dir + ":" + std::to_string(f.value("index", -1));
+      const std::string i = std::to_string(f.value("index", -1));
+      e["replay"] = "adit simulate --replay " + s->dir + ":" + i + " --picture replay-" + i + ".png --html replay-" + i + ".html";
       failures.emplace_back(f.value("index", -1), e);
     }
     if (!a.csv.empty()) {
