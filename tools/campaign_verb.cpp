@@ -24,6 +24,7 @@
 
 #include "adit/fusion/batch.hpp"
 #include "adit/map/map_io.hpp"
+#include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
 #include "common/cli.hpp"
 #include "common/progress.hpp"
@@ -43,7 +44,7 @@ struct CampaignArgs {
   bool quiet = false;
   // merge
   std::vector<std::string> inputs;
-  std::string report, csv;
+  std::string report, csv, html;
 };
 
 const char* const kOutcomes[] = {"arrived", "collision", "stuck", "timeout", "no_route", "error"};
@@ -283,7 +284,68 @@ std::vector<std::string> identityDifferences(const CampaignIdentity& a, const Ca
   return d;
 }
 
+// The merged report as one offline page: outcome counts, success rate per feature bucket as
+// bars (HTML/CSS, no picture), and the failures with their replay commands.
+std::string reportPage(const Json& j) {
+  auto bar = [](double fraction, const char* colour) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "<div class=bar><div style=\"width:%.1f%%;background:%s\"></div></div>",
+                  100.0 * fraction, colour);
+    return std::string(buf);
+  };
+  auto percent = [](double f) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.1f %%", 100.0 * f);
+    return std::string(buf);
+  };
+  const Json& c = j["campaign"];
+  const Json& counts = j["stats"]["counts"];
+  const double n = counts["scenarios"].get<double>();
+  std::string h =
+      "<!doctype html>\n<html lang=en><head><meta charset=utf-8><title>adit campaign report</title><style>"
+      "body{font:14px sans-serif;margin:2em;max-width:70em}table{border-collapse:collapse;margin-bottom:1.5em}"
+      "td,th{padding:2px 10px;text-align:left;border-bottom:1px solid #ddd}.bar{width:20em;height:12px;"
+      "background:#eee}.bar div{height:12px}code{font-size:12px}</style></head><body>\n";
+  h += "<h1>Campaign report</h1>\n<p>" + htmlEscape(c["map"].get<std::string>()) + " (" +
+       htmlEscape(c["map_hash"].get<std::string>()) + "), seed " + std::to_string(c["seed"].get<std::uint64_t>()) + ", " +
+       std::to_string(c["scenarios"].get<int>()) + " scenarios in " + std::to_string(c["shards"].get<int>()) +
+       " shards, adit " + htmlEscape(c["adit_version"].get<std::string>()) + ". Success rate <b>" +
+       percent(j["success_rate"].get<double>()) + "</b>; collisions among arrivals <b>" +
+       std::to_string(counts["collisions_among_arrivals"].get<long long>()) + "</b>; arrivals beyond tolerance <b>" +
+       std::to_string(counts["arrivals_beyond_tolerance"].get<long long>()) + "</b>.</p>\n";
+  h += "<h2>Outcomes</h2>\n<table><tr><th>outcome</th><th>scenarios</th><th>share</th><th></th></tr>\n";
+  for (const auto& [outcome, count] : counts["outcomes"].items()) {
+    const double f = count.get<double>() / n;
+    h += "<tr><td>" + htmlEscape(outcome) + "</td><td>" + std::to_string(count.get<long long>()) + "</td><td>" +
+         percent(f) + "</td><td>" + bar(f, outcome == "arrived" ? "#2a9d8f" : "#e76f51") + "</td></tr>\n";
+  }
+  h += "</table>\n<h2>Success rate by scenario feature</h2>\n";
+  for (const auto& [feature, buckets] : j["success_rate_by_feature"].items()) {
+    h += "<h3>" + htmlEscape(feature) + "</h3>\n<table><tr><th>bucket</th><th>scenarios</th><th>success rate</th><th></th></tr>\n";
+    for (const auto& [label, b] : buckets.items()) {
+      const double f = b["success_rate"].get<double>();
+      h += "<tr><td>" + htmlEscape(label) + "</td><td>" + std::to_string(b["scenarios"].get<long long>()) + "</td><td>" +
+           percent(f) + "</td><td>" + bar(f, "#2a9d8f") + "</td></tr>\n";
+    }
+    h += "</table>\n";
+  }
+  // A page stays readable: the JSON lists every failure, the page the first 1000.
+  const Json& failures = j["failures"];
+  h += "<h2>Failures (" + std::to_string(failures.size()) + ")</h2>\n";
+  if (failures.size() > 1000) h += "<p>The first 1000; the JSON report lists them all.</p>\n";
+  h += "<table><tr><th>index</th><th>outcome</th><th>message</th><th>replay</th></tr>\n";
+  for (std::size_t k = 0; k < failures.size() && k < 1000; ++k) {
+    const Json& f = failures[k];
+    h += "<tr><td>" + std::to_string(f["index"].get<long long>()) + "</td><td>" +
+         htmlEscape(f["outcome"].get<std::string>()) + "</td><td>" + htmlEscape(f.value("message", std::string())) +
+         "</td><td><code>" + htmlEscape(f["replay"].get<std::string>()) + "</code></td></tr>\n";
+  }
+  return h + "</table>\n</body></html>\n";
+}
+
 int merge(const CampaignArgs& a) {
+  if (!a.html.empty() && (a.html.size() < 5 || a.html.substr(a.html.size() - 5) != ".html"))
+    return report(invalidArgument(a.html + ": --html must end in .html"));
   static const std::regex name(R"(shard-([0-9]+)-of-([0-9]+)\.json)");
   std::vector<std::string> files, problems;
   for (const std::string& in : a.inputs) {
@@ -429,6 +491,8 @@ int merge(const CampaignArgs& a) {
     for (const auto& r : rows) csv += r.second + "\n";
     if (Status s = writeText(a.csv, csv); !s.ok()) return report(s);
   }
+  if (!a.html.empty())
+    if (Status s = writeText(a.html, reportPage(j)); !s.ok()) return report(s);
   const std::string text = j.dump(2) + "\n";
   if (!a.report.empty()) {
     if (Status s = writeText(a.report, text); !s.ok()) return report(s);
@@ -474,6 +538,9 @@ void registerCampaignVerb(CLI::App& app, int* rc) {
   mg->add_option("INPUTS", args->inputs, "Campaign directories or shard JSON files")->required();
   mg->add_option("--out", args->report, "Write the report here (atomically) instead of stdout");
   mg->add_option("--csv", args->csv, "Also write every shard's rows, sorted by index, into this CSV");
+  mg->add_option("--html", args->html,
+                 "Also write the report as a page (.html, offline): outcomes, success rate by scenario feature, "
+                 "failures with their replay commands");
   mg->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   mg->callback([args, rc] { *rc = merge(*args); });
 }

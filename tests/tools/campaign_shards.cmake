@@ -67,7 +67,8 @@ foreach(M 2 4)
   if(NOT union_rows STREQUAL reference)
     message(FATAL_ERROR "M = ${M}: the union of the shards differs from the one-process run:\n${reference}\nvs\n${union_rows}")
   endif()
-  adit_run(campaign merge -q ${C}/m${M} --out ${C}/m${M}_report.json --csv ${C}/m${M}_merged.csv)
+  adit_run(campaign merge -q ${C}/m${M} --out ${C}/m${M}_report.json --csv ${C}/m${M}_merged.csv
+           --html ${C}/m${M}_report.html)
   rows(${C}/m${M}_merged.csv merged_rows)
   if(NOT merged_rows STREQUAL reference)
     message(FATAL_ERROR "M = ${M}: merged rows differ from the one-process run:\n${reference}\nvs\n${merged_rows}")
@@ -97,6 +98,12 @@ if(NOT command MATCHES "^adit simulate --replay (.+:${failure_index}) --picture 
   message(FATAL_ERROR "failure ${failure_index}: unexpected replay command '${command}'")
 endif()
 set(spec "${CMAKE_MATCH_1}")
+# The page has the rates by feature and the same replay command.
+file(READ ${C}/m2_report.html page)
+string(FIND "${page}" "<code>${command}</code>" at)
+if(at LESS 0 OR NOT page MATCHES "<h2>Success rate by scenario feature</h2>.*<h3>vehicles</h3>")
+  message(FATAL_ERROR "${C}/m2_report.html: no rates by feature or no '${command}'")
+endif()
 execute_process(COMMAND ${ADIT} simulate -q --replay ${spec} --out ${C}/replay.json --picture ${C}/replay.png
                         --html ${C}/replay.html RESULT_VARIABLE rc ERROR_VARIABLE err)
 if(NOT rc EQUAL 1 OR NOT EXISTS ${C}/replay.png OR NOT EXISTS ${C}/replay.html)

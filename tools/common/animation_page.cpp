@@ -42,6 +42,8 @@ std::string fixed(double v, int decimals) {
   return buf;
 }
 
+}  // namespace
+
 std::string htmlEscape(const std::string& s) {
   std::string out;
   out.reserve(s.size());
@@ -57,6 +59,8 @@ std::string htmlEscape(const std::string& s) {
   }
   return out;
 }
+
+namespace {
 
 // RFC 4648 base64 for the data: URL. None of the project's libraries exposes an encoder (Cairo
 // writes PNG streams only), and this is the whole of it.

@@ -97,4 +97,7 @@ adit::Status writeAnimationPageHtml(const std::vector<unsigned char>& png, const
                                     const AnimationPageInput& input, const std::string& path,
                                     AnimationPageInfo* info = nullptr);
 
+/// `s` with & < > " ' as HTML entities (for text and attribute values of generated pages).
+std::string htmlEscape(const std::string& s);
+
 }  // namespace adit::tools
