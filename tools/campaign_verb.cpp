@@ -85,6 +85,7 @@ struct Stats {
       ++by_feature["separation_m"][bucketLabel(r.separation_m, 10.0, 0)][r.outcome];
       ++by_feature["robot_radius_m"][bucketLabel(r.robot_radius_m, 0.05, 2)][r.outcome];
       ++by_feature["robot_speed_mps"][bucketLabel(r.robot_speed_mps, 0.1, 1)][r.outcome];
+      ++by_feature["roadway_width_m"][bucketLabel(r.roadway_width_m, 0.5, 1)][r.outcome];
     }
     replans += r.replans;
     runs_with_replans += r.replans > 0;

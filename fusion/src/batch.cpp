@@ -268,6 +268,21 @@ StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::
   return p;
 }
 
+double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p) {
+  double best = std::numeric_limits<double>::infinity(), width = 0.0;
+  for (const map::SurveyRoadway& r : survey.roadways) {
+    const map::Polyline c = survey.centreline(r);
+    if (c.empty()) continue;
+    const double d = (c.nearestPoint(p) - p).norm();
+    const auto section = survey.sections.find(r.section);
+    if (d < best && section != survey.sections.end()) {
+      best = d;
+      width = 2.0 * section->second.halfWidthAt(kCentreAboveFloorM);
+    }
+  }
+  return width;
+}
+
 BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index) {
   BatchRunResult out;
   out.index = index;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -206,6 +207,16 @@ TEST_F(BatchTest, RobotRangesAreDrawnPerScenario) {
   EXPECT_GT(same_draws, 0);
   std::sort(radii.begin(), radii.end());
   EXPECT_LT(radii.front(), radii.back());
+}
+
+// The roadway-width feature: the section of the nearest roadway at the robot's centre height.
+TEST_F(BatchTest, RoadwayWidthIsTheNearestRoadwaysSection) {
+  // Main haulage between M90 and M160 (arch 4.8 m wide, walls 1.5 m: 1.6 m up is just above
+  // the springing line), and crosscut-90 half way between M90 and R90 (rectangle 4.0 m).
+  const double arch = 2.0 * std::sqrt(2.4 * 2.4 - 0.1 * 0.1);
+  EXPECT_NEAR(roadwayWidthAt(*survey_, map::Vec3(125.0, 0.0, -6.1 + 1.6)), arch, 1e-6);
+  EXPECT_NEAR(roadwayWidthAt(*survey_, map::Vec3(90.0, 20.0, -4.04 + 1.6)), 4.0, 1e-9);
+  EXPECT_EQ(roadwayWidthAt(map::SurveyNetwork(), map::Vec3::Zero()), 0.0);
 }
 
 }  // namespace

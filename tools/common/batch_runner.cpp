@@ -29,17 +29,18 @@ std::string batchRecord(const fusion::BatchRunResult& r) {
   std::replace_if(msg.begin(), msg.end(), [](char c) { return c == '\t' || c == '\n' || c == '\r'; }, ' ');
   char buf[512];
   std::snprintf(buf, sizeof buf,
-                "%d\t%llu\t%s\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t",
+                "%d\t%llu\t%s\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t",
                 r.index, static_cast<unsigned long long>(r.seed), r.outcome.c_str(), r.arrival_time_s, r.path_length_m,
                 r.min_clearance_m, r.collisions, r.replans, r.step_p50_us, r.step_p99_us, r.final_goal_distance_m,
-                r.arrival_tolerance_m, r.vehicles, int(r.roof_fall), r.separation_m, r.robot_radius_m, r.robot_speed_mps);
+                r.arrival_tolerance_m, r.vehicles, int(r.roof_fall), r.separation_m, r.robot_radius_m, r.robot_speed_mps,
+                r.roadway_width_m);
   return buf + msg + "\n";
 }
 
 std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) {
   std::vector<std::string> f;
   std::size_t from = 0;
-  for (int k = 0; k < 17; ++k) {
+  for (int k = 0; k < 18; ++k) {
     const std::size_t tab = line.find('\t', from);
     if (tab == std::string::npos) return std::nullopt;
     f.push_back(line.substr(from, tab - from));
@@ -64,13 +65,18 @@ std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) 
   r.separation_m = num(f[14]);
   r.robot_radius_m = num(f[15]);
   r.robot_speed_mps = num(f[16]);
+  r.roadway_width_m = num(f[17]);
   r.message = line.substr(from);
   return r;
 }
 
 fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams& params, int index) {
   StatusOr<local::Scenario> sc = fusion::makeBatchScenario(setup.base, setup.survey, setup.truth, params, index);
-  if (sc.ok()) return fusion::runBatchScenario(*sc, setup.truth, index);
+  if (sc.ok()) {
+    fusion::BatchRunResult r = fusion::runBatchScenario(*sc, setup.truth, index);
+    r.roadway_width_m = fusion::roadwayWidthAt(setup.survey, sc->start);
+    return r;
+  }
   fusion::BatchRunResult r;
   r.index = index;
   r.seed = fusion::batchRunSeed(params.seed, index);

@@ -79,7 +79,12 @@ struct BatchRunResult {
   double separation_m = 0.0;  ///< straight-line start-goal distance
   double robot_radius_m = 0.0;
   double robot_speed_mps = 0.0;  ///< v_max
+  double roadway_width_m = 0.0;  ///< roadwayWidthAt(start)
 };
+
+/// The width, at the robot's centre height above the floor (1.6 m), of the section of the
+/// roadway whose centreline passes nearest to `p`; 0 for a survey without roadways.
+double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p);
 
 /// The scenario generator's ranges from a small YAML (every key optional, defaults as above;
 /// `seed` is not read: it is the campaign's):
