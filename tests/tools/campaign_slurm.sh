@@ -6,7 +6,7 @@
 # and always cleaned up), submits tools/slurm/campaign.sbatch as an array of M shards, waits
 # (squeue polling, with a timeout), merges, and checks that the merge equals the one-process run
 # of the campaign_shards fixture: the same rows (sorted by index, without the two wall-clock
-# step-time columns) and the same merged counts.
+# step-time columns) and the same merged counts, also after task 2 was lost and re-run alone.
 # Usage: campaign_slurm.sh ADIT MAP SBATCH_SCRIPT OUT N SEED M REFERENCE_DIR GENERATOR
 set -euo pipefail
 ADIT=$1 MAP=$2 SCRIPT=$3 OUT=$4 N=$5 SEED=$6 M=$7 REF=$8 GENERATOR=$9
@@ -106,6 +106,25 @@ done
 cat "$T"/out/*.out
 completed=$(scontrol -o show job "$jid" | grep -c JobState=COMPLETED || true)
 [ "$completed" = "$M" ] || { scontrol -o show job "$jid" >&2; echo "$completed of $M tasks completed" >&2; exit 1; }
+
+# A lost task (its files gone, as when it was killed before writing them): merge refuses, the
+# task is re-run alone with --array=K, the other shards' files are left as they were.
+rm "$C/shard-2-of-$M.json" "$C/shard-2-of-$M.csv"
+if "$ADIT" campaign merge -q "$C" --out "$C/report.json" 2>"$T/merge.err"; then
+  echo "merge accepted a campaign without shard 2" >&2; exit 1
+fi
+grep -q "missing shards.*shard-2-of-$M.json" "$T/merge.err" || { cat "$T/merge.err" >&2; exit 1; }
+before=$(stat -c '%n %i %.9Y' "$C"/shard-*.json)
+jid=$(ADIT=$ADIT sbatch --parsable --array=2 --cpus-per-task=1 -o "$T/out/%A_%a.out" \
+  "$SCRIPT" "$MAP" "$N" "$SEED" "$M" "$C" -q --generator "$GENERATOR")
+echo "re-submitted task 2 alone as job $jid"
+while [ -n "$(squeue -h -j "$jid" 2>/dev/null)" ]; do
+  alive
+  [ $SECONDS -lt $deadline ] || { echo "task 2 did not finish in time" >&2; exit 1; }
+  sleep 0.2
+done
+[ -f "$C/shard-2-of-$M.json" ] || { echo "task 2 re-run wrote no shard" >&2; exit 1; }
+[ "$(stat -c '%n %i %.9Y' "$C"/shard-*.json | grep -v "shard-2-of")" = "$before" ] || { echo "other shards were rewritten" >&2; exit 1; }
 
 "$ADIT" campaign merge -q "$C" --out "$C/report.json" --csv "$C/merged.csv"
 rows() { tail -n +2 "$1" | cut -d, -f1-7 | sort -t, -k1,1n; }
