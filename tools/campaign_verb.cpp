@@ -24,6 +24,7 @@
 
 #include "adit/fusion/batch.hpp"
 #include "adit/map/map_io.hpp"
+#include "adit_commit.hpp"
 #include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
 #include "common/cli.hpp"
@@ -212,6 +213,7 @@ int runShard(const CampaignArgs& a) {
   id.shards = m;
   id.generator = bp;
   id.adit_version = ADIT_VERSION;
+  id.adit_commit = ADIT_COMMIT;
   if (a.map.empty()) return report(invalidArgument("--map is required (a survey .yaml)"));
   StatusOr<std::string> hash = fileContentHash(a.map);
   if (!hash.ok()) return report(hash.status());

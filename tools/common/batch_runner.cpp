@@ -225,6 +225,7 @@ nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id) {
   j["shards"] = id.shards;
   j["generator"] = gen;
   j["adit_version"] = id.adit_version;
+  j["adit_commit"] = id.adit_commit;
   return j;
 }
 
@@ -240,6 +241,7 @@ StatusOr<CampaignIdentity> campaignIdentityFromJson(const nlohmann::json& j, con
     id.scenarios = c.at("scenarios").get<int>();
     id.shards = c.at("shards").get<int>();
     id.adit_version = c.value("adit_version", std::string());
+    id.adit_commit = c.value("adit_commit", std::string());
     if (!c.at("generator").is_object()) return invalidArgument(file + ": campaign.generator: expected an object");
   } catch (const nlohmann::json::exception& e) {
     return invalidArgument(file + ": campaign: " + e.what());

@@ -62,12 +62,14 @@ struct CampaignIdentity {
   int shards = 1;        ///< M
   fusion::BatchParams generator;
   std::string adit_version;
+  std::string adit_commit;  ///< `git describe` of the build (recorded, not compared: a re-run shard may be a rebuild)
 };
 
 /// FNV-1a 64 of the file's bytes, as "fnv1a64:<hex>". Errors: the file cannot be read.
 StatusOr<std::string> fileContentHash(const std::string& path);
 
-/// {"map", "map_hash", "seed", "scenarios", "shards", "generator": {...}, "adit_version"}; the
+/// {"map", "map_hash", "seed", "scenarios", "shards", "generator": {...}, "adit_version",
+/// "adit_commit"}; the
 /// generator object uses the keys of the generator YAML (fusion::parseBatchParams).
 nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id);
 /// The inverse; errors name `file` and the missing or bad field.
