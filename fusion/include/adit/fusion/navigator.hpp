@@ -15,7 +15,10 @@
 ///      changed window (RoadwayGraph::refreshBlocked through GlobalPlanner::mapChanged) and the
 ///      global layer replans from where the robot is; the event (time, reason, route, replan time)
 ///      is recorded. No route: the command is zero and the status kNoRoute, for good;
-///   3. the local step (LocalPlanner::step) along the expected path.
+///   3. the local step (LocalPlanner::step) along the expected path; with NavigatorParams::subgoals,
+///      toward the sub-goal selected (selectSubgoal, Tian 2016 §2.3) at the start of each period
+///      t0, when the robot moved on to the next segment, and after the expected path changed.
+///      The selection allocates (the optimiser) and takes the optimiser's time in those cycles.
 ///
 /// Time per cycle is bounded by the sensed points (each inserted once) and the local step, except
 /// in a cycle that replans; the report gives both times.
@@ -37,9 +40,11 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "adit/fusion/subgoal_selector.hpp"
 #include "adit/global/global_planner.hpp"
 #include "adit/local/local_planner.hpp"
 #include "adit/map/distance_field.hpp"
@@ -56,6 +61,10 @@ struct NavigatorParams {
   /// Replans allowed for kStuck verdicts (a blocked path always replans); beyond, the navigator
   /// reports kStuck instead of replanning forever.
   int max_stuck_replans = 3;
+  /// Per-period sub-goals (`subgoals: ga_trust_region`) instead of steering at the break points;
+  /// `subgoal.t0_s` is the period.
+  bool subgoals = false;
+  SubgoalParams subgoal;
   Status validate() const;
 };
 
@@ -81,6 +90,7 @@ struct NavigatorCycle {
   bool replanned = false;
   double replan_time_s = 0.0;
   double cycle_time_s = 0.0;      ///< whole cycle, replan included
+  std::optional<Vec3> subgoal;    ///< the per-period sub-goal in force (NavigatorParams::subgoals)
 };
 
 class Navigator {
@@ -111,6 +121,8 @@ class Navigator {
   /// The navigator's decisions so far; like replans(), for the cycle's own thread only.
   const std::vector<NavigatorEvent>& events() const;
   int replans() const;  ///< replans attempted, the one that found no route included
+  /// The sub-goal selections so far (NavigatorParams::subgoals); for the cycle's own thread only.
+  const local::SubgoalStats& subgoalStats() const;
   const global::GlobalPlanner& globalPlanner() const;
 
  private:
