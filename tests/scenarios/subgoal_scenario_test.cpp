@@ -78,6 +78,10 @@ TEST(SubgoalScenario, Tian2016PolylineArrivesWithAndWithoutSubgoals) {
   EXPECT_GT(count(b.subgoals, "optimized"), 0);
   EXPECT_GT(count(b.subgoals, "straight"), 0);
   EXPECT_EQ(count(b.subgoals, "invalid_input"), 0);
+  // Deterministic: the optimiser's GA draws from the scenario's seed.
+  const local::SimulationResult again = run(ga, "ga_trust_region, again");
+  EXPECT_EQ(again.arrival_time_s, b.arrival_time_s);
+  EXPECT_EQ(again.path_length_m, b.path_length_m);
   std::printf("    arrival %.1f s with sub-goals, %.1f s without (ratio %.2f); path %.2f m vs %.2f m\n", b.arrival_time_s,
               a.arrival_time_s, b.arrival_time_s / a.arrival_time_s, b.path_length_m, a.path_length_m);
 }

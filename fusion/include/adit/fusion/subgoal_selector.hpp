@@ -118,7 +118,8 @@ local::SubgoalPick pickSubgoal(const local::RobotState& state, const map::Vec3& 
 
 /// The selector as local::simulate() calls it (SimulateOptions::subgoals).
 local::SubgoalFn subgoalFunction(const local::LocalParams& local, const SubgoalParams& params);
-/// The selector's parameters for a scenario: t0 = `subgoal_period`, the rest the defaults.
+/// The selector's parameters for a scenario: t0 = `subgoal_period`, the optimiser's seed =
+/// `seed`, the rest the defaults.
 SubgoalParams subgoalParamsFor(const local::Scenario& scenario);
 
 }  // namespace adit::fusion

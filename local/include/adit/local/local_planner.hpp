@@ -80,7 +80,7 @@ struct World {
 struct StepCommand {
   Vec3 velocity = Vec3::Zero();      ///< set-point, |v| <= v_max
   Vec3 acceleration = Vec3::Zero();  ///< (velocity - current velocity) / dt, |a| <= a_max
-  Vec3 sub_goal = Vec3::Zero();      ///< the break point (or virtual sub-goal) being steered to
+  Vec3 sub_goal = Vec3::Zero();      ///< the break point (or virtual sub-goal, or setSubgoal's) being steered to
   StepStatus status = StepStatus::kRefused;
   double potential = 0.0;            ///< total U at the robot (models with a potential)
   double clearance_m = std::numeric_limits<double>::infinity();  ///< nearest obstacle surface seen
