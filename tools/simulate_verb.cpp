@@ -214,6 +214,16 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
     traj.values.push_back(s.t_s);
   }
   if (traj.points.size() >= 2) fig.addLine(traj);
+  if (sc.subgoal_mode != SubgoalMode::kNone) {
+    // Each period's sub-goal (the samples hold the one in force: a new value is a new selection).
+    bool first = true;
+    for (std::size_t i = 1; i < r.trajectory.size(); ++i)
+      if (r.trajectory[i].sub_goal != r.trajectory[i - 1].sub_goal) {
+        fig.addMarker({r.trajectory[i].sub_goal, MarkerShape::kCross, kFigureTrajectory, 5, "",
+                       first ? "sub-goals (one per period)" : ""});
+        first = false;
+      }
+  }
   fig.addMarker({sc.start, MarkerShape::kCircle, kFigureStart, 9, "start", ""});
   fig.addMarker({sc.goal, MarkerShape::kSquare, kFigureGoal, 9, "goal", ""});
   return fig;
