@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <new>
 
 #include <sys/mman.h>
@@ -52,6 +53,7 @@ struct SimulateArgs {
   std::string map;
   std::string csv;
   int batch = 0;
+  int first = 0;  // --first: index of the first run (re-run part of a table)
   bool batch_given = false;
   int jobs = 1;
   std::uint64_t seed = 1;
@@ -400,6 +402,7 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const SimulateArgs
   new (next) std::atomic<int>(0);
   int progress[2];
   if (::pipe(progress) != 0) return internalError(std::string("pipe: ") + std::strerror(errno));
+  bar.update("batch", 0.0);  // the stage's clock starts now, not at the first finished run
   std::fflush(nullptr);
   std::vector<pid_t> pids;
   auto file = [dir](int w) { return std::string(dir) + "/worker-" + std::to_string(w) + ".tsv"; };
@@ -410,7 +413,8 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const SimulateArgs
       ::close(progress[0]);
       std::FILE* out = std::fopen(file(w).c_str(), "w");
       if (!out) ::_exit(1);
-      for (int i = next->fetch_add(1); i < a.batch; i = next->fetch_add(1)) {
+      for (int k = next->fetch_add(1); k < a.batch; k = next->fetch_add(1)) {
+        const int i = a.first + k;
         fusion::BatchRunResult r;
         StatusOr<Scenario> sc = fusion::makeBatchScenario(base, survey, truth, bp, i);
         if (sc.ok()) {
@@ -455,14 +459,15 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const SimulateArgs
   for (int w = 0; w < jobs; ++w) {
     std::ifstream in(file(w));
     for (std::string line; std::getline(in, line);)
-      if (std::optional<fusion::BatchRunResult> r = parseBatchRecord(line); r && r->index >= 0 && r->index < a.batch)
-        by_index[std::size_t(r->index)] = std::move(r);
+      if (std::optional<fusion::BatchRunResult> r = parseBatchRecord(line);
+          r && r->index >= a.first && r->index - a.first < a.batch)
+        by_index[std::size_t(r->index - a.first)] = std::move(r);
     std::remove(file(w).c_str());
   }
   ::rmdir(dir);
   std::vector<fusion::BatchRunResult> runs;
   for (std::size_t i = 0; i < by_index.size(); ++i) {
-    if (!by_index[i]) return internalError("batch: run " + std::to_string(i) + " was lost (a worker " +
+    if (!by_index[i]) return internalError("batch: run " + std::to_string(a.first + int(i)) + " was lost (a worker " +
                                            (workers_ok ? "wrote no record" : "failed") + ")");
     runs.push_back(std::move(*by_index[i]));
   }
@@ -493,6 +498,7 @@ nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base,
   j["map"] = *base.map_path;
   j["runs"] = runs.size();
   j["seed"] = a.seed;
+  j["first"] = a.first;
   j["jobs"] = std::min(a.jobs, a.batch);
   j["outcomes"] = outcomes;
   j["success_rate"] = arrived / n;
@@ -512,6 +518,9 @@ nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base,
 
 int runBatch(const SimulateArgs& a) {
   if (a.batch < 1) return report(invalidArgument("--batch must be >= 1 (got " + std::to_string(a.batch) + ")"));
+  if (a.first < 0 || a.first > std::numeric_limits<int>::max() - a.batch)
+    return report(invalidArgument("--first must be >= 0 and --first + --batch must fit an int (got " +
+                                  std::to_string(a.first) + ")"));
   if (a.jobs < 1) return report(invalidArgument("--jobs must be >= 1 (got " + std::to_string(a.jobs) + ")"));
   if (!a.picture.empty() || !a.html.empty()) return report(invalidArgument("--picture and --html are for one run, not --batch"));
   const auto wall0 = std::chrono::steady_clock::now();
@@ -574,6 +583,8 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
                   "falls); JSON summary; exit 1 if a run errored or an arrival collided");
   cmd->add_option("--map", args->map, "With --batch: the survey map (.yaml)");
   cmd->add_option("--seed", args->seed, "With --batch: the batch seed (each run's seed derives from it and its index)");
+  cmd->add_option("--first", args->first,
+                  "With --batch: index of the first run (runs --first .. --first + N - 1; re-runs rows of a table)");
   cmd->add_option("--jobs", args->jobs, "With --batch: worker processes (the table does not depend on it)");
   cmd->add_option("--csv", args->csv, "With --batch: one CSV row per run, written atomically");
   cmd->add_option("--max-separation", args->max_separation,

@@ -70,6 +70,11 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   NavigatorParams np;
   np.local = sc.params;
   np.global.seed = std::uint32_t(sc.seed);
+  // A simulation must give the same run on any machine under any load: the searches stop on
+  // iteration counts (solved: max_iterations; unsolved: ~2 s of an idle machine), and the clock
+  // only as a last resort, far beyond them.
+  np.global.time_budget_s = 60.0;
+  np.global.max_unsolved_iterations = 100000;
   np.subgoals = sc.subgoal_mode == local::SubgoalMode::kGaTrustRegion;
   np.subgoal = subgoalParamsFor(sc);
   ADIT_ASSIGN_OR_RETURN(Navigator nav, Navigator::create(std::move(believed), np, sc.goal));

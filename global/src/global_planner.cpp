@@ -506,24 +506,35 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
         ompl_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(params.time_budget_s));
     std::atomic<long> iterations{0};
     std::atomic<bool> timed_out{false};
+    std::atomic<bool> iteration_capped{false};
     const bool prm = params.planner == PlannerType::kPrmStar;
     ob::PlannerTerminationCondition ptc([&] {
       if (Clock::now() >= deadline) {
         timed_out = true;
         return true;
       }
+      const long it = ++iterations;
+      const bool solved = have_solution || pdef->hasExactSolution();
+      if (params.max_unsolved_iterations > 0 && !solved && it >= params.max_unsolved_iterations) {
+        iteration_capped = true;
+        return true;
+      }
       if (!anytime) return false;
-      return ++iterations >= params.max_iterations && (have_solution || prm || pdef->hasExactSolution());
+      return it >= params.max_iterations && (solved || prm);
     });
     const ob::PlannerStatus status = planner->solve(ptc);
     result.ompl_time_s = seconds(ompl_start, Clock::now());
     result.time_limited = timed_out;
+    result.iterations = iterations;
     const bool exact = status == ob::PlannerStatus::EXACT_SOLUTION;
     if (!exact && status != ob::PlannerStatus::APPROXIMATE_SOLUTION) {
       result.outcome = GlobalPlanOutcome::kTimeout;
       std::ostringstream m;
-      m << "no path found by " << result.planner << " within " << params.time_budget_s << " s"
-        << (anytime ? " / " + std::to_string(params.max_iterations) + " iterations" : std::string());
+      if (iteration_capped)
+        m << "no path found by " << result.planner << " in " << params.max_unsolved_iterations << " iterations";
+      else
+        m << "no path found by " << result.planner << " within " << params.time_budget_s << " s"
+          << (anytime ? " / " + std::to_string(params.max_iterations) + " iterations" : std::string());
       if (!result.route.empty()) m << " in the corridor of the route through " << result.route.size() << " roadways";
       result.message = m.str();
       return finish(result);
@@ -543,7 +554,9 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
       result.path.points = best;
       result.length_m = result.path.length();
       result.message = "only an approximate path (ending " + fmt(best.back()) + ", " +
-                       std::to_string((best.back() - goal).norm()) + " m short of the goal) within the budget";
+                       std::to_string((best.back() - goal).norm()) + " m short of the goal) " +
+                       (iteration_capped ? "in " + std::to_string(params.max_unsolved_iterations) + " iterations"
+                                         : std::string("within the budget"));
       return finish(result);
     }
     Status raw_ok = validatePoints(val, best);

@@ -61,6 +61,9 @@ Status GlobalPlannerParams::validate() const {
   if (Status s = robot.validate(); !s.ok()) return invalidArgument("GlobalPlannerParams::robot: " + s.message());
   ADIT_RETURN_IF_ERROR(positiveFinite("time_budget_s", time_budget_s));
   if (max_iterations < 1) return invalidArgument("GlobalPlannerParams::max_iterations = " + std::to_string(max_iterations) + " must be >= 1");
+  if (max_unsolved_iterations < 0)
+    return invalidArgument("GlobalPlannerParams::max_unsolved_iterations = " + std::to_string(max_unsolved_iterations) +
+                           " must be >= 0 (0: no cap)");
   ADIT_RETURN_IF_ERROR(nonNegativeFinite("safety_margin_m", safety_margin_m));
   ADIT_RETURN_IF_ERROR(nonNegativeFinite("clearance_weight", clearance_weight));
   ADIT_RETURN_IF_ERROR(positiveFinite("preferred_clearance_m", preferred_clearance_m));

@@ -170,6 +170,10 @@ void OccupancyMap::forEachLeaf(const std::function<void(const Vec3&, double, Vox
 }
 
 Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state) {
+  return setVoxels(points, state, nullptr);
+}
+
+Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state, MapChange* change) {
   std::vector<octomap::OcTreeKey> keys(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Vec3& p = points[i];
@@ -179,28 +183,82 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
       return outOfRange(os.str());
     }
   }
-  const float value = state == VoxelState::kOccupied ? tree_->getClampingThresMaxLog()
-                                                     : tree_->getClampingThresMinLog();
-  // Counts are kept incrementally: a whole-tree pass per sensed batch would dominate the update.
+  MapChange local;
+  for (const octomap::OcTreeKey& key : keys) applyKey(key, state, local);
+  finishUpdate();
+  if (change) *change = local;
+  return {};
+}
+
+// One voxel to `state`. Counts are kept incrementally: a whole-tree pass per sensed batch would
+// dominate the update. Bounds only grow (a voxel set to unknown leaves them as they were).
+void OccupancyMap::applyKey(const octomap::OcTreeKey& key, VoxelState state, MapChange& change) {
+  const octomap::OcTreeNode* node = tree_->search(key);
+  const VoxelState before =
+      node ? (tree_->isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree) : VoxelState::kUnknown;
+  if (node) (before == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) -= 1;
   const double res = tree_->getResolution();
-  for (const octomap::OcTreeKey& key : keys) {
-    const octomap::OcTreeNode* node = tree_->search(key);
-    if (node) (tree_->isNodeOccupied(node) ? stats_.occupied_voxels : stats_.free_voxels) -= 1;
-    if (state == VoxelState::kUnknown) {
-      tree_->deleteNode(key);
-      continue;
-    }
-    tree_->setNodeValue(key, value);
-    (state == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) += 1;
-    const octomap::point3d c = tree_->keyToCoord(key);
-    const Vec3 centre(c.x(), c.y(), c.z());
-    stats_.bounds.extend(centre - Vec3::Constant(0.5 * res));
-    stats_.bounds.extend(centre + Vec3::Constant(0.5 * res));
+  const octomap::point3d c = tree_->keyToCoord(key);
+  const Vec3 centre(c.x(), c.y(), c.z());
+  if (before != state) {
+    (state == VoxelState::kOccupied ? change.to_occupied : state == VoxelState::kFree ? change.to_free : change.to_unknown) += 1;
+    change.box.extend(centre - Vec3::Constant(0.5 * res));
+    change.box.extend(centre + Vec3::Constant(0.5 * res));
   }
-  // Bounds only grow here (a voxel set to unknown leaves them as they were).
+  if (state == VoxelState::kUnknown) {
+    if (node) tree_->deleteNode(key);
+    return;
+  }
+  const float value = state == VoxelState::kOccupied ? tree_->getClampingThresMaxLog() : tree_->getClampingThresMinLog();
+  tree_->setNodeValue(key, value);
+  (state == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) += 1;
+  stats_.bounds.extend(centre - Vec3::Constant(0.5 * res));
+  stats_.bounds.extend(centre + Vec3::Constant(0.5 * res));
+}
+
+void OccupancyMap::finishUpdate() {
   stats_.octree_nodes = tree_->size();
   setUnknownFromBounds(stats_);
-  return {};
+}
+
+StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vector<Vec3>& returns, double max_range_m) {
+  if (!std::isfinite(max_range_m) || max_range_m <= 0.0) {
+    std::ostringstream os;
+    os << "insertRays: max_range_m = " << max_range_m << " must be a finite number > 0";
+    return invalidArgument(os.str());
+  }
+  octomap::OcTreeKey origin_key;
+  if (!allFinite(origin) || !tree_->coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) {
+    std::ostringstream os;
+    os << "insertRays: the origin (" << origin.transpose() << ") is outside the map's key range";
+    return outOfRange(os.str());
+  }
+  // Every key first (a refused scan changes nothing), the returns' keys winning over the rays'.
+  octomap::KeySet free_keys, hit_keys;
+  octomap::KeyRay ray;
+  const octomap::point3d o(float(origin.x()), float(origin.y()), float(origin.z()));
+  for (std::size_t i = 0; i < returns.size(); ++i) {
+    const Vec3& p = returns[i];
+    const double d = allFinite(p) ? (p - origin).norm() : 0.0;
+    const bool hit = d <= max_range_m;
+    const Vec3 end = hit ? p : Vec3(origin + (p - origin) * (max_range_m / d));
+    octomap::OcTreeKey end_key;
+    if (!allFinite(p) || !tree_->coordToKeyChecked(end.x(), end.y(), end.z(), end_key) ||
+        !tree_->computeRayKeys(o, octomap::point3d(float(end.x()), float(end.y()), float(end.z())), ray)) {
+      std::ostringstream os;
+      os << "insertRays: return " << i << " (" << p.transpose() << ") is not finite or its ray leaves the map's key range";
+      return outOfRange(os.str());
+    }
+    free_keys.insert(ray.begin(), ray.end());
+    if (hit) hit_keys.insert(end_key);
+    else free_keys.insert(end_key);
+  }
+  MapChange change;
+  for (const octomap::OcTreeKey& k : free_keys)
+    if (!hit_keys.count(k)) applyKey(k, VoxelState::kFree, change);
+  for (const octomap::OcTreeKey& k : hit_keys) applyKey(k, VoxelState::kOccupied, change);
+  finishUpdate();
+  return change;
 }
 
 }  // namespace adit::map

@@ -216,15 +216,20 @@ TEST(GlobalPlanner, RevalidationCatchesACorruptedPath) {
   EXPECT_FALSE(planner.validatePath(corrupted).ok());
 }
 
-TEST(GlobalPlanner, OneVoxelWallIsNeverJumped) {
-  World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 16.0));
+// A 16 m roadway closed at x = 8 by a wall one voxel thick across its whole section.
+void closeWithOneVoxelWall(World& w) {
   const double r = w.map.resolution();
-  // A wall one voxel thick across the whole roadway at x = 8.
   std::vector<Vec3> wall;
   for (double y = -2.5; y <= 2.5; y += r)
     for (double z = -0.5; z <= 3.5; z += r) wall.emplace_back(8.0 + 0.5 * r, y, z);
   ASSERT_TRUE(w.map.setVoxels(wall, map::VoxelState::kOccupied).ok());
   ASSERT_TRUE(w.field.update(w.map, {Vec3(7.5, -3, -1), Vec3(8.5, 3, 4)}).ok());
+}
+
+TEST(GlobalPlanner, OneVoxelWallIsNeverJumped) {
+  World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 16.0));
+  closeWithOneVoxelWall(w);
+  if (HasFatalFailure()) return;
   const Vec3 a(2, 0, 1.5), b(14, 0, 1.5);
   // Plain OMPL in the whole box: nothing to route, only the motion checks stand in the way.
   GlobalPlannerParams p = rrtConnect();
@@ -239,6 +244,29 @@ TEST(GlobalPlanner, OneVoxelWallIsNeverJumped) {
   // The roadway graph sees the wall as a blocked roadway.
   GlobalPlanner routed = w.planner(rrtConnect());
   EXPECT_EQ(routed.plan(a, b).outcome, GlobalPlanOutcome::kNoPath);
+}
+
+// An unsolvable search ends on the iteration cap, not on the clock: the same way on any machine
+// under any load (what makes a batch's table independent of its worker count).
+TEST(GlobalPlanner, UnsolvedSearchStopsOnTheIterationCap) {
+  World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 16.0));
+  closeWithOneVoxelWall(w);
+  if (HasFatalFailure()) return;
+  for (PlannerType type : {PlannerType::kRrtConnect, PlannerType::kBitStar}) {
+    GlobalPlannerParams p;
+    p.planner = type;
+    p.use_roadway_graph = false;
+    p.time_budget_s = 60.0;
+    p.max_unsolved_iterations = 3000;
+    const GlobalPlanResult res = w.planner(p, false).plan({2, 0, 1.5}, {14, 0, 1.5});
+    EXPECT_FALSE(res.solved()) << res.message;
+    EXPECT_FALSE(res.time_limited) << plannerTypeName(type);
+    EXPECT_EQ(res.iterations, 3000) << plannerTypeName(type);
+    EXPECT_NE(res.message.find("3000 iterations"), std::string::npos) << res.message;
+  }
+  GlobalPlannerParams bad;
+  bad.max_unsolved_iterations = -1;
+  EXPECT_NE(bad.validate().message().find("max_unsolved_iterations"), std::string::npos);
 }
 
 TEST(GlobalPlanner, SameSeedSamePathByteForByte) {

@@ -50,21 +50,34 @@ double maxDeviation(const Scenario& sc, const SimulationResult& r) {
   return d;
 }
 
-// Tian 2016 straight path: arrives without collision. The line field's job is to hold the robot
-// on the expected path, so "worse without it" is measured as the largest deviation from the path
-// (tolerance: strictly larger without). The paper's local minimum without the line field is
-// not reproduced here; see the README.
+// Tian 2016 straight path: arrives without collision and meets obstacle 5 where the paper does
+// (tolerance: inside the repulsion range rho_0 = 2 m, within 2 s of the paper's t = 18 s; the
+// scenario's comment gives the sign reading of its acceleration). The line field's job is to hold
+// the robot on the expected path, so "worse without it" is measured as the largest deviation from
+// the path (tolerance: strictly larger without). The paper's local minimum without the line field
+// is not reproduced: the robot arrives either way, without the line field even a little sooner
+// (printed, not asserted; see the README). At 1 m/s it passes the crossing of obstacle 5's track
+// with the path about 5 s before obstacle 5 gets there, so obstacle 5 never stands between it and
+// the goal; a point robot (radius 0.05) and the bare field (params prediction_horizon_s = 0,
+// safety_horizon_s = 0) gave the same.
 TEST(Scenarios, Tian2016StraightArrivesAndTheLineFieldHoldsThePath) {
   const Scenario sc = load("tian2016_straight.yaml");
   const SimulationResult with = run(sc);
   expectCleanArrival(with);
   ASSERT_EQ(with.closest.size(), 3u);
+  const ClosestApproach& fifth = with.closest[2];
+  EXPECT_EQ(fifth.name, "obstacle 5");
+  EXPECT_LT(fifth.distance_m, sc.params.tian2016.rho0_m);
+  EXPECT_NEAR(fifth.t_s, 18.0, 2.0);
   Scenario without = sc;
   without.params.tian2016.k_l = 0.0;
   const SimulationResult no_line = run(without);
+  expectCleanArrival(no_line);
   const double dev_with = maxDeviation(sc, with), dev_without = maxDeviation(sc, no_line);
   std::printf("    max deviation from the expected path: %.3f m with the line field, %.3f m without\n", dev_with,
               dev_without);
+  std::printf("    arrival %.1f s / path %.2f m with the line field, %.1f s / %.2f m without\n", with.arrival_time_s,
+              with.path_length_m, no_line.arrival_time_s, no_line.path_length_m);
   EXPECT_LT(dev_with, dev_without);
 }
 
@@ -95,9 +108,19 @@ TEST(Scenarios, Wang2014UTrapClassicStuckImprovedPasses) {
   expectCleanArrival(run(load("wang2014_u_trap_wang2014.yaml")));
 }
 
-// Guo 2022 static: CVFF needs fewer iterations (steps) than VFF, as in the paper's Table 2
-// (64 vs 75 at p0 = 0.5; 62 vs 74 at p0 = 1). Tolerance: strictly fewer. The paper's shorter
-// path is not reproduced on this layout (printed, not asserted; see the README).
+// Guo 2022 static: CVFF needs fewer iterations (steps) than VFF, as in the paper's Tables 2-3
+// (64 vs 75 at p0 = 0.5; 62 vs 74 at p0 = 1). Tolerance: strictly fewer. Its shorter trajectory
+// (17.378 vs 19.175 dm; 19.036 vs 20.412 dm) is reproduced at p0 = 0.5 only (strictly shorter);
+// at p0 = 1 CVFF's path is 0.8 % longer here (tolerance: within 2 %). The paper gives its layout
+// only in a figure, and no other faithful reading gave both at both p0 on this layout:
+// - eq. 15's kinematic step (direction F/|F| each iteration, no acceleration limit, step l0
+//   whatever |F|: overrides dt = l0, robot.a_max = 20 or 100, params.full_speed_force = 0.001),
+//   l0 = 0.1 and 0.25 grid units: fewer and shorter at p0 = 0.5, but at p0 = 1 CVFF 157 vs 156
+//   and 66 vs 65 steps, longer; l0 = 0.5: both collide at p0 = 0.5; l0 = 1: CVFF worse at both;
+// - a point robot (radius 0.01, d measured from the aircraft's coordinates as in eq. 5), with
+//   either motion: at p0 = 1 CVFF again longer (15.40 vs 15.37 m; 15.22 vs 15.13 m).
+// The paper's own length per iteration (0.26-0.31) is not constant, so its step is not eq. 15's
+// fixed l0 either (see the README).
 TEST(Scenarios, Guo2022StaticCvffFewerIterationsThanVff) {
   for (double p0 : {0.5, 1.0}) {
     Scenario vff = load("guo2022_static_vff.yaml"), cvff = load("guo2022_static_cvff.yaml");
@@ -108,6 +131,8 @@ TEST(Scenarios, Guo2022StaticCvffFewerIterationsThanVff) {
     std::printf("    p0 = %.1f: VFF %d steps %.2f m, CVFF %d steps %.2f m\n", p0, a.steps, a.path_length_m, b.steps,
                 b.path_length_m);
     EXPECT_LT(b.steps, a.steps);
+    if (p0 < 1.0) EXPECT_LT(b.path_length_m, a.path_length_m);
+    else EXPECT_LT(b.path_length_m, 1.02 * a.path_length_m);
   }
 }
 

@@ -66,6 +66,7 @@ struct GlobalPlanResult {
   std::vector<std::string> route;    ///< roadways of the route, in order
   std::vector<int> route_edges;      ///< RoadwayGraph edge ids of the route
   bool time_limited = false;         ///< the time budget stopped the search (results may vary)
+  long iterations = 0;               ///< OMPL iterations (termination-condition checks) of the search
   std::size_t ompl_vertices = 0;     ///< vertices of OMPL's raw path
 
   bool solved() const { return outcome == GlobalPlanOutcome::kExactSolution; }

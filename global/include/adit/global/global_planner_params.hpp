@@ -43,6 +43,10 @@ struct GlobalPlannerParams {
   /// the result does not depend on the machine's speed (determinism); the time budget only cuts
   /// in when the machine is too slow, and the result then says so.
   int max_iterations = 1500;
+  /// Every planner gives up after this many iterations without an exact solution (0: only the
+  /// time budget stops an unsolved search). With it, and a time budget that never cuts in first,
+  /// a failed search ends the same way on any machine under any load (batches rely on it).
+  long max_unsolved_iterations = 0;
   double safety_margin_m = 0.2;     ///< clearance kept beyond the robot's surface [m]
   /// Clearance-aware cost: a segment costs length * (1 + clearance_weight * p), p = 1 at the
   /// required clearance falling linearly to 0 at preferred_clearance_m more. 0 = pure length.

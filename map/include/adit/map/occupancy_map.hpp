@@ -21,6 +21,7 @@
 
 namespace octomap {
 class OcTree;
+class OcTreeKey;
 }
 
 namespace adit::map {
@@ -54,6 +55,17 @@ double maxMapExtent(double resolution_m);
 Status checkExtent(const Aabb& box, double resolution_m);
 /// OK for a finite resolution > 0 (and >= 1 mm, below which float keys stop being meaningful).
 Status checkResolution(double resolution_m);
+
+/// What one map update changed: the voxels whose state differs afterwards (re-marking a voxel
+/// with the state it had is no change). Hand `box` to DistanceField::update().
+struct MapChange {
+  Aabb box;                        ///< union of the changed voxels' cubes; empty when nothing changed
+  std::size_t to_occupied = 0;     ///< voxels that became occupied
+  std::size_t to_free = 0;         ///< voxels that became free
+  std::size_t to_unknown = 0;      ///< voxels that were deleted (set to unknown)
+  std::size_t changed() const { return to_occupied + to_free + to_unknown; }
+  bool empty() const { return changed() == 0; }
+};
 
 /// Copies share the octree (it can be hundreds of megabytes): setVoxels() on one copy changes
 /// what every copy sees, though only its own statistics. Keep one owner that mutates the map.
@@ -94,6 +106,17 @@ class OccupancyMap {
   /// Batch form: all points are checked first, so a refused batch changes nothing. Statistics
   /// are updated incrementally; the bounds only grow.
   Status setVoxels(const std::vector<Vec3>& points, VoxelState state);
+  /// The same, reporting what changed (`change` may be null).
+  Status setVoxels(const std::vector<Vec3>& points, VoxelState state, MapChange* change);
+  /// A range sensor's scan as one transaction: every voxel a ray crosses from `origin` toward a
+  /// return becomes free, the return's voxel occupied (a voxel that is some ray's return stays
+  /// occupied even if another ray crosses it). Returns farther than `max_range_m` are rays with no
+  /// return: free up to the range, nothing occupied. Unlike setVoxels() this clears what the
+  /// sensor saw through: rubble the map still holds but the rays pass becomes free again. The
+  /// caller must only give returns the sensor actually saw (a ray through rock would carve the
+  /// map). Refuses, changing nothing, a non-finite origin or return, a range <= 0, or a ray
+  /// leaving OctoMap's key range.
+  StatusOr<MapChange> insertRays(const Vec3& origin, const std::vector<Vec3>& returns, double max_range_m);
 
   const octomap::OcTree& octree() const { return *tree_; }
   std::shared_ptr<const octomap::OcTree> sharedOctree() const { return tree_; }
@@ -101,6 +124,8 @@ class OccupancyMap {
  private:
   OccupancyMap(std::shared_ptr<octomap::OcTree> tree, UnknownPolicy policy);
   void recomputeStats();
+  void applyKey(const octomap::OcTreeKey& key, VoxelState state, MapChange& change);
+  void finishUpdate();
 
   std::shared_ptr<octomap::OcTree> tree_;
   UnknownPolicy policy_ = UnknownPolicy::kRock;

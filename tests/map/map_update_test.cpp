@@ -1,0 +1,124 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// A map update is one transaction that reports what it changed (issue 8): setVoxels() with a
+// change report, and the range sensor's ray insertion that also clears what the rays passed.
+// Oracle: the map's own state queried voxel by voxel, and a distance field updated over the
+// reported box against one rebuilt from scratch.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "adit/map/distance_field.hpp"
+#include "adit/map/occupancy_map.hpp"
+#include "support/synthetic_roadway.hpp"
+
+namespace adit::map {
+namespace {
+
+OccupancyMap roadway() {
+  return test::voxelizeOrFail(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 20.0, 0.2));
+}
+
+// The field updated over the reported box equals a rebuild.
+void expectFieldMatchesRebuild(const OccupancyMap& map, DistanceField& df, const MapChange& change) {
+  ASSERT_TRUE(df.update(map, change.box).ok());
+  StatusOr<DistanceField> fresh = DistanceField::build(map);
+  ASSERT_TRUE(fresh.ok());
+  std::mt19937_64 rng(11);
+  for (int i = 0; i < 3000; ++i) {
+    const Vec3 p = test::randomPoint(rng, map.bounds());
+    ASSERT_EQ(df.isFree(p), fresh->isFree(p)) << p.transpose();
+    ASSERT_NEAR(df.distance(p), fresh->distance(p), 1e-9) << p.transpose();
+  }
+}
+
+TEST(MapUpdate, SetVoxelsReportsOnlyWhatChanged) {
+  OccupancyMap map = roadway();
+  const std::uint64_t occupied0 = map.stats().occupied_voxels;
+  MapChange c;
+  // Two new rubble voxels and one that is rock already (the floor under the roadway).
+  ASSERT_TRUE(map.setVoxels({{5.1, 0.1, 1.1}, {5.3, 0.1, 1.1}, {5.1, 0.1, -0.5}}, VoxelState::kOccupied, &c).ok());
+  EXPECT_EQ(c.to_occupied, 2u);
+  EXPECT_EQ(c.changed(), 2u);
+  EXPECT_NEAR(c.box.min.x(), 5.0, 1e-6);
+  EXPECT_NEAR(c.box.max.x(), 5.4, 1e-6);
+  EXPECT_NEAR(c.box.max.z(), 1.2, 1e-6);
+  EXPECT_EQ(map.stats().occupied_voxels, occupied0 + 2);
+  // The same again changes nothing.
+  ASSERT_TRUE(map.setVoxels({{5.1, 0.1, 1.1}}, VoxelState::kOccupied, &c).ok());
+  EXPECT_TRUE(c.empty());
+  EXPECT_TRUE(c.box.empty());
+  // A refused batch changes nothing and reports nothing.
+  MapChange untouched;
+  untouched.to_free = 7;
+  EXPECT_FALSE(map.setVoxels({{6.1, 0.1, 1.1}, {std::nan(""), 0, 0}}, VoxelState::kOccupied, &untouched).ok());
+  EXPECT_EQ(untouched.to_free, 7u);
+  EXPECT_TRUE(map.isFree({6.1, 0.1, 1.1}));
+}
+
+TEST(MapUpdate, RaysMarkReturnsAndClearWhatTheyPass) {
+  OccupancyMap map = roadway();
+  StatusOr<DistanceField> df = DistanceField::build(map);
+  ASSERT_TRUE(df.ok());
+  // Rubble the map believes in at x = 8: a 1 m block across the ray's line.
+  std::vector<Vec3> rubble;
+  for (double x = 8.1; x < 9.0; x += 0.2)
+    for (double y = -0.5; y < 0.5; y += 0.2)
+      for (double z = 0.7; z < 1.6; z += 0.2) rubble.push_back({x, y, z});
+  ASSERT_TRUE(map.setVoxels(rubble, VoxelState::kOccupied).ok());
+  ASSERT_TRUE(df->update(map, Aabb({8.0, -0.6, 0.6}, {9.0, 0.6, 1.7})).ok());
+  ASSERT_FALSE(map.isFree({8.5, 0.1, 1.1}));
+
+  // The sensor at x = 2 sees through where the rubble was to a return at x = 12 (new rock).
+  const Vec3 origin(2.1, 0.1, 1.1), hit(12.1, 0.1, 1.1);
+  StatusOr<MapChange> c = map.insertRays(origin, {hit}, 15.0);
+  ASSERT_TRUE(c.ok()) << c.status().toString();
+  EXPECT_EQ(c->to_occupied, 1u);
+  EXPECT_EQ(c->to_free, 5u);  // the rubble voxels on the ray's line
+  EXPECT_FALSE(map.isFree(hit));
+  for (double x = 8.1; x < 9.0; x += 0.2) EXPECT_TRUE(map.isFree({x, 0.1, 1.1})) << x;
+  EXPECT_FALSE(map.isFree({8.5, 0.3, 1.1}));  // rubble beside the ray stays
+  EXPECT_TRUE(c->box.contains({8.5, 0.1, 1.1}));
+  EXPECT_TRUE(c->box.contains(hit));
+  expectFieldMatchesRebuild(map, *df, *c);
+}
+
+TEST(MapUpdate, ReturnsWinOverCrossingRaysAndFarReturnsOnlyClear) {
+  OccupancyMap map = roadway();
+  const Vec3 origin(2.1, 0.1, 1.1);
+  // Ray 1 returns at x = 6; ray 2 passes through that voxel to x = 10: x = 6 stays occupied.
+  // Ray 3's return lies beyond the range: free up to the range, no rock.
+  StatusOr<MapChange> c = map.insertRays(origin, {{6.1, 0.1, 1.1}, {10.1, 0.1, 1.1}, {2.1, 0.1, 2.5}}, 1.0);
+  ASSERT_TRUE(c.ok()) << c.status().toString();
+  // Only ray 3 is inside the 1 m range... the others are rays with no return.
+  EXPECT_EQ(c->to_occupied, 0u);
+  c = map.insertRays(origin, {{6.1, 0.1, 1.1}, {10.1, 0.1, 1.1}}, 15.0);
+  ASSERT_TRUE(c.ok());
+  EXPECT_FALSE(map.isFree({6.1, 0.1, 1.1}));
+  EXPECT_FALSE(map.isFree({10.1, 0.1, 1.1}));
+  EXPECT_EQ(c->to_occupied, 2u);
+}
+
+TEST(MapUpdate, BadScansAreRefusedAndChangeNothing) {
+  OccupancyMap map = roadway();
+  const MapStats before = map.stats();
+  const Vec3 origin(2.1, 0.1, 1.1);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(map.insertRays(origin, {{6.1, 0.1, 1.1}}, 0.0).ok());
+  EXPECT_FALSE(map.insertRays(origin, {{6.1, 0.1, 1.1}}, nan).ok());
+  EXPECT_FALSE(map.insertRays({nan, 0, 0}, {{6.1, 0.1, 1.1}}, 10.0).ok());
+  StatusOr<MapChange> c = map.insertRays(origin, {{6.1, 0.1, 1.1}, {1e9, 0, 0}}, 1e10);
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.status().message().find("return 1"), std::string::npos) << c.status().message();
+  EXPECT_TRUE(map.isFree({6.1, 0.1, 1.1}));  // the good first ray was not applied either
+  EXPECT_EQ(map.stats().occupied_voxels, before.occupied_voxels);
+  EXPECT_EQ(map.stats().free_voxels, before.free_voxels);
+  // An empty scan is a valid no-op.
+  StatusOr<MapChange> none = map.insertRays(origin, {}, 10.0);
+  ASSERT_TRUE(none.ok());
+  EXPECT_TRUE(none->empty());
+}
+
+}  // namespace
+}  // namespace adit::map
