@@ -19,6 +19,7 @@
 
 #include "adit/fusion/batch.hpp"
 #include "adit/fusion/navigated_simulation.hpp"
+#include "adit/fusion/subgoal_selector.hpp"
 #include "adit/local/simulator.hpp"
 #include "adit/map/map_io.hpp"
 #include "common/animation_page.hpp"
@@ -59,6 +60,7 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
   nlohmann::ordered_json j;
   j["scenario"] = sc.name;
   j["method"] = methodName(sc.params.method);
+  j["subgoals"] = subgoalModeName(sc.subgoal_mode);
   j["outcome"] = outcomeName(r.outcome);
   if (!r.message.empty()) j["message"] = r.message;
   j["arrival_time"] = r.arrived() ? nlohmann::ordered_json(r.arrival_time_s) : nlohmann::ordered_json(nullptr);
@@ -79,11 +81,24 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
                        {"distance", std::isfinite(c.distance_m) ? nlohmann::ordered_json(c.distance_m) : nlohmann::ordered_json(nullptr)},
                        {"t", c.t_s}});
   j["closest_approaches"] = closest;
+  const bool subgoals = sc.subgoal_mode != SubgoalMode::kNone;
+  if (subgoals) {
+    // How the per-period selection went: periods by outcome (optimized, straight, ...) and its time.
+    nlohmann::ordered_json kinds = nlohmann::ordered_json::object();
+    for (const auto& [kind, n] : r.subgoals.by_kind) kinds[kind] = n;
+    j["subgoal_period"] = sc.subgoal_period_s;
+    j["subgoal_selection"] = {{"periods", r.subgoals.periods},
+                              {"outcomes", kinds},
+                              {"time_us", {{"mean", r.subgoals.time_mean_us}, {"max", r.subgoals.time_max_us}}}};
+  }
   auto traj = nlohmann::ordered_json::array();
-  for (const TrajectorySample& s : r.trajectory)
-    traj.push_back({{"t", s.t_s}, {"x", s.position.x()}, {"y", s.position.y()}, {"z", s.position.z()},
-                    {"vx", s.velocity.x()}, {"vy", s.velocity.y()}, {"vz", s.velocity.z()},
-                    {"status", stepStatusName(s.status)}});
+  for (const TrajectorySample& s : r.trajectory) {
+    nlohmann::ordered_json sample{{"t", s.t_s}, {"x", s.position.x()}, {"y", s.position.y()}, {"z", s.position.z()},
+                                  {"vx", s.velocity.x()}, {"vy", s.velocity.y()}, {"vz", s.velocity.z()},
+                                  {"status", stepStatusName(s.status)}};
+    if (subgoals) sample["subgoal"] = {s.sub_goal.x(), s.sub_goal.y(), s.sub_goal.z()};
+    traj.push_back(std::move(sample));
+  }
   j["trajectory"] = traj;
   return j;
 }
@@ -212,6 +227,16 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
     traj.values.push_back(s.t_s);
   }
   if (traj.points.size() >= 2) fig.addLine(traj);
+  if (sc.subgoal_mode != SubgoalMode::kNone) {
+    // Each period's sub-goal (the samples hold the one in force: a new value is a new selection).
+    bool first = true;
+    for (std::size_t i = 1; i < r.trajectory.size(); ++i)
+      if (r.trajectory[i].sub_goal != r.trajectory[i - 1].sub_goal) {
+        fig.addMarker({r.trajectory[i].sub_goal, MarkerShape::kCross, kFigureTrajectory, 5, "",
+                       first ? "sub-goals (one per period)" : ""});
+        first = false;
+      }
+  }
   fig.addMarker({sc.start, MarkerShape::kCircle, kFigureStart, 9, "start", ""});
   fig.addMarker({sc.goal, MarkerShape::kSquare, kFigureGoal, 9, "goal", ""});
   return fig;
@@ -272,7 +297,9 @@ int run(const SimulateArgs& a) {
     return report(invalidArgument(a.html + ": --html must end in .html"));
   StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
   if (!sc.ok()) return report(sc.status());
-  if (!a.quiet) std::fprintf(stderr, "adit: simulating %s with %s\n", sc->name.c_str(), methodName(sc->params.method));
+  if (!a.quiet)
+    std::fprintf(stderr, "adit: simulating %s with %s (sub-goals: %s)\n", sc->name.c_str(), methodName(sc->params.method),
+                 subgoalModeName(sc->subgoal_mode));
   StatusOr<Environment> env = Environment::load(*sc);
   if (!env.ok()) return report(env.status());
   std::optional<fusion::NavigatedRun> nav;
@@ -288,7 +315,10 @@ int run(const SimulateArgs& a) {
     // Drawn and exported: the path the run started with.
     sc->expected_path = nav->initial_path;
   } else {
-    r = simulate(*sc, *env);
+    SimulateOptions options;
+    if (sc->subgoal_mode == SubgoalMode::kGaTrustRegion)
+      options.subgoals = fusion::subgoalFunction(sc->params, fusion::subgoalParamsFor(*sc));
+    r = simulate(*sc, *env, options);
   }
   if (!r.ok()) return report(r.status());
   const map::Polyline* replanned = nav && nav->replans > 0 ? &nav->final_path : nullptr;
@@ -310,8 +340,11 @@ int run(const SimulateArgs& a) {
     std::fprintf(stderr, "adit: %s: %s", sc->name.c_str(), outcomeName(r->outcome));
     if (r->arrived()) std::fprintf(stderr, " at t = %.1f s", r->arrival_time_s);
     if (nav) std::fprintf(stderr, ", %d replans (longest %.3f s)", nav->replans, nav->max_replan_time_s);
-    std::fprintf(stderr, ", path %.2f m, min clearance %.3f m, %d collisions, %d steps (p50 %.1f us)\n",
+    std::fprintf(stderr, ", path %.2f m, min clearance %.3f m, %d collisions, %d steps (p50 %.1f us)",
                  r->path_length_m, r->min_clearance_m, r->collisions, r->steps, r->step_time_p50_us);
+    if (r->subgoals.periods > 0)
+      std::fprintf(stderr, ", %d sub-goal periods (mean %.0f us)", r->subgoals.periods, r->subgoals.time_mean_us);
+    std::fputc('\n', stderr);
   }
   return r->arrived() ? kExitOk : kExitFailure;
 }

@@ -135,6 +135,8 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   // only as a last resort, far beyond them.
   np.global.time_budget_s = 60.0;
   np.global.max_unsolved_iterations = 100000;
+  np.subgoals = sc.subgoal_mode == local::SubgoalMode::kGaTrustRegion;
+  np.subgoal = subgoalParamsFor(sc);
   ADIT_ASSIGN_OR_RETURN(Navigator nav, Navigator::create(std::move(believed), np, sc.goal));
 
   NavigatedRun out;
@@ -174,7 +176,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   local::RobotState state;
   state.position = sc.start;
   double t = 0.0;
-  res.trajectory.push_back({0.0, state.position, state.velocity, local::StepStatus::kFollowing});
+  res.trajectory.push_back({0.0, state.position, state.velocity, local::StepStatus::kFollowing, state.position});
   NavigatorStatus last = NavigatorStatus::kDriving;
   for (std::size_t k = 0; k < max_steps; ++k) {
     // The true world changes; the robot senses what of it is in range.
@@ -214,12 +216,13 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
                            }
                          });
     t = double(k + 1) * sc.dt_s;
-    res.trajectory.push_back({t, state.position, state.velocity, c.command.status});
+    res.trajectory.push_back({t, state.position, state.velocity, c.command.status, c.subgoal.value_or(c.command.sub_goal)});
   }
   res.final_goal_distance_m = (state.position - sc.goal).norm();
   res.step_time_p50_us = local::stepTimePercentile(cycle_us, 0.5);
   res.step_time_p99_us = local::stepTimePercentile(cycle_us, 0.99);
   out.replans = nav.replans();
+  res.subgoals = nav.subgoalStats();
   out.events = nav.events();
   out.final_path = nav.expectedPath();
   out.end_time_s = t;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <optional>
 #include <shared_mutex>
@@ -34,6 +35,7 @@ Status NavigatorParams::validate() const {
   ADIT_RETURN_IF_ERROR(global.validate());
   ADIT_RETURN_IF_ERROR(local.validate());
   if (max_stuck_replans < 0) return invalidArgument("max_stuck_replans: must be >= 0");
+  if (subgoals) ADIT_RETURN_IF_ERROR(subgoal.validate());
   return {};
 }
 
@@ -65,6 +67,32 @@ struct Navigator::Impl {
   int stuck_replans = 0;
   bool no_route = false;
   mutable std::shared_mutex mutex;
+  // Sub-goal selection (params.subgoals): when the next is due, and what the last one was for.
+  double next_selection_s = -std::numeric_limits<double>::infinity();
+  std::size_t selected_segment = 0;
+  std::vector<Vec3> selected_path;
+  local::SubgoalStats subgoal_stats;
+  std::optional<Vec3> subgoal;  // in force
+
+  // Hands the local planner a new sub-goal when a period starts, the robot moved on to the next
+  // segment, or the expected path is not the one the last sub-goal was chosen on (a replan).
+  void chooseSubgoal(double t_s, const local::RobotState& state, const std::vector<map::MovingObstacle>& tracks) {
+    if (!params.subgoals) return;
+    const std::size_t seg = local->currentSegment();
+    if (t_s < next_selection_s - 1e-9 && seg == selected_segment && selected_path == path.points) return;
+    selected_segment = seg;
+    selected_path = path.points;
+    next_selection_s = t_s + params.subgoal.t0_s;
+    const std::size_t n = path.points.size();
+    const Vec3 a = n >= 2 ? path.points[std::min(seg, n - 2)] : path.points.back();
+    const Vec3 b = n >= 2 ? path.points[std::min(seg, n - 2) + 1] : path.points.back();
+    const auto s0 = std::chrono::steady_clock::now();
+    const local::SubgoalPick pick = pickSubgoal(state, a, b, &tracks, nullptr, &*field, params.local, params.subgoal);
+    subgoal_stats.add(pick.kind, secondsSince(s0) * 1e6);
+    subgoal = pick.point;
+    if (pick.point) local->setSubgoal(pick.aim);
+    else local->clearSubgoal();
+  }
 
   // Global plan from `from`, refined if `refine`; fills `path` or says why not. Caller holds the
   // exclusive lock.
@@ -210,6 +238,7 @@ NavigatorCycle Navigator::run(double t_s, const local::RobotState& state, const 
     if (!s.ok()) m.events.push_back({t_s, "map_update_failed", s.message(), 0.0, {}, ""});
   }
   // 2. The local step on the (possibly updated) field; stuck asks for a replan too.
+  m.chooseSubgoal(t_s, state, tracks);
   out.command = m.local->step(state, m.path, tracks, dt_s);
   if (!replan_reason && out.command.status == local::StepStatus::kStuck &&
       m.stuck_replans < m.params.max_stuck_replans) {
@@ -238,6 +267,7 @@ NavigatorCycle Navigator::run(double t_s, const local::RobotState& state, const 
     out.command.message = "no route to the goal";
   } else if (out.replanned) {
     // The command of this cycle follows the new path.
+    m.chooseSubgoal(t_s, state, tracks);
     out.command = m.local->step(state, m.path, tracks, dt_s);
   }
   if (!m.no_route) {
@@ -248,6 +278,7 @@ NavigatorCycle Navigator::run(double t_s, const local::RobotState& state, const 
       default: out.status = NavigatorStatus::kDriving; break;
     }
   }
+  out.subgoal = m.subgoal;
   out.cycle_time_s = secondsSince(t0);
   return out;
 }
@@ -265,6 +296,7 @@ map::Polyline Navigator::expectedPath() const {
 const std::vector<NavigatorEvent>& Navigator::events() const { return impl_->events; }
 int Navigator::replans() const { return impl_->replans; }
 const std::optional<PlanRefinement>& Navigator::initialRefinement() const { return impl_->initial_refinement; }
+const local::SubgoalStats& Navigator::subgoalStats() const { return impl_->subgoal_stats; }
 const global::GlobalPlanner& Navigator::globalPlanner() const { return *impl_->global; }
 
 }  // namespace adit::fusion

@@ -204,4 +204,44 @@ SubgoalChoice selectSubgoal(const SubgoalQuery& q, const local::LocalParams& P, 
   return c;
 }
 
+local::SubgoalPick pickSubgoal(const local::RobotState& state, const Vec3& line_a, const Vec3& line_b,
+                               const std::vector<map::MovingObstacle>* moving,
+                               const std::vector<local::StaticSphere>* static_obstacles,
+                               const map::DistanceField* field, const local::LocalParams& local,
+                               const SubgoalParams& params) {
+  SubgoalQuery q;
+  q.position = state.position;
+  q.velocity = state.velocity;
+  q.acceleration = state.acceleration;
+  q.target = line_b;
+  q.line_a = line_a;
+  q.line_b = line_b;
+  q.static_obstacles = static_obstacles;
+  q.moving = moving;
+  q.field = field;
+  const SubgoalChoice c = selectSubgoal(q, local, params);
+  local::SubgoalPick pick;
+  pick.kind = subgoalOutcomeName(c.outcome);
+  if (c.outcome == SubgoalOutcome::kInvalidInput) return pick;
+  pick.point = c.subgoal;
+  const Vec3 bearing = c.subgoal - state.position;
+  const double reach = bearing.norm();
+  pick.aim = reach > 1e-9 ? Vec3(state.position + bearing * (std::max(reach, (line_b - state.position).norm()) / reach))
+                          : c.subgoal;
+  return pick;
+}
+
+local::SubgoalFn subgoalFunction(const local::LocalParams& local, const SubgoalParams& params) {
+  return [local, params](const local::SubgoalRequest& rq) {
+    return pickSubgoal(*rq.state, rq.segment_a, rq.segment_b, rq.moving, rq.static_obstacles, rq.field, local, params);
+  };
+}
+
+SubgoalParams subgoalParamsFor(const local::Scenario& scenario) {
+  SubgoalParams p;
+  p.t0_s = scenario.subgoal_period_s;
+  p.optimizer.seed = scenario.seed;
+  return p;
+}
+
 }  // namespace adit::fusion

@@ -301,6 +301,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   for (const Vec3& p : path.points)
     if (!allFinite(p)) return refuse("expected path has a non-finite point");
   if (moving_count > 0 && !moving) return refuse("moving obstacles: null array");
+  if (has_subgoal_ && !allFinite(subgoal_)) return refuse("the caller's sub-goal is not finite");
   for (std::size_t i = 0; i < moving_count; ++i) {
     const map::MovingObstacle& m = moving[i];
     if (!allFinite(m.position) || !allFinite(m.velocity) || !allFinite(m.acceleration) || !finiteShape(m.shape))
@@ -349,7 +350,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     seg_a = path.points[segment_];
     seg_b = path.points[segment_ + 1];
   }
-  const Vec3 sub_goal = seg_b;
+  const Vec3 sub_goal = has_subgoal_ ? subgoal_ : seg_b;
   cmd.sub_goal = sub_goal;
 
   // Progress: path length still to go from the projection onto the current segment, plus the

@@ -19,6 +19,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The selection runs at the start of a period, so t0 must be a whole number (>= 1) of steps.
+Status subgoalPeriodStatus(double t0, double dt) {
+  const double steps = t0 / dt;
+  if (std::isfinite(t0) && t0 >= dt && std::abs(steps - std::round(steps)) <= 1e-6 * steps) return {};
+  std::ostringstream os;
+  os << "must be a multiple of dt = " << dt << " (got " << t0 << ")";
+  return invalidArgument(os.str());
+}
+
 // Parse errors carry the position of the node they are about; yaml-cpp's own exceptions are caught
 // at the boundary (parseScenario) and converted, so nothing escapes the library.
 struct ScenarioError {
@@ -120,7 +129,8 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
   Scenario s;
   if (!root.IsMap()) r.fail(root, "(document)", "a scenario is a YAML mapping");
   r.onlyKeys(root, "", {"name", "description", "map", "start", "goal", "expected_path", "robot",
-                        "static_obstacles", "moving_obstacles", "method", "params", "dt", "t_max", "seed", "events"});
+                        "static_obstacles", "moving_obstacles", "method", "params", "dt", "t_max", "seed", "events",
+                        "subgoals", "subgoal_period"});
   s.file = r.file();
   s.name = root["name"] ? root["name"].as<std::string>() : fs::path(r.file()).stem().string();
   if (root["description"]) s.description = root["description"].as<std::string>();
@@ -241,7 +251,17 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
     std::stable_sort(s.events.begin(), s.events.end(),
                      [](const ScenarioEvent& a, const ScenarioEvent& b) { return a.t_s < b.t_s; });
   }
+  if (const YAML::Node m = root["subgoals"]) {
+    if (!m.IsScalar()) r.fail(m, "subgoals", "must be none or ga_trust_region");
+    StatusOr<SubgoalMode> mode = parseSubgoalMode(m.Scalar());
+    if (!mode.ok()) r.fail(m, "subgoals", mode.status().message());
+    s.subgoal_mode = *mode;
+  }
   if (root["dt"]) s.dt_s = r.positive(root["dt"], "dt");
+  if (const YAML::Node n = root["subgoal_period"]) {
+    s.subgoal_period_s = r.positive(n, "subgoal_period");
+    if (Status st = subgoalPeriodStatus(s.subgoal_period_s, s.dt_s); !st.ok()) r.fail(n, "subgoal_period", st.message());
+  }
   if (root["t_max"]) s.t_max_s = r.positive(root["t_max"], "t_max");
   if (root["seed"]) {
     const double seed = r.nonNegative(root["seed"], "seed");
@@ -254,11 +274,26 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
 
 }  // namespace
 
+const char* subgoalModeName(SubgoalMode m) {
+  switch (m) {
+    case SubgoalMode::kNone: return "none";
+    case SubgoalMode::kGaTrustRegion: return "ga_trust_region";
+  }
+  return "?";
+}
+
+StatusOr<SubgoalMode> parseSubgoalMode(const std::string& name) {
+  for (SubgoalMode m : {SubgoalMode::kNone, SubgoalMode::kGaTrustRegion})
+    if (name == subgoalModeName(m)) return m;
+  return invalidArgument("unknown sub-goal mode '" + name + "' (none, ga_trust_region)");
+}
+
 Status Scenario::validate() const {
   ADIT_RETURN_IF_ERROR(params.validate());
   if (expected_path.points.empty()) return invalidArgument("expected_path: empty");
   if (!(dt_s > 0.0) || !(t_max_s >= dt_s)) return invalidArgument("dt must be > 0 and t_max >= dt");
   if (t_max_s / dt_s > 1e7) return invalidArgument("t_max / dt: more than 10 million steps");
+  if (Status st = subgoalPeriodStatus(subgoal_period_s, dt_s); !st.ok()) return invalidArgument("subgoal_period: " + st.message());
   const double r = params.robot.radius_m;
   for (std::size_t i = 0; i < static_obstacles.size(); ++i) {
     const StaticSphere& o = static_obstacles[i];

@@ -176,11 +176,26 @@ bool collisionVerdict(SimulationResult& res) {
   return true;
 }
 
-StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) {
+void SubgoalStats::add(const std::string& kind, double us) {
+  time_mean_us += (us - time_mean_us) / double(++periods);
+  time_max_us = std::max(time_max_us, us);
+  for (auto& [k, n] : by_kind)
+    if (k == kind) {
+      ++n;
+      return;
+    }
+  by_kind.emplace_back(kind, 1);
+}
+
+StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env, const SimulateOptions& options) {
   ADIT_RETURN_IF_ERROR(sc.validate());
   if (sc.needsNavigator())
     return invalidArgument(sc.file + ": expected_path: plan, robot.sensor_range and events need the navigator "
                            "(adit::fusion::simulateNavigated)");
+  const bool select_subgoals = sc.subgoal_mode != SubgoalMode::kNone;
+  if (select_subgoals && !options.subgoals)
+    return invalidArgument(sc.file + ": subgoals: " + subgoalModeName(sc.subgoal_mode) +
+                           " needs the selector of adit::fusion (SimulateOptions::subgoals)");
   const double r = sc.params.robot.radius_m;
   if (env.field()) {
     if (!env.field()->isFree(sc.start)) return invalidArgument(sc.file + ": start: inside rock");
@@ -211,9 +226,14 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) 
   RobotState state;
   state.position = sc.start;
   double t = 0.0;
-  res.trajectory.push_back({0.0, state.position, state.velocity, StepStatus::kFollowing});
+  res.trajectory.push_back({0.0, state.position, state.velocity, StepStatus::kFollowing, state.position});
   bool stuck = false;
   StepStatus last = StepStatus::kFollowing;
+  // Sub-goals: chosen at the start of each period of subgoal_period_s steps, and again as soon as
+  // the robot moves on to the next segment (the old sub-goal aimed at the passed break point).
+  const auto period_steps = std::size_t(std::llround(sc.subgoal_period_s / sc.dt_s));
+  std::size_t next_selection = 0, selected_segment = 0;
+  std::optional<Vec3> subgoal;  // in force
 
   for (std::size_t k = 0; k < max_steps; ++k) {
     for (std::size_t i = 0; i < nm; ++i) {
@@ -221,6 +241,25 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) 
       sensed[i] = m;
       sensed[i].position = m.positionAt(t);
       sensed[i].velocity = m.velocityAt(t);
+    }
+    if (select_subgoals && (k >= next_selection || planner.currentSegment() != selected_segment)) {
+      selected_segment = planner.currentSegment();
+      next_selection = k + period_steps;
+      const std::vector<Vec3>& pts = sc.expected_path.points;
+      SubgoalRequest rq;
+      rq.t_s = t;
+      rq.state = &state;
+      rq.segment_a = pts.size() >= 2 ? pts[selected_segment] : pts.back();
+      rq.segment_b = pts.size() >= 2 ? pts[selected_segment + 1] : pts.back();
+      rq.moving = &sensed;
+      rq.static_obstacles = &sc.static_obstacles;
+      rq.field = env.field();
+      const auto s0 = std::chrono::steady_clock::now();
+      const SubgoalPick pick = options.subgoals(rq);
+      res.subgoals.add(pick.kind, std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - s0).count());
+      subgoal = pick.point;
+      if (pick.point) planner.setSubgoal(pick.aim);
+      else planner.clearSubgoal();
     }
     const auto t0 = std::chrono::steady_clock::now();
     const StepCommand c = planner.step(state, sc.expected_path, sensed, sc.dt_s);
@@ -237,7 +276,7 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env) 
     }
     refereePeriod(sc, env, c.acceleration, t, state, res);
     t = double(k + 1) * sc.dt_s;
-    res.trajectory.push_back({t, state.position, state.velocity, c.status});
+    res.trajectory.push_back({t, state.position, state.velocity, c.status, subgoal.value_or(c.sub_goal)});
   }
   res.final_goal_distance_m = (state.position - sc.goal).norm();
   res.step_time_p50_us = stepTimePercentile(step_us, 0.5);

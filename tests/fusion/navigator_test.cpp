@@ -18,11 +18,12 @@ namespace {
 const std::string kMap = std::string(ADIT_MAPS_DIR) + "/scenarios/sealed_roadway_map.yaml";
 const Vec3 kStart(3, 0, 1.6), kGoal(37, 0, 1.6);
 
-Navigator makeNavigator() {
+Navigator makeNavigator(bool subgoals = false) {
   StatusOr<map::LoadedMap> loaded = map::loadMapAndSurvey(kMap);
   EXPECT_TRUE(loaded.ok()) << loaded.status().message();
   NavigatorParams p;
   p.local.robot.radius_m = 0.4;
+  p.subgoals = subgoals;
   StatusOr<Navigator> nav = Navigator::create(std::move(loaded).value(), p, kGoal);
   EXPECT_TRUE(nav.ok()) << nav.status().message();
   Status s = nav->plan(kStart);
@@ -119,6 +120,36 @@ TEST(Navigator, RoofFallAcrossTheOnlyRoadwayStopsWithNoRoute) {
   const NavigatorCycle later = nav.cycle(4.1, at(Vec3(8, 0, 1.6)), {}, {}, 0.1);
   EXPECT_EQ(later.status, NavigatorStatus::kNoRoute);
   EXPECT_EQ(later.command.velocity, Vec3::Zero());
+}
+
+// NavigatorParams::subgoals: a sub-goal in the annulus around the robot at the start of each
+// period t0 (1 s), held in between; without, none.
+TEST(Navigator, SubgoalsAreSelectedOncePerPeriod) {
+  Navigator nav = makeNavigator(true);
+  local::RobotState s = at(kStart);
+  for (int k = 0; k < 25; ++k) {
+    const NavigatorCycle c = nav.cycle(0.1 * k, s, {}, {}, 0.1);
+    ASSERT_EQ(c.status, NavigatorStatus::kDriving) << c.command.message;
+    ASSERT_TRUE(c.subgoal);
+    if (k == 0) {
+      const double r = (*c.subgoal - s.position).norm();
+      EXPECT_GE(r, 0.6 - 1e-9);
+      EXPECT_LE(r, 1.0 + 1e-9);
+    }
+    s.position += 0.1 * c.command.velocity;
+    s.velocity = c.command.velocity;
+  }
+  EXPECT_EQ(nav.subgoalStats().periods, 3);  // t = 0, 1, 2 s
+  EXPECT_GT(s.position.x(), kStart.x() + 0.3);
+
+  Navigator plain = makeNavigator(false);
+  EXPECT_FALSE(plain.cycle(0.0, at(kStart), {}, {}, 0.1).subgoal);
+  EXPECT_EQ(plain.subgoalStats().periods, 0);
+
+  NavigatorParams bad;
+  bad.subgoals = true;
+  bad.subgoal.t0_s = 0.0;
+  EXPECT_NE(bad.validate().message().find("t0_s"), std::string::npos) << bad.validate().message();
 }
 
 TEST(Navigator, RefusesNonFiniteState) {

@@ -81,5 +81,45 @@ TEST(SubgoalSelector, NonFiniteInputAndNearTarget) {
   EXPECT_EQ(c.subgoal, q.target);
 }
 
+// What a run hands the local planner (pickSubgoal): the sub-goal's bearing at the break point's
+// distance. Far from obstacles that is the break point itself; near one the bearing of the
+// annulus' minimum; bad input gives no point (the planner keeps steering at the break point).
+TEST(SubgoalSelector, PickAimsAlongTheSubgoalsBearingAtTheBreakPointsDistance) {
+  const LocalParams lp = LocalParams::preset(Method::kTian2016);
+  local::RobotState st;
+  const Vec3 a(0, 0, 0), b(14, 14, 0);
+  const std::vector<StaticSphere> far = {{Vec3(10, 0, 0), 0.4}};
+  local::SubgoalPick pick = pickSubgoal(st, a, b, nullptr, &far, nullptr, lp, SubgoalParams{});
+  ASSERT_TRUE(pick.point);
+  EXPECT_EQ(pick.kind, "straight");
+  EXPECT_NEAR((pick.aim - b).norm(), 0.0, 1e-9);
+
+  LocalParams lp2 = lp;
+  lp2.robot.radius_m = 0.1;
+  const std::vector<StaticSphere> ahead = {{Vec3(1, 1, 0).normalized() * 1.6, 0.4}};
+  pick = pickSubgoal(st, a, b, nullptr, &ahead, nullptr, lp2, SubgoalParams{});
+  ASSERT_TRUE(pick.point);
+  EXPECT_EQ(pick.kind, "optimized");
+  EXPECT_NEAR(pick.aim.norm(), b.norm(), 1e-9);
+  EXPECT_NEAR(pick.aim.normalized().dot(pick.point->normalized()), 1.0, 1e-12);
+  // Same input, same seed: the same sub-goal.
+  EXPECT_EQ(*pick.point, *pickSubgoal(st, a, b, nullptr, &ahead, nullptr, lp2, SubgoalParams{}).point);
+
+  st.velocity.x() = std::nan("");
+  pick = pickSubgoal(st, a, b, nullptr, &ahead, nullptr, lp2, SubgoalParams{});
+  EXPECT_FALSE(pick.point);
+  EXPECT_EQ(pick.kind, "invalid_input");
+}
+
+TEST(SubgoalSelector, ParamsForAScenarioTakeItsPeriodAndSeed) {
+  local::Scenario sc;
+  sc.subgoal_period_s = 0.5;
+  sc.seed = 42;
+  const SubgoalParams p = subgoalParamsFor(sc);
+  EXPECT_EQ(p.t0_s, 0.5);
+  EXPECT_EQ(p.optimizer.seed, 42u);
+  EXPECT_TRUE(p.validate().ok());
+}
+
 }  // namespace
 }  // namespace adit::fusion

@@ -95,6 +95,47 @@ TEST(LocalPlanner, SubGoalIsTheNextBreakPointAndNeverGoesBack) {
   EXPECT_EQ(p.step(s, path, {}, 0.1).sub_goal, Vec3(10.8, 6.2, 0));
 }
 
+// A caller's sub-goal (the fusion layer's per-period choice) replaces the break point as the
+// attraction's point; the path still decides the segment and arrival. Classic: the force is
+// exactly toward the attraction's point in open space, so the command's direction shows it.
+TEST(LocalPlanner, CallersSubgoalIsWhatTheAttractionAimsAt) {
+  for (Method m : {Method::kClassic, Method::kTian2016}) {
+    LocalPlanner p = make(m);
+    const map::Polyline path{{Vec3(0, 0, 0), Vec3(10, 0, 0), Vec3(10, 10, 0)}};
+    RobotState s;
+    s.position = Vec3(1, 0, 0);  // on the line: the line field pulls nowhere
+    const Vec3 aim(2, 1, 0);
+    p.setSubgoal(aim);
+    StepCommand c = p.step(s, path, {}, 0.1);
+    EXPECT_EQ(c.sub_goal, aim) << methodName(m);
+    ASSERT_GT(c.velocity.norm(), 0.0);
+    EXPECT_NEAR(c.velocity.normalized().dot((aim - s.position).normalized()), 1.0, 1e-9) << methodName(m);
+    EXPECT_EQ(p.currentSegment(), 0u);
+    // The segment still follows the path, not the sub-goal.
+    s.position = Vec3(9.5, 0.2, 0);
+    p.step(s, path, {}, 0.1);
+    EXPECT_EQ(p.currentSegment(), 1u);
+    // Arrival is the goal's, wherever the sub-goal is.
+    s.position = Vec3(10, 9.8, 0);
+    EXPECT_EQ(p.step(s, path, {}, 0.1).status, StepStatus::kArrived);
+    // Cleared: back to the break point.
+    p.clearSubgoal();
+    s.position = Vec3(10, 5, 0);
+    c = p.step(s, path, {}, 0.1);
+    EXPECT_EQ(c.sub_goal, Vec3(10, 10, 0));
+    EXPECT_GT(c.velocity.normalized().y(), 0.99) << methodName(m);
+  }
+}
+
+TEST(LocalPlanner, NonFiniteSubgoalIsRefused) {
+  LocalPlanner p = make(Method::kTian2016);
+  p.setSubgoal(Vec3(kNaN, 0, 0));
+  RobotState s;
+  const StepCommand c = p.step(s, line(Vec3::Zero(), Vec3(10, 0, 0)), {}, 0.1);
+  EXPECT_EQ(c.status, StepStatus::kRefused);
+  EXPECT_TRUE(map::allFinite(c.velocity));
+}
+
 // A robot held in a local minimum (a wall of discs across the straight path, no way round for a
 // classic APF) reports stuck after a bounded time, and stays stuck until the path changes.
 TEST(LocalPlanner, ClassicSaysStuckAfterTheWindowAndResetsOnANewPath) {

@@ -2,6 +2,8 @@
 // The scenario loader: the schema, defaults, and errors that name the field.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "adit/local/scenario.hpp"
 #include "adit/local/simulator.hpp"
 
@@ -56,6 +58,46 @@ TEST(Scenario, ErrorsNameTheField) {
   expectError(replace(kGood, "radius: 0.3}]", "radius: 0.3, colour: red}]"), "moving_obstacles[0].colour: unknown field");
   expectError("start: [0, 0\n", "bad.yaml:");
   expectError(std::string(kGood) + "map: /nonexistent.bt\n", "map: no such file");
+}
+
+TEST(Scenario, SubgoalsKeyDefaultsToNoneAndParsesTheModes) {
+  StatusOr<Scenario> s = parseScenario(kGood, "good.yaml");
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  EXPECT_EQ(s->subgoal_mode, SubgoalMode::kNone);
+  EXPECT_EQ(s->subgoal_period_s, 1.0);
+  s = parseScenario(std::string(kGood) + "subgoals: ga_trust_region\nsubgoal_period: 0.5\n", "good.yaml");
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  EXPECT_EQ(s->subgoal_mode, SubgoalMode::kGaTrustRegion);
+  EXPECT_EQ(s->subgoal_period_s, 0.5);
+  EXPECT_STREQ(subgoalModeName(s->subgoal_mode), "ga_trust_region");
+  s = parseScenario(std::string(kGood) + "subgoals: none\n", "good.yaml");
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  EXPECT_EQ(s->subgoal_mode, SubgoalMode::kNone);
+}
+
+TEST(Scenario, SubgoalErrorsNameTheField) {
+  expectError(std::string(kGood) + "subgoals: genetic\n",
+              "bad.yaml:12:11: subgoals: unknown sub-goal mode 'genetic' (none, ga_trust_region)");
+  expectError(std::string(kGood) + "subgoals: [ga_trust_region]\n", "subgoals: must be none or ga_trust_region");
+  expectError(std::string(kGood) + "subgoal_period: 0\n", "subgoal_period: must be > 0");
+  expectError(std::string(kGood) + "subgoal_period: 0.25\n", "bad.yaml:12:17: subgoal_period: must be a multiple of dt = 0.1 (got 0.25)");
+  expectError(std::string(kGood) + "subgoal_period: 0.05\n", "subgoal_period: must be a multiple of dt");
+  // Built in code rather than loaded: validate() says the same.
+  StatusOr<Scenario> s = parseScenario(kGood, "good.yaml");
+  ASSERT_TRUE(s.ok());
+  s->subgoal_period_s = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(s->validate().message().find("subgoal_period"), std::string::npos);
+}
+
+// local::simulate() has no selector of its own (it lives in adit::fusion): it says so instead
+// of silently steering at the break points.
+TEST(Scenario, SimulateRefusesSubgoalsWithoutASelector) {
+  StatusOr<Scenario> s = parseScenario(std::string(kGood) + "subgoals: ga_trust_region\n", "good.yaml");
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  StatusOr<SimulationResult> r = simulate(*s, Environment::openSpace());
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("subgoals: ga_trust_region needs the selector"), std::string::npos)
+      << r.status().message();
 }
 
 TEST(Scenario, MissingFileIsNamed) {

@@ -52,6 +52,9 @@ TEST(StepAllocation, NoHeapAllocationPerStep) {
     const long before = g_allocations.load();
     int steps = 0;
     for (; steps < 300; ++steps) {
+      // Every other period with a caller's sub-goal (as the fusion layer's selection gives).
+      if (steps % 20 == 10) p->setSubgoal(s.position + Vec3(0.8, 0.3, 0));
+      if (steps % 20 == 0) p->clearSubgoal();
       const StepCommand c = p->step(s, path, mov.data(), mov.size(), 0.1);
       if (c.status == StepStatus::kArrived || c.status == StepStatus::kStuck) break;
       s.position += 0.05 * (s.velocity + c.velocity);

@@ -15,7 +15,10 @@
 ///      changed window (RoadwayGraph::refreshBlocked through GlobalPlanner::mapChanged) and the
 ///      global layer replans from where the robot is; the event (time, reason, route, replan time)
 ///      is recorded. No route: the command is zero and the status kNoRoute, for good;
-///   3. the local step (LocalPlanner::step) along the expected path.
+///   3. the local step (LocalPlanner::step) along the expected path; with NavigatorParams::subgoals,
+///      toward the sub-goal selected (selectSubgoal, Tian 2016 §2.3) at the start of each period
+///      t0, when the robot moved on to the next segment, and after the expected path changed.
+///      The selection allocates (the optimiser) and takes the optimiser's time in those cycles.
 ///
 /// Time per cycle is bounded by the sensed points (each inserted once) and the local step, except
 /// in a cycle that replans; the report gives both times.
@@ -42,6 +45,7 @@
 #include <vector>
 
 #include "adit/fusion/plan_refinement.hpp"
+#include "adit/fusion/subgoal_selector.hpp"
 #include "adit/global/global_planner.hpp"
 #include "adit/local/local_planner.hpp"
 #include "adit/map/distance_field.hpp"
@@ -65,6 +69,10 @@ struct NavigatorParams {
   /// Replans are refined too (with refine_plan). Off by default: a replan happens mid-run, in
   /// the cycle that found the path blocked, and the refinement's time adds to that cycle's.
   bool refine_replans = false;
+  /// Per-period sub-goals (`subgoals: ga_trust_region`) instead of steering at the break points;
+  /// `subgoal.t0_s` is the period.
+  bool subgoals = false;
+  SubgoalParams subgoal;
   Status validate() const;
 };
 
@@ -100,6 +108,7 @@ struct NavigatorCycle {
   bool replanned = false;
   double replan_time_s = 0.0;
   double cycle_time_s = 0.0;      ///< whole cycle, replan included
+  std::optional<Vec3> subgoal;    ///< the per-period sub-goal in force (NavigatorParams::subgoals)
 };
 
 class Navigator {
@@ -139,6 +148,8 @@ class Navigator {
   /// How plan() refined the expected path: before/after length and clearance, time; empty
   /// without refine_plan or before plan().
   const std::optional<PlanRefinement>& initialRefinement() const;
+  /// The sub-goal selections so far (NavigatorParams::subgoals); for the cycle's own thread only.
+  const local::SubgoalStats& subgoalStats() const;
   const global::GlobalPlanner& globalPlanner() const;
 
  private:

@@ -25,6 +25,15 @@
 ///
 ///   SubgoalQuery q{pos, vel, acc, goal, start, goal, &spheres, &moving, &field};
 ///   SubgoalChoice c = selectSubgoal(q, local_params, SubgoalParams{});
+///
+/// In a run (`subgoals: ga_trust_region`): local::simulate() calls subgoalFunction() at the start
+/// of every period (the Navigator calls selectSubgoal itself, NavigatorParams::subgoals) and hands
+/// the choice to LocalPlanner::setSubgoal(): the attraction pulls toward it, the line field and
+/// the progress monitor still follow the expected path's current segment.
+///
+///   local::SimulateOptions opt;
+///   opt.subgoals = subgoalFunction(scenario.params, subgoalParamsFor(scenario));
+///   StatusOr<local::SimulationResult> r = local::simulate(scenario, env, opt);
 
 #include <string>
 #include <vector>
@@ -32,6 +41,8 @@
 #include "adit/fusion/genetic_trust_region.hpp"
 #include "adit/local/local_planner.hpp"
 #include "adit/local/params.hpp"
+#include "adit/local/scenario.hpp"
+#include "adit/local/simulator.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
@@ -86,5 +97,29 @@ double subgoalPotential(const map::Vec3& z, const SubgoalQuery& q, const local::
 
 /// Never throws.
 SubgoalChoice selectSubgoal(const SubgoalQuery& q, const local::LocalParams& local, const SubgoalParams& params);
+
+/// The selection of one period for a robot at `state` steering along segment line_a → line_b:
+/// the query with the break point line_b as target; the pick's `kind` is the outcome's name.
+/// kInvalidInput: no point (steer at the break point).
+///
+/// The pick's `aim` (what local::simulate() and the Navigator hand to LocalPlanner::setSubgoal)
+/// is the sub-goal's bearing from the robot at the break point's distance (at least the
+/// sub-goal's own). Interpretation: in the paper the robot moves to the sub-goal within the
+/// period, at 3/5 to 1 v_max; the local step's speed instead grows with the force, and an
+/// attraction point 0.6-1 m away pulls at a fraction of full speed (Tian's k_q = 0.05: 0.1 N,
+/// a fifth of full_speed_force), so the robot would crawl and the progress monitor would call
+/// it stuck. The bearing is the paper's choice; far from obstacles the aim is the break point
+/// itself (the straight choice lies on the line to it), as without sub-goals.
+local::SubgoalPick pickSubgoal(const local::RobotState& state, const map::Vec3& line_a, const map::Vec3& line_b,
+                               const std::vector<map::MovingObstacle>* moving,
+                               const std::vector<local::StaticSphere>* static_obstacles,
+                               const map::DistanceField* field, const local::LocalParams& local,
+                               const SubgoalParams& params);
+
+/// The selector as local::simulate() calls it (SimulateOptions::subgoals).
+local::SubgoalFn subgoalFunction(const local::LocalParams& local, const SubgoalParams& params);
+/// The selector's parameters for a scenario: t0 = `subgoal_period`, the optimiser's seed =
+/// `seed`, the rest the defaults.
+SubgoalParams subgoalParamsFor(const local::Scenario& scenario);
 
 }  // namespace adit::fusion

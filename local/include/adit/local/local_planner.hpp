@@ -80,7 +80,7 @@ struct World {
 struct StepCommand {
   Vec3 velocity = Vec3::Zero();      ///< set-point, |v| <= v_max
   Vec3 acceleration = Vec3::Zero();  ///< (velocity - current velocity) / dt, |a| <= a_max
-  Vec3 sub_goal = Vec3::Zero();      ///< the break point (or virtual sub-goal) being steered to
+  Vec3 sub_goal = Vec3::Zero();      ///< the break point (or virtual sub-goal, or setSubgoal's) being steered to
   StepStatus status = StepStatus::kRefused;
   double potential = 0.0;            ///< total U at the robot (models with a potential)
   double clearance_m = std::numeric_limits<double>::infinity();  ///< nearest obstacle surface seen
@@ -103,7 +103,21 @@ class LocalPlanner {
   }
 
   /// Forgets the progress history, the sub-goal index and a kStuck verdict (after a replan).
+  /// A sub-goal given with setSubgoal() stays: the caller owns it.
   void reset();
+
+  /// A sub-goal chosen by the caller (e.g. adit::fusion's per-period selection, Tian 2016 §2.3):
+  /// until clearSubgoal(), the attraction pulls toward `p` instead of the current break point.
+  /// Everything else still follows the expected path: the line field lies along the current
+  /// segment, progress is measured along the path, and arrival is at the path's last point.
+  /// No allocation; a non-finite `p` makes step() refuse.
+  void setSubgoal(const Vec3& p) {
+    subgoal_ = p;
+    has_subgoal_ = true;
+  }
+  void clearSubgoal() { has_subgoal_ = false; }
+  /// Index of the expected path's segment the last step() steered along (0 before the first).
+  std::size_t currentSegment() const { return segment_; }
 
   const LocalParams& params() const { return params_; }
   const World& world() const { return world_; }
@@ -136,6 +150,8 @@ class LocalPlanner {
   std::size_t segment_ = 0;
   std::size_t path_size_ = 0;
   std::uint64_t path_signature_ = 0;  // of the path the monitor state belongs to
+  Vec3 subgoal_ = Vec3::Zero();       // setSubgoal()
+  bool has_subgoal_ = false;
 
   // Scratch, sized in create(): never reallocated by step().
   struct ObstacleData {

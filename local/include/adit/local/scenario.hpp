@@ -22,6 +22,10 @@
 ///   expected_path: plan          # plan it with the global layer on the scenario's map
 ///   robot: {sensor_range: 8}     # rock within this range of the robot is sensed [m]
 ///   events: [{t: 10, type: roof_fall, center: [90, 20, -3], radius: 3}]
+///   subgoals: ga_trust_region    # none (default) | ga_trust_region: per-period sub-goals (Tian 2016
+///                                # §2.3), chosen by adit::fusion (local::simulate gets the selector
+///                                # through SimulateOptions; the navigated runs choose it themselves)
+///   subgoal_period: 1.0          # extension: t0 [s], a multiple of dt (default 1)
 ///
 /// Extensions: `name`, `description`; a moving obstacle may have `name`, `shape: sphere | box |
 /// cylinder` with `size: [x, y, z]` (box) or `length` (cylinder, along z).
@@ -55,6 +59,14 @@ struct ScenarioEvent {
   double radius_m = 1.0;
 };
 
+/// How the robot picks what it steers at (issue 8). kNone: the current break point of the
+/// expected path; kGaTrustRegion: every subgoal_period_s the point of the annulus around the robot
+/// that minimises the potential (adit::fusion::selectSubgoal; local does not depend on fusion).
+enum class SubgoalMode { kNone, kGaTrustRegion };
+/// "none" | "ga_trust_region".
+const char* subgoalModeName(SubgoalMode m);
+StatusOr<SubgoalMode> parseSubgoalMode(const std::string& name);
+
 struct Scenario {
   std::string name;         ///< `name`, else the file's stem
   std::string description;
@@ -72,6 +84,8 @@ struct Scenario {
   bool plan_expected_path = false;        ///< `expected_path: plan` (expected_path is then [start, goal])
   std::optional<double> sensor_range_m;   ///< `robot.sensor_range`
   std::vector<ScenarioEvent> events;      ///< `events`, sorted by time
+  SubgoalMode subgoal_mode = SubgoalMode::kNone;  ///< `subgoals`
+  double subgoal_period_s = 1.0;          ///< `subgoal_period`: t0, a multiple of dt_s
   /// The run needs the navigator (adit::fusion): a planned path, a sensor or events.
   bool needsNavigator() const { return plan_expected_path || sensor_range_m.has_value() || !events.empty(); }
 

@@ -17,6 +17,8 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -64,6 +66,41 @@ struct TrajectorySample {
   Vec3 position = Vec3::Zero();
   Vec3 velocity = Vec3::Zero();
   StepStatus status = StepStatus::kFollowing;
+  /// What the robot steered at during the period that ended here: with sub-goals, the selected
+  /// sub-goal (SubgoalPick::point) in force; otherwise StepCommand::sub_goal (the break point, or
+  /// an escape's virtual goal). The start for t = 0.
+  Vec3 sub_goal = Vec3::Zero();
+};
+
+/// What the sub-goal selector sees at the start of a period (`subgoals: ga_trust_region`).
+/// References are valid for the call only.
+struct SubgoalRequest {
+  double t_s = 0.0;
+  const RobotState* state = nullptr;
+  Vec3 segment_a = Vec3::Zero();  ///< the expected path's current segment (line field)
+  Vec3 segment_b = Vec3::Zero();  ///< its end: the break point (or the goal) the selection aims at
+  const std::vector<map::MovingObstacle>* moving = nullptr;  ///< as sensed now (t = 0 is now)
+  const std::vector<StaticSphere>* static_obstacles = nullptr;
+  const map::DistanceField* field = nullptr;  ///< rock; null in open space
+};
+/// The selector's answer: the sub-goal, the point the attraction is to pull toward
+/// (LocalPlanner::setSubgoal) and a short name of how it was found ("optimized", "straight", ...:
+/// counted in SubgoalStats). No point: keep steering at the break point.
+struct SubgoalPick {
+  std::optional<Vec3> point;
+  Vec3 aim = Vec3::Zero();
+  std::string kind;
+};
+/// Called once per period; may allocate (it runs outside the allocation-free step()).
+using SubgoalFn = std::function<SubgoalPick(const SubgoalRequest&)>;
+
+/// How the per-period selection went over a run.
+struct SubgoalStats {
+  int periods = 0;                                    ///< selections made
+  std::vector<std::pair<std::string, int>> by_kind;   ///< SubgoalPick::kind → count, first-seen order
+  double time_mean_us = 0.0;                          ///< wall time per selection
+  double time_max_us = 0.0;
+  void add(const std::string& kind, double us);
 };
 
 /// Closest approach of the robot's surface to one moving obstacle's.
@@ -91,6 +128,7 @@ struct SimulationResult {
   double final_goal_distance_m = 0.0;
   std::vector<TrajectorySample> trajectory;  ///< one per period, from t = 0
   std::vector<ClosestApproach> closest;      ///< one per moving obstacle
+  SubgoalStats subgoals;                     ///< empty unless the scenario selects sub-goals
   bool arrived() const { return outcome == Outcome::kArrived; }
 };
 
@@ -106,9 +144,18 @@ bool collisionVerdict(SimulationResult& result);
 /// The q-quantile (0..1, nearest rank) of per-step times, as the JSON's step_time_us reports it.
 double stepTimePercentile(std::vector<double> values, double q);
 
+/// What the caller adds to a run.
+struct SimulateOptions {
+  /// The sub-goal selector for `subgoals: ga_trust_region` (adit::fusion::subgoalFunction), called
+  /// at the start of every subgoal_period_s and when the robot moves on to the next segment.
+  SubgoalFn subgoals;
+};
+
 /// Runs the scenario to arrival, a stuck verdict, or t_max. Errors: a scenario that fails
 /// validate(), a start or goal inside rock or overlapping an obstacle, a scenario that
-/// needsNavigator() (run those with adit::fusion::simulateNavigated).
-StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment& environment);
+/// needsNavigator() (run those with adit::fusion::simulateNavigated), `subgoals: ga_trust_region`
+/// without options.subgoals.
+StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment& environment,
+                                    const SimulateOptions& options = {});
 
 }  // namespace adit::local
