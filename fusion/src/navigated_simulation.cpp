@@ -27,10 +27,13 @@ Eigen::Isometry3d at(const Vec3& p) {
 // A roof fall that has happened: its ball, and the voxels of its surface the robot has not
 // seen yet. Only the surface can ever be seen (every other fall voxel lies behind it), so the
 // believed map learns a shell: as good as the whole ball for planning.
+struct SurfaceVoxel {
+  Vec3 centre;
+  Vec3 normal;  // the sum of its open neighbours' directions
+};
 struct Fall {
   ScenarioEvent event;
-  std::vector<Vec3> unseen;   // exposed fall voxels
-  std::vector<Vec3> normal;   // per unseen voxel: the sum of its open neighbours' directions
+  std::vector<SurfaceVoxel> unseen;
 };
 
 bool inBall(const Vec3& p, const ScenarioEvent& e) { return (p - e.center).norm() <= e.radius_m; }
@@ -39,7 +42,7 @@ bool inBall(const Vec3& p, const ScenarioEvent& e) { return (p - e.center).norm(
 // free roadway outside the ball.
 Fall makeFall(const ScenarioEvent& e, const map::OccupancyMap& truth) {
   const double res = truth.resolution();
-  Fall f{e, {}, {}};
+  Fall f{e, {}};
   const int n = int(std::ceil(e.radius_m / res)) + 1;
   auto centre = [res](double c) { return (std::floor(c / res) + 0.5) * res; };
   const Vec3 c0(centre(e.center.x()), centre(e.center.y()), centre(e.center.z()));
@@ -52,54 +55,41 @@ Fall makeFall(const ScenarioEvent& e, const map::OccupancyMap& truth) {
         Vec3 open = Vec3::Zero();
         for (const Vec3& d : dirs)
           if (const Vec3 q = p + res * d; !inBall(q, e) && truth.isFree(q)) open += d;
-        if (open.norm() > 0.0) {
-          f.unseen.push_back(p);
-          f.normal.push_back(open);
-        }
+        if (open.norm() > 0.0) f.unseen.push_back({p, open});
       }
   return f;
 }
 
 // The simulated range sensor: the unseen fall surface within range, facing the robot, with a
 // clear line of sight through the true world (the map's rock and every fall, voxel by voxel along
-// the ray insertRays() will trace). What it sees moves to `returns`.
+// the ray insertRays() will trace). What it sees moves to `returns`; the buffers are the caller's,
+// reused from period to period.
 void sense(std::vector<Fall>& falls, const map::OccupancyMap& truth, const Vec3& eye, double range,
-           std::vector<Vec3>& returns, std::vector<Vec3>& candidates, std::vector<std::size_t>& where,
-           std::vector<char>& visible) {
+           std::vector<Vec3>& returns, std::vector<Vec3>& candidates, std::vector<char>& visible) {
   returns.clear();
   auto opaque = [&falls](const Vec3& c) {
     for (const Fall& f : falls)
       if (inBall(c, f.event)) return true;
     return false;
   };
+  auto facing = [&](const SurfaceVoxel& v) {
+    const Vec3 to_eye = eye - v.centre;
+    return to_eye.norm() <= range && v.normal.dot(to_eye) > 0.0;
+  };
   for (Fall& f : falls) {
     if ((f.event.center - eye).norm() - f.event.radius_m > range) continue;
     candidates.clear();
-    where.clear();
-    for (std::size_t i = 0; i < f.unseen.size(); ++i) {
-      const Vec3 to_eye = eye - f.unseen[i];
-      if (to_eye.norm() <= range && f.normal[i].dot(to_eye) > 0.0) {
-        candidates.push_back(f.unseen[i]);
-        where.push_back(i);
-      }
-    }
+    for (const SurfaceVoxel& v : f.unseen)
+      if (facing(v)) candidates.push_back(v.centre);
     if (candidates.empty()) continue;
     truth.lineOfSight(eye, candidates, visible, opaque);
-    std::size_t kept = 0;
-    std::vector<char> seen(f.unseen.size(), 0);
-    for (std::size_t c = 0; c < candidates.size(); ++c)
-      if (visible[c]) seen[where[c]] = 1;
-    for (std::size_t i = 0; i < f.unseen.size(); ++i) {
-      if (seen[i]) {
-        returns.push_back(f.unseen[i]);
-        continue;
-      }
-      f.unseen[kept] = f.unseen[i];
-      f.normal[kept] = f.normal[i];
-      ++kept;
+    // The candidates are the facing voxels in order: walk both lists together, keeping the unseen.
+    std::size_t c = 0, kept = 0;
+    for (const SurfaceVoxel& v : f.unseen) {
+      if (facing(v) && visible[c++]) returns.push_back(v.centre);
+      else f.unseen[kept++] = v;
     }
     f.unseen.resize(kept);
-    f.normal.resize(kept);
   }
 }
 
@@ -166,7 +156,6 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   SensorScan scan;
   scan.max_range_m = range;
   std::vector<Vec3> candidates;
-  std::vector<std::size_t> where;
   std::vector<char> visible;
   std::vector<Fall> falls;
   std::size_t next_event = 0;
@@ -185,7 +174,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
       ++next_event;
     }
     scan.origin = state.position;
-    sense(falls, *truth.map(), state.position, range, scan.returns, candidates, where, visible);
+    sense(falls, *truth.map(), state.position, range, scan.returns, candidates, visible);
     for (std::size_t i = 0; i < nm; ++i) {
       const map::MovingObstacle& m = sc.moving_obstacles[i].obstacle;
       tracks[i] = m;

@@ -233,6 +233,9 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
     os << "insertRays: the origin (" << origin.transpose() << ") is outside the map's key range";
     return outOfRange(os.str());
   }
+  // A navigator inserts a scan every period, mostly an empty one: skip the key ray's buffer
+  // (OctoMap zero-fills 100,000 keys for it).
+  if (returns.empty()) return MapChange{};
   // Every key first (a refused scan changes nothing), the returns' keys winning over the rays'.
   octomap::KeySet free_keys, hit_keys;
   octomap::KeyRay ray;
@@ -264,7 +267,7 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
 void OccupancyMap::lineOfSight(const Vec3& origin, const std::vector<Vec3>& targets, std::vector<char>& visible,
                                const std::function<bool(const Vec3&)>& opaque) const {
   visible.assign(targets.size(), 0);
-  if (!allFinite(origin)) return;
+  if (!allFinite(origin) || targets.empty()) return;
   octomap::KeyRay ray;  // one per call: its buffer is large
   const octomap::point3d o(float(origin.x()), float(origin.y()), float(origin.z()));
   for (std::size_t i = 0; i < targets.size(); ++i) {
