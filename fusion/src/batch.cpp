@@ -283,7 +283,8 @@ double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p) {
   return width;
 }
 
-BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index) {
+BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index,
+                                const BelievedWorld* believed) {
   BatchRunResult out;
   out.index = index;
   out.seed = scenario.seed;
@@ -292,7 +293,9 @@ BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::En
   out.separation_m = (scenario.goal - scenario.start).norm();
   out.robot_radius_m = scenario.params.robot.radius_m;
   out.robot_speed_mps = scenario.params.robot.v_max_mps;
-  StatusOr<NavigatedRun> n = simulateNavigated(scenario, truth);
+  NavigatedOptions options;
+  options.believed = believed;
+  StatusOr<NavigatedRun> n = simulateNavigated(scenario, truth, options);
   if (!n.ok()) {
     out.outcome = "error";
     out.message = n.status().message();

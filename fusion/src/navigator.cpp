@@ -139,15 +139,23 @@ Navigator& Navigator::operator=(Navigator&&) noexcept = default;
 Navigator::~Navigator() = default;
 
 StatusOr<Navigator> Navigator::create(map::LoadedMap loaded, const NavigatorParams& params, const Vec3& goal) {
+  ADIT_ASSIGN_OR_RETURN(map::DistanceField f, map::DistanceField::build(loaded.map));
+  return create(std::move(loaded), std::move(f), params, goal);
+}
+
+StatusOr<Navigator> Navigator::create(map::LoadedMap loaded, map::DistanceField field, const NavigatorParams& params,
+                                      const Vec3& goal) {
   NavigatorParams p = params;
   p.global.robot = map::RobotShape::sphere(p.local.robot.radius_m);
   ADIT_RETURN_IF_ERROR(p.validate());
   if (!allFinite(goal)) return invalidArgument("navigator: goal is not finite");
+  if (field.resolution() != loaded.map.resolution())
+    return invalidArgument("navigator: the distance field (voxel " + std::to_string(field.resolution()) +
+                           " m) was not built from the map (voxel " + std::to_string(loaded.map.resolution()) + " m)");
   auto impl = std::make_unique<Impl>(std::move(loaded));
   impl->params = p;
   impl->goal = goal;
-  ADIT_ASSIGN_OR_RETURN(map::DistanceField f, map::DistanceField::build(impl->loaded.map));
-  impl->field.emplace(std::move(f));
+  impl->field.emplace(std::move(field));
   // The planners point into impl (map, field): impl never moves, only the Navigator's pointer.
   const map::SurveyNetwork* survey = impl->loaded.survey ? &*impl->loaded.survey : nullptr;
   ADIT_ASSIGN_OR_RETURN(global::GlobalPlanner g, global::GlobalPlanner::create(impl->loaded.map, *impl->field, p.global, survey));

@@ -109,6 +109,19 @@ OccupancyMap OccupancyMap::withUnknownPolicy(UnknownPolicy policy) const {
   return copy;
 }
 
+OccupancyMap OccupancyMap::deepCopy() const {
+  OccupancyMap copy(tree_, policy_);
+  copy.stats_ = stats_;
+  copy.clone_on_write_ = true;
+  return copy;
+}
+
+void OccupancyMap::cloneIfShared() {
+  if (!clone_on_write_) return;
+  tree_ = std::make_shared<octomap::OcTree>(*tree_);
+  clone_on_write_ = false;
+}
+
 double OccupancyMap::resolution() const { return tree_->getResolution(); }
 
 namespace {
@@ -183,6 +196,7 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
       return outOfRange(os.str());
     }
   }
+  cloneIfShared();
   MapChange local;
   for (const octomap::OcTreeKey& key : keys) applyKey(key, state, local);
   finishUpdate();
@@ -256,6 +270,7 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
     if (hit) hit_keys.insert(end_key);
     else free_keys.insert(end_key);
   }
+  cloneIfShared();
   MapChange change;
   for (const octomap::OcTreeKey& k : free_keys)
     if (!hit_keys.count(k)) applyKey(k, VoxelState::kFree, change);

@@ -148,3 +148,46 @@ TEST(MapUpdate, LineOfSightStopsAtRockAndAgreesWithTheRays) {
 
 }  // namespace
 }  // namespace adit::map
+
+namespace adit::map {
+namespace {
+
+// deepCopy() behaves as an independent map although it clones the octree only on its first
+// write: writes to the copy (voxels and rays) never reach the original, and the original's
+// distance field copied alongside updates to what a rebuild of the written copy gives.
+TEST(MapUpdate, DeepCopyIsIndependentOfTheOriginal) {
+  const OccupancyMap original = roadway();
+  const MapStats before = original.stats();
+  OccupancyMap copy = original.deepCopy();
+  EXPECT_EQ(copy.sharedOctree(), original.sharedOctree());  // nothing written yet: nothing cloned
+  EXPECT_EQ(copy.stats().free_voxels, before.free_voxels);
+
+  MapChange c;
+  ASSERT_TRUE(copy.setVoxels({{5.1, 0.1, 1.1}}, VoxelState::kOccupied, &c).ok());
+  EXPECT_NE(copy.sharedOctree(), original.sharedOctree());
+  EXPECT_TRUE(copy.isRock({5.1, 0.1, 1.1}));
+  EXPECT_TRUE(original.isFree({5.1, 0.1, 1.1}));
+  EXPECT_EQ(original.stats().occupied_voxels, before.occupied_voxels);
+  EXPECT_EQ(copy.stats().occupied_voxels, before.occupied_voxels + 1);
+
+  // A copy whose first write is a scan.
+  OccupancyMap scanned = original.deepCopy();
+  StatusOr<MapChange> rays = scanned.insertRays({2.0, 0.0, 1.5}, {{8.0, 0.0, 1.5}}, 10.0);
+  ASSERT_TRUE(rays.ok()) << rays.status().message();
+  EXPECT_TRUE(scanned.isRock({8.0, 0.0, 1.5}));
+  EXPECT_TRUE(original.isFree({8.0, 0.0, 1.5}));
+
+  // A refused write clones nothing it would not need and changes nothing.
+  OccupancyMap refused = original.deepCopy();
+  EXPECT_FALSE(refused.setVoxels({{std::nan(""), 0, 0}}, VoxelState::kOccupied).ok());
+  EXPECT_EQ(refused.sharedOctree(), original.sharedOctree());
+
+  StatusOr<DistanceField> field = DistanceField::build(original);
+  ASSERT_TRUE(field.ok());
+  DistanceField copied_field = *field;
+  expectFieldMatchesRebuild(copy, copied_field, c);
+  EXPECT_GT(field->distance({5.1, 0.1, 1.1}), 0.0);  // the original's field is untouched
+}
+
+}  // namespace
+}  // namespace adit::map

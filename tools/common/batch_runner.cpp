@@ -73,7 +73,7 @@ std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) 
 fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams& params, int index) {
   StatusOr<local::Scenario> sc = fusion::makeBatchScenario(setup.base, setup.survey, setup.truth, params, index);
   if (sc.ok()) {
-    fusion::BatchRunResult r = fusion::runBatchScenario(*sc, setup.truth, index);
+    fusion::BatchRunResult r = fusion::runBatchScenario(*sc, setup.truth, index, &setup.believed);
     r.roadway_width_m = fusion::roadwayWidthAt(setup.survey, sc->start);
     return r;
   }
@@ -109,7 +109,8 @@ StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std:
     return invalidArgument(map_path + ": start and goal are drawn on the survey's roadways: the map must be a survey (.yaml)");
   ADIT_ASSIGN_OR_RETURN(map::SurveyNetwork survey, map::loadSurvey(map_path));
   ADIT_ASSIGN_OR_RETURN(local::Environment truth, local::Environment::load(*sc));
-  return BatchSetup{std::move(sc).value(), std::move(survey), std::move(truth)};
+  ADIT_ASSIGN_OR_RETURN(fusion::BelievedWorld believed, fusion::BelievedWorld::load(map_path));
+  return BatchSetup{std::move(sc).value(), std::move(survey), std::move(truth), std::move(believed)};
 }
 
 StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& setup,

@@ -37,6 +37,8 @@ struct BatchSetup {
   local::Scenario base;
   map::SurveyNetwork survey;
   local::Environment truth;
+  /// The robot's map at t = 0, loaded once; every run starts from a deep copy of it.
+  fusion::BelievedWorld believed;
 };
 
 /// The base scenario is `scenario_file` when given (its map replaced by `map` when both are

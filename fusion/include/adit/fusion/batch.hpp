@@ -21,6 +21,7 @@
 #include <limits>
 #include <string>
 
+#include "adit/fusion/navigated_simulation.hpp"
 #include "adit/local/scenario.hpp"
 #include "adit/local/simulator.hpp"
 #include "adit/map/survey_network.hpp"
@@ -101,7 +102,9 @@ double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p);
 StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::string& file,
                                        const BatchParams& defaults = {});
 
-BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index);
+/// `believed`, if given, is the scenario map preloaded (see BelievedWorld); the row is the same.
+BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index,
+                                const BelievedWorld* believed = nullptr);
 
 /// `index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us`
 const char* batchCsvHeader();

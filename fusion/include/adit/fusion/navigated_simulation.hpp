@@ -9,8 +9,8 @@
 ///   against the map exactly (CollisionChecker, FCL), against a fall ball in closed form, against
 ///   moving obstacles with map::obstacleDistance, sub-sampled within each period as
 ///   local::simulate() does;
-/// - the BELIEVED world: the Navigator's own copy of the map (loaded separately, so it shares no
-///   octree with the true one). It learns a fall only through the sensor: every period the
+/// - the BELIEVED world: the Navigator's own copy of the map (loaded separately, or deep-copied
+///   from a BelievedWorld, so it shares no octree with the true one). It learns a fall only through the sensor: every period the
 ///   fall's surface voxels (free roadway in the true map, touching open roadway) within
 ///   `robot.sensor_range` that the robot's centre can see (OccupancyMap::lineOfSight through the
 ///   true map and every fall, voxel by voxel along the ray insertRays() traces; it sees through
@@ -26,9 +26,12 @@
 
 #include <limits>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "adit/fusion/navigator.hpp"
+#include "adit/map/distance_field.hpp"
+#include "adit/map/map_io.hpp"
 #include "adit/local/scenario.hpp"
 #include "adit/local/simulator.hpp"
 #include "adit/status.hpp"
@@ -58,11 +61,24 @@ struct NavigatedRun {
   double wall_time_s = 0.0;            ///< the whole simulation, map loading included
 };
 
+/// The robot's belief at t = 0, loaded once for many runs on one map (a batch, a campaign): the
+/// map as loadMapAndSurvey() gives it, its survey and its distance field. Each run starts from a
+/// deep copy, so runs share nothing they mutate. On the district, voxelizing the survey and the
+/// distance transform were about two thirds of a run's CPU time.
+struct BelievedWorld {
+  std::string map_path;  ///< the scenario map it stands for
+  map::LoadedMap loaded;
+  map::DistanceField field;
+  static StatusOr<BelievedWorld> load(const std::string& map_path);
+};
+
 /// How the navigator treats a planned expected path (`expected_path: plan`; a given one is never
 /// refined).
 struct NavigatedOptions {
   bool refine_plan = true;       ///< NavigatorParams::refine_plan
   bool refine_replans = false;   ///< NavigatorParams::refine_replans
+  /// Copied instead of loading the scenario's map when its map_path is the scenario's (not owned).
+  const BelievedWorld* believed = nullptr;
 };
 
 /// Runs the scenario (its map is required: the navigator plans on it). Errors: those of

@@ -116,6 +116,11 @@ class Navigator {
   /// Takes over the believed map (with its survey: the roadway graph is exact then) and builds the
   /// field and the planners. The goal is fixed for the navigator's life.
   static StatusOr<Navigator> create(map::LoadedMap loaded, const NavigatorParams& params, const Vec3& goal);
+  /// The same with the field already built from `loaded.map` (e.g. copied from a preloaded one:
+  /// the distance transform is a large part of a short simulated run). The field must be
+  /// DistanceField::build(loaded.map) with its defaults; a resolution that differs is refused.
+  static StatusOr<Navigator> create(map::LoadedMap loaded, map::DistanceField field, const NavigatorParams& params,
+                                    const Vec3& goal);
   Navigator(Navigator&&) noexcept;
   Navigator& operator=(Navigator&&) noexcept;
   ~Navigator();

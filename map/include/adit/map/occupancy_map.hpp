@@ -86,6 +86,13 @@ class OccupancyMap {
   UnknownPolicy unknownPolicy() const { return policy_; }
   /// The same octree seen under another policy (shares the tree).
   OccupancyMap withUnknownPolicy(UnknownPolicy policy) const;
+  /// A copy that behaves as one with its own octree, for a second owner that mutates it: e.g.
+  /// each simulated run's believed map, made from one loaded map instead of voxelizing the survey
+  /// again per run. The octree is cloned on the copy's first write (setVoxels, insertRays), so a
+  /// run that never writes costs nothing: cloning and freeing millions of nodes was half a
+  /// district run. Until then sharedOctree() is the original's tree; plain copies taken of the
+  /// copy before its first write clone on their own first write.
+  OccupancyMap deepCopy() const;
 
   /// Raw state of the voxel holding `p`; outside the key range it is kUnknown.
   VoxelState state(const Vec3& p) const;
@@ -132,8 +139,10 @@ class OccupancyMap {
   void recomputeStats();
   void applyKey(const octomap::OcTreeKey& key, VoxelState state, MapChange& change);
   void finishUpdate();
+  void cloneIfShared();
 
   std::shared_ptr<octomap::OcTree> tree_;
+  bool clone_on_write_ = false;  // tree_ belongs to the map deepCopy() was taken from
   UnknownPolicy policy_ = UnknownPolicy::kRock;
   MapStats stats_;
 };
