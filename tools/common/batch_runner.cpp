@@ -4,16 +4,17 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <new>
 #include <optional>
 #include <regex>
 
 #include <sys/mman.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -73,7 +74,7 @@ std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) 
 fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams& params, int index) {
   StatusOr<local::Scenario> sc = fusion::makeBatchScenario(setup.base, setup.survey, setup.truth, params, index);
   if (sc.ok()) {
-    fusion::BatchRunResult r = fusion::runBatchScenario(*sc, setup.truth, index, &setup.believed);
+    fusion::BatchRunResult r = fusion::runBatchScenario(*sc, setup.truth, index, setup.believed.get());
     r.roadway_width_m = fusion::roadwayWidthAt(setup.survey, sc->start);
     return r;
   }
@@ -108,9 +109,10 @@ StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std:
   if (map_path.size() < 5 || map_path.substr(map_path.size() - 5) != ".yaml")
     return invalidArgument(map_path + ": start and goal are drawn on the survey's roadways: the map must be a survey (.yaml)");
   ADIT_ASSIGN_OR_RETURN(map::SurveyNetwork survey, map::loadSurvey(map_path));
-  ADIT_ASSIGN_OR_RETURN(local::Environment truth, local::Environment::load(*sc));
-  ADIT_ASSIGN_OR_RETURN(fusion::BelievedWorld believed, fusion::BelievedWorld::load(map_path));
-  return BatchSetup{std::move(sc).value(), std::move(survey), std::move(truth), std::move(believed)};
+  ADIT_ASSIGN_OR_RETURN(fusion::BelievedWorld loaded, fusion::BelievedWorld::load(map_path));
+  auto believed = std::make_unique<const fusion::BelievedWorld>(std::move(loaded));
+  ADIT_ASSIGN_OR_RETURN(local::Environment truth, local::Environment::borrow(believed->loaded.map, believed->field));
+  return BatchSetup{std::move(sc).value(), std::move(survey), std::move(believed), std::move(truth)};
 }
 
 StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& setup,
@@ -120,28 +122,50 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
   const int total = int(indices.size());
   if (total == 0) return std::vector<fusion::BatchRunResult>{};
   const int jobs = std::max(1, std::min(jobs_wanted, total));
-  char dir_template[] = "/tmp/adit-batch-XXXXXX";
-  const char* dir = ::mkdtemp(dir_template);
-  if (!dir) return internalError(std::string("cannot create a temporary directory: ") + std::strerror(errno));
+  // One unlinked temporary file per worker (tmpfile()): a killed batch leaves nothing behind.
+  std::vector<std::FILE*> files;
+  auto closeAll = [&files] {
+    for (std::FILE* f : files) std::fclose(f);
+  };
+  for (int w = 0; w < jobs; ++w) {
+    std::FILE* f = std::tmpfile();
+    if (!f) {
+      closeAll();
+      return internalError(std::string("cannot create a temporary file: ") + std::strerror(errno));
+    }
+    files.push_back(f);
+  }
   // Workers pull positions in `indices` from a counter in shared memory, write one record per
-  // run to their own file and one byte per run to the progress pipe.
+  // run to their own file and one byte per run to the progress pipe. A worker dies with its
+  // parent (PR_SET_PDEATHSIG): a killed shard leaves no worker computing rows nobody reads.
   auto* next = static_cast<std::atomic<int>*>(
       ::mmap(nullptr, sizeof(std::atomic<int>), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0));
-  if (next == MAP_FAILED) return internalError(std::string("mmap: ") + std::strerror(errno));
+  if (next == MAP_FAILED) {
+    closeAll();
+    return internalError(std::string("mmap: ") + std::strerror(errno));
+  }
   new (next) std::atomic<int>(0);
   int progress[2];
-  if (::pipe(progress) != 0) return internalError(std::string("pipe: ") + std::strerror(errno));
+  if (::pipe(progress) != 0) {
+    closeAll();
+    return internalError(std::string("pipe: ") + std::strerror(errno));
+  }
   bar.update(stage, 0.0);  // the stage's clock starts now, not at the first finished run
   std::fflush(nullptr);
   std::vector<pid_t> pids;
-  auto file = [dir](int w) { return std::string(dir) + "/worker-" + std::to_string(w) + ".tsv"; };
+  const pid_t parent = ::getpid();
   for (int w = 0; w < jobs; ++w) {
     const pid_t pid = ::fork();
-    if (pid < 0) return internalError(std::string("fork: ") + std::strerror(errno));
+    if (pid < 0) {
+      // Workers already started finish their runs unread.
+      closeAll();
+      return internalError(std::string("fork: ") + std::strerror(errno));
+    }
     if (pid == 0) {
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (::getppid() != parent) ::_exit(1);  // the parent died before prctl
       ::close(progress[0]);
-      std::FILE* out = std::fopen(file(w).c_str(), "w");
-      if (!out) ::_exit(1);
+      std::FILE* out = files[std::size_t(w)];
       for (int k = next->fetch_add(1); k < total; k = next->fetch_add(1)) {
         const std::string rec = batchRecord(runOne(setup, params, indices[std::size_t(k)]));
         std::fwrite(rec.data(), 1, rec.size(), out);
@@ -179,16 +203,22 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
   for (std::size_t k = 0; k < indices.size(); ++k) position.emplace_back(indices[k], k);
   std::sort(position.begin(), position.end());
   for (int w = 0; w < jobs; ++w) {
-    std::ifstream in(file(w));
-    for (std::string line; std::getline(in, line);) {
+    std::FILE* in = files[std::size_t(w)];
+    std::rewind(in);  // the worker wrote through the same open file; it has exited
+    std::string line;
+    for (int c; (c = std::fgetc(in)) != EOF;) {
+      if (c != '\n') {
+        line.push_back(char(c));
+        continue;
+      }
       std::optional<fusion::BatchRunResult> r = parseBatchRecord(line);
+      line.clear();
       if (!r) continue;
       const auto it = std::lower_bound(position.begin(), position.end(), std::make_pair(r->index, std::size_t(0)));
       if (it != position.end() && it->first == r->index) by_index[it->second] = std::move(r);
     }
-    std::remove(file(w).c_str());
   }
-  ::rmdir(dir);
+  closeAll();
   std::vector<fusion::BatchRunResult> runs;
   for (std::size_t k = 0; k < by_index.size(); ++k) {
     if (!by_index[k]) return internalError("batch: run " + std::to_string(indices[k]) + " was lost (a worker " +

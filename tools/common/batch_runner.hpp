@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -36,9 +37,10 @@ namespace adit::tools {
 struct BatchSetup {
   local::Scenario base;
   map::SurveyNetwork survey;
+  /// The robot's map at t = 0, loaded once; every run starts from a deep copy of it. The true
+  /// world borrows its map and field: nothing writes them (heap-held, so the borrow survives a move).
+  std::unique_ptr<const fusion::BelievedWorld> believed;
   local::Environment truth;
-  /// The robot's map at t = 0, loaded once; every run starts from a deep copy of it.
-  fusion::BelievedWorld believed;
 };
 
 /// The base scenario is `scenario_file` when given (its map replaced by `map` when both are
