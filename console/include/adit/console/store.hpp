@@ -1,0 +1,108 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// The data exchange centre's database (issue 11; Guo 2022 §1 keeps it in MySQL): every robot
+/// message, the poses, and every operator command with who issued it, when, and what the robot
+/// did with it. Two backends behind one interface: SQLite, embedded, nothing to set up
+/// (`sqlite:PATH`), and PostgreSQL for a centre shared by several robots and operators
+/// (`postgresql://user@host:port/db`, libpqxx). The schema is versioned: open() applies the
+/// missing migrations in order, one transaction each, and refuses a database newer than this
+/// build. Each robot message is stored in one transaction, at most once per (robot, seq), so a
+/// robot that resends after a lost connection or a restarted centre never duplicates a row.
+/// The protocol and table layout: console/doc/protocol.md.
+///
+///   StatusOr<std::unique_ptr<Store>> db = Store::open("sqlite:/var/lib/adit/centre.db");
+///   StatusOr<bool> fresh = (*db)->appendMessage(msg);  // false: (robot, seq) was stored already
+///
+/// A Store is used from one thread at a time (the server's I/O thread); it is not thread-safe.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "adit/status.hpp"
+
+namespace adit::console {
+
+/// The schema version this build writes and reads.
+inline constexpr int kSchemaVersion = 1;
+
+/// One robot → centre message as stored (protocol.md, "robot → centre"), `hello` excluded.
+struct RobotMessage {
+  std::string robot;
+  std::int64_t seq = 0;
+  std::string type;          ///< telemetry, plan, obstacles, event, command_result
+  double t = 0.0;            ///< the robot's mission clock [s]
+  std::string received_at;   ///< the centre's clock, ISO 8601 UTC (set by the caller)
+  std::string body;          ///< the whole message as JSON text
+  /// For type == "telemetry": the typed row (position, velocity, status). Required then.
+  struct Pose {
+    double x = 0, y = 0, z = 0, vx = 0, vy = 0, vz = 0;
+    std::string status;
+  };
+  std::optional<Pose> pose;
+};
+
+enum class CommandStatus { kPending, kSent, kAccepted, kRefused, kExecuted };
+const char* commandStatusName(CommandStatus s);
+std::optional<CommandStatus> parseCommandStatus(const std::string& name);
+
+struct Command {
+  std::int64_t command_id = 0;  ///< assigned by addCommand()
+  std::string robot;
+  std::string operator_name;
+  std::string issued_at;
+  std::string kind;             ///< pause, resume, goal, block, reopen, manual, release
+  std::string body;             ///< the command as JSON text (its arguments)
+  CommandStatus status = CommandStatus::kPending;
+  std::string reason;
+  std::string updated_at;
+};
+
+struct RobotRecord {
+  std::string robot;
+  std::string map_hash;
+  double radius = 0.0;
+  std::string first_seen, last_seen;
+  std::int64_t last_seq = 0;    ///< highest stored seq (0: none)
+};
+
+class Store {
+ public:
+  /// `sqlite:PATH` (created if missing) or `postgresql://...` / `postgres://...`. Applies the
+  /// missing migrations. Errors name the URL (password removed) and what failed.
+  static StatusOr<std::unique_ptr<Store>> open(const std::string& url);
+  virtual ~Store() = default;
+
+  virtual std::string backend() const = 0;  ///< "sqlite" or "postgresql"
+  virtual StatusOr<int> schemaVersion() = 0;
+
+  /// Registers a robot or refreshes its last_seen / map_hash / radius.
+  virtual Status upsertRobot(const RobotRecord& robot) = 0;
+  virtual StatusOr<std::vector<RobotRecord>> robots() = 0;
+  virtual StatusOr<std::optional<RobotRecord>> robot(const std::string& robot) = 0;
+
+  /// Stores the message (and its telemetry row) in one transaction. Returns false, storing
+  /// nothing, when (robot, seq) is stored already.
+  virtual StatusOr<bool> appendMessage(const RobotMessage& message) = 0;
+  /// Highest stored seq of the robot, 0 when none.
+  virtual StatusOr<std::int64_t> lastSeq(const std::string& robot) = 0;
+  /// Messages of `robot` with seq >= from_seq, in seq order, at most `limit`.
+  virtual StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq,
+                                                      std::size_t limit) = 0;
+  virtual StatusOr<std::int64_t> telemetryRows() = 0;
+
+  /// Stores a new command (status pending) and returns its id.
+  virtual StatusOr<std::int64_t> addCommand(const Command& command) = 0;
+  virtual Status updateCommand(std::int64_t command_id, CommandStatus status, const std::string& reason,
+                               const std::string& updated_at) = 0;
+  virtual StatusOr<std::optional<Command>> command(std::int64_t command_id) = 0;
+  /// The robot's commands ("" = every robot's), newest last, at most `limit` (the newest).
+  virtual StatusOr<std::vector<Command>> commands(const std::string& robot, std::size_t limit) = 0;
+  /// Commands of the robot still pending or sent (to resend after its hello), oldest first.
+  virtual StatusOr<std::vector<Command>> unansweredCommands(const std::string& robot) = 0;
+};
+
+}  // namespace adit::console
