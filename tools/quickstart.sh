@@ -25,6 +25,7 @@ PKGS=(cmake g++ make pkg-config
       libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev libode-dev
       libgtest-dev libgmock-dev libbenchmark-dev
       libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev
+      libsqlite3-dev libpqxx-dev postgresql
       slurm-wlm munge)
 
 missing=()
