@@ -119,8 +119,19 @@ Status refuse(const std::string& where, const std::string& what) {
 }
 }  // namespace
 
+std::string messageName(const RobotMessage& m) {
+  return "message (robot '" + m.robot + "', seq " + std::to_string(m.seq) + ")";
+}
+
+std::string batchName(const RobotMessage* messages, std::size_t count) {
+  if (count == 1) return messageName(messages[0]);
+  std::string name = "batch of " + std::to_string(count) + " messages";
+  if (count > 0) name += " (first: robot '" + messages[0].robot + "', seq " + std::to_string(messages[0].seq) + ")";
+  return name;
+}
+
 Status checkMessage(const RobotMessage& m, const std::string& where) {
-  const std::string who = "message (robot '" + m.robot + "', seq " + std::to_string(m.seq) + ")";
+  const std::string who = messageName(m);
   if (m.robot.empty()) return refuse(where, who + " has an empty robot id");
   if (m.seq < 1) return refuse(where, who + ": seq must be >= 1");
   if (m.type.empty()) return refuse(where, who + " has no type");

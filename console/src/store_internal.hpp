@@ -49,6 +49,11 @@ std::string redactUrl(const std::string& url);
 /// The centre's wall clock, ISO 8601 UTC with milliseconds ("2026-11-30T23:15:28.123Z").
 std::string nowUtc();
 
+/// "message (robot 'r1', seq 42)", for errors.
+std::string messageName(const RobotMessage& m);
+/// "message (robot 'r1', seq 42)" or "batch of 3 messages (robot 'r1', seq 42 ...)".
+std::string batchName(const RobotMessage* messages, std::size_t count);
+
 Status checkMessage(const RobotMessage& m, const std::string& where);
 Status checkRobot(const RobotRecord& r, const std::string& where);
 Status checkCommand(const Command& c, const std::string& where);
@@ -59,8 +64,8 @@ Status checkCommand(const Command& c, const std::string& where);
 bool commandStatusAdvances(CommandStatus from, CommandStatus to);
 
 /// Row decoders shared by the backends. `Row` reads column i as text(i), real(i), integer(i)
-/// and isNull(i); the columns are in the order of the backends' SELECTs:
-/// messages m LEFT JOIN telemetry: robot, seq, type, t, received_at, body, x, y, z, vx, vy, vz, status
+/// and isNull(i); the columns are in the order of the backends' SELECTs.
+/// messages: robot, seq, type, t, received_at, body
 template <class Row>
 RobotMessage messageFromRow(const Row& row) {
   RobotMessage m;
@@ -70,10 +75,14 @@ RobotMessage messageFromRow(const Row& row) {
   m.t = row.real(3);
   m.received_at = row.text(4);
   m.body = row.text(5);
-  if (!row.isNull(6))
-    m.pose = RobotMessage::Pose{row.real(6), row.real(7), row.real(8), row.real(9), row.real(10), row.real(11),
-                                row.text(12)};
   return m;
+}
+
+/// telemetry from column `c` on: x, y, z, vx, vy, vz, status
+template <class Row>
+RobotMessage::Pose poseFromRow(const Row& row, int c) {
+  return {row.real(c), row.real(c + 1), row.real(c + 2), row.real(c + 3), row.real(c + 4), row.real(c + 5),
+          row.text(c + 6)};
 }
 
 /// robots r: robot, map_hash, radius, first_seen, last_seen, last_seq

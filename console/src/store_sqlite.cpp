@@ -125,15 +125,12 @@ class SqliteStore final : public Store, private MigrationTarget {
   }
 
   StatusOr<bool> appendMessage(const RobotMessage& m) override {
-    ADIT_RETURN_IF_ERROR(checkMessage(m, where_));
-    const std::string what = "cannot store message (robot '" + m.robot + "', seq " + std::to_string(m.seq) + ")";
-    ADIT_RETURN_IF_ERROR(execChecked("BEGIN IMMEDIATE", what));
-    bool fresh = false;
-    Status s = insertMessage(m, what, fresh);
-    if (s.ok() && fresh) s = execChecked("COMMIT", what);
-    if (!s.ok() || !fresh) rollback();
-    if (!s.ok()) return s;
-    return fresh;
+    ADIT_ASSIGN_OR_RETURN(std::size_t fresh, appendBatch(&m, 1));
+    return fresh > 0;
+  }
+
+  StatusOr<std::size_t> appendMessages(const std::vector<RobotMessage>& messages) override {
+    return appendBatch(messages.data(), messages.size());
   }
 
   StatusOr<std::int64_t> lastSeq(const std::string& robot) override {
@@ -152,7 +149,10 @@ class SqliteStore final : public Store, private MigrationTarget {
     u.bind(2, static_cast<long long>(from_seq));
     u.bind(3, sqlLimit(limit));
     int rc;
-    while ((rc = u.step()) == SQLITE_ROW) out.push_back(messageFromRow(u));
+    while ((rc = u.step()) == SQLITE_ROW) {
+      out.push_back(messageFromRow(u));
+      if (!u.isNull(6)) out.back().pose = poseFromRow(u, 6);
+    }
     if (rc != SQLITE_DONE) return error(rc, "cannot read the history of robot '" + robot + "'");
     return out;
   }
@@ -237,6 +237,25 @@ class SqliteStore final : public Store, private MigrationTarget {
     if (!sqlite3_get_autocommit(db_)) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
   }
   bool isPostgres() const override { return false; }
+
+  StatusOr<std::size_t> appendBatch(const RobotMessage* messages, std::size_t count) {
+    for (std::size_t i = 0; i < count; ++i) ADIT_RETURN_IF_ERROR(checkMessage(messages[i], where_));
+    if (count == 0) return std::size_t{0};
+    const std::string what = "cannot store " + batchName(messages, count);
+    ADIT_RETURN_IF_ERROR(execChecked("BEGIN IMMEDIATE", what));
+    std::size_t fresh = 0;
+    Status s;
+    for (std::size_t i = 0; i < count && s.ok(); ++i) {
+      bool stored = false;
+      s = insertMessage(messages[i], what, stored);
+      fresh += stored ? 1 : 0;
+    }
+    // Only duplicates: nothing to flush, end without a commit's fsync.
+    if (s.ok() && fresh > 0) s = execChecked("COMMIT", what);
+    if (!s.ok() || fresh == 0) rollback();
+    if (!s.ok()) return s;
+    return fresh;
+  }
 
   Status insertMessage(const RobotMessage& m, const std::string& what, bool& fresh) {
     {

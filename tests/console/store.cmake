@@ -28,3 +28,10 @@ if(ADIT_PG_INITDB AND ADIT_PG_CTL)
                        PROPERTIES LABELS unit FIXTURES_REQUIRED console_postgres
                                   ENVIRONMENT ADIT_TEST_POSTGRES_STATE=${_pg_state})
 endif()
+
+# The rows-per-second figures (Google Benchmark, never run by CTest): see the file's head.
+if(ADIT_BUILD_BENCHMARKS)
+  find_package(benchmark REQUIRED)
+  add_executable(adit_console_store_bench ${CMAKE_CURRENT_LIST_DIR}/../bench/console_store_bench.cpp)
+  target_link_libraries(adit_console_store_bench PRIVATE adit::console benchmark::benchmark adit_warnings)
+endif()

@@ -269,6 +269,71 @@ TEST_P(StoreTest, RefusedMessagesStoreNothing) {
   EXPECT_TRUE(*db.appendMessage(telemetry("r1", 1)));
 }
 
+TEST_P(StoreTest, ABatchIsStoredInOneTransactionAllOrNothing) {
+  Store& db = open();
+  ASSERT_TRUE(*db.appendMessage(telemetry("r1", 2)));
+  std::vector<RobotMessage> batch;
+  for (std::int64_t s = 1; s <= 5; ++s) batch.push_back(s == 4 ? event("r1", s) : telemetry("r1", s));
+  batch.push_back(telemetry("r1", 3));  // the same seq twice in one batch: stored once
+  StatusOr<std::size_t> fresh = db.appendMessages(batch);
+  ASSERT_TRUE(fresh.ok()) << fresh.status().toString();
+  EXPECT_EQ(*fresh, 4u);  // seq 2 was stored before
+  EXPECT_EQ(db.history("r1", 0, 100)->size(), 5u);
+  EXPECT_EQ(*db.telemetryRows(), 4);
+  EXPECT_EQ(*db.appendMessages(batch), 0u);
+  EXPECT_EQ(*db.appendMessages({}), 0u);
+
+  std::vector<RobotMessage> bad = {telemetry("r1", 6), telemetry("r1", 7)};
+  bad[1].pose->x = std::nan("");
+  StatusOr<std::size_t> refused = db.appendMessages(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.status().message().find("seq 7"), std::string::npos) << refused.status().message();
+  EXPECT_EQ(*db.lastSeq("r1"), 5);  // seq 6 was not stored either
+}
+
+TEST_P(StoreTest, CentresStartingTogetherMigrateOnce) {
+  constexpr int kCentres = 4;
+  std::vector<pid_t> children;
+  for (int i = 0; i < kCentres; ++i) {
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      StatusOr<std::unique_ptr<Store>> db = Store::open(url_);
+      _exit(db.ok() && *(*db)->schemaVersion() == kSchemaVersion ? 0 : 1);
+    }
+    children.push_back(child);
+  }
+  for (pid_t child : children) {
+    int wstatus = 0;
+    ASSERT_EQ(waitpid(child, &wstatus, 0), child);
+    EXPECT_TRUE(WIFEXITED(wstatus) && WEXITSTATUS(wstatus) == 0) << "a centre failed to open";
+  }
+  EXPECT_EQ(rawScalar("SELECT count(*) FROM schema_migrations"), "1");
+}
+
+TEST_P(StoreTest, ADatabaseWithForeignTablesIsRefusedUntouched) {
+  // Someone else's database: a `robots` table of another shape, no schema_migrations.
+  if (GetParam() == "sqlite") {
+    sqlite3* raw = nullptr;
+    ASSERT_EQ(sqlite3_open((dir_ / "centre.db").c_str(), &raw), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(raw, "CREATE TABLE robots(name TEXT)", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(raw);
+  } else {
+    rawScalar("CREATE TABLE robots(name TEXT)");
+  }
+  StatusOr<std::unique_ptr<Store>> s = Store::open(url_);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.status().message().find("migration to schema version 1 failed, nothing of it applied"),
+            std::string::npos)
+      << s.status().message();
+  // Nothing half-applied: the migration's transaction (schema_migrations included) rolled back.
+  const std::string tables = GetParam() == "sqlite"
+                                 ? "SELECT count(*) FROM sqlite_master WHERE type = 'table'"
+                                 : "SELECT count(*) FROM information_schema.tables WHERE table_schema = 'public'";
+  EXPECT_EQ(rawScalar(tables), "1");
+}
+
 TEST_P(StoreTest, CommandsGoThroughTheirLifecycle) {
   Store& db = open();
   const std::int64_t a = *db.addCommand(goalCommand("r1", "2026-11-30T23:00:00.000Z"));
