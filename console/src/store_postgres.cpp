@@ -47,19 +47,22 @@ class PostgresStore final : public Store, private MigrationTarget {
       : url_(std::move(url)), password_(passwordOf(url_)), where_(redactUrl(url_)) {}
 
   Status open() {
-    ADIT_RETURN_IF_ERROR(guard("cannot connect", [&]() -> Status {
-      conn_ = std::make_unique<pqxx::connection>(url_);
-      pqxx::nontransaction setup(*conn_);
-      // CREATE TABLE IF NOT EXISTS would print a NOTICE on stderr at every start otherwise.
-      setup.exec0("SET client_min_messages = warning");
-      setup.exec0("SET synchronous_commit = on");
-      return {};
-    }));
+    ADIT_RETURN_IF_ERROR(guard(
+        "cannot connect",
+        [&]() -> Status {
+          connect();
+          return {};
+        },
+        Retry::kNever));
     ADIT_RETURN_IF_ERROR(applyMigrations(*this, where_));
-    return guard("cannot prepare the statements", [&]() -> Status {
-      prepareAll();
-      return {};
-    });
+    return guard(
+        "cannot prepare the statements",
+        [&]() -> Status {
+          prepareAll();
+          ready_ = true;
+          return {};
+        },
+        Retry::kNever);
   }
 
   std::string backend() const override { return "postgresql"; }
@@ -154,7 +157,7 @@ class PostgresStore final : public Store, private MigrationTarget {
                                                       c.body, commandStatusName(CommandStatus::kPending))[0]);
       txn.commit();
       return static_cast<std::int64_t>(id);
-    });
+    }, Retry::kNever);
   }
 
   Status updateCommand(std::int64_t id, CommandStatus status, const std::string& reason,
@@ -204,25 +207,28 @@ class PostgresStore final : public Store, private MigrationTarget {
       txn_ = std::make_unique<pqxx::work>(*conn_, "migration");
       txn_->exec("SELECT pg_advisory_xact_lock(7111002011)");
       return {};
-    });
+    }, Retry::kNever);
   }
   Status exec(const std::string& sql) override {
     return guard("'" + sql + "' failed", [&]() -> Status {
+      ADIT_DEMAND(txn_);  // applyMigrations stops at the first failed step
       txn_->exec0(sql);
       return {};
-    });
+    }, Retry::kNever);
   }
   StatusOr<int> currentVersion() override {
     return guard("cannot read the schema version", [&]() -> StatusOr<int> {
+      ADIT_DEMAND(txn_);
       return txn_->exec1("SELECT coalesce(max(version), 0) FROM schema_migrations")[0].as<int>();
-    });
+    }, Retry::kNever);
   }
   Status commit() override {
     return guard("cannot commit", [&]() -> Status {
+      ADIT_DEMAND(txn_);
       txn_->commit();
       txn_.reset();
       return {};
-    });
+    }, Retry::kNever);
   }
   void rollback() override {
     // pqxx::work aborts in its destructor, which never throws.
@@ -309,17 +315,55 @@ class PostgresStore final : public Store, private MigrationTarget {
     return out;
   }
 
+  /// Opens the session (no statement prepared yet: open() prepares after the migrations).
+  void connect() {
+    conn_ = std::make_unique<pqxx::connection>(url_);
+    pqxx::nontransaction setup(*conn_);
+    // CREATE TABLE IF NOT EXISTS would print a NOTICE on stderr at every start otherwise.
+    setup.exec0("SET client_min_messages = warning");
+    setup.exec0("SET synchronous_commit = on");
+  }
+
+  /// Forgets a broken connection; the next call opens a new one.
+  void dropConnection() {
+    txn_.reset();
+    conn_.reset();
+  }
+
+  /// Whether a call that met a dropped connection is retried once on a new one. Every call is,
+  /// except addCommand (retrying an INSERT whose COMMIT may have landed could issue the command
+  /// twice) and the migration steps (their transaction died with the connection). The others
+  /// are idempotent: a message is stored at most once per (robot, seq) (a retry of a landed
+  /// commit answers "stored already", and the server acknowledges it all the same), commands
+  /// only move forward, robots are upserted.
+  enum class Retry { kOnce, kNever };
+
   /// Runs f, turning libpqxx's exceptions into a Status that names the (redacted) URL.
   template <class F>
-  auto guard(const std::string& what, F&& f) -> decltype(f()) {
-    try {
-      return f();
-    } catch (const pqxx::broken_connection& e) {
-      return Status(StatusCode::kFailedPrecondition, where_ + ": " + what + ": " + scrub(e.what()));
-    } catch (const pqxx::data_exception& e) {
-      return Status(StatusCode::kInvalidArgument, where_ + ": " + what + ": " + scrub(e.what()));
-    } catch (const std::exception& e) {
-      return Status(StatusCode::kInternal, where_ + ": " + what + ": " + scrub(e.what()));
+  auto guard(const std::string& what, F&& f, Retry retry = Retry::kOnce) -> decltype(f()) {
+    for (int attempt = 0;; ++attempt) {
+      const bool may_retry = retry == Retry::kOnce && attempt == 0;
+      try {
+        if (!conn_ && ready_) {
+          connect();
+          prepareAll();
+        }
+        return f();
+      } catch (const pqxx::broken_connection& e) {
+        dropConnection();
+        if (may_retry) continue;
+        return Status(StatusCode::kFailedPrecondition, where_ + ": " + what + ": " + scrub(e.what()));
+      } catch (const pqxx::in_doubt_error& e) {
+        dropConnection();
+        if (may_retry) continue;
+        return Status(StatusCode::kInternal, where_ + ": " + what +
+                                                 ": the connection was lost during COMMIT, its outcome is unknown: " +
+                                                 scrub(e.what()));
+      } catch (const pqxx::data_exception& e) {
+        return Status(StatusCode::kInvalidArgument, where_ + ": " + what + ": " + scrub(e.what()));
+      } catch (const std::exception& e) {
+        return Status(StatusCode::kInternal, where_ + ": " + what + ": " + scrub(e.what()));
+      }
     }
   }
 
@@ -335,7 +379,8 @@ class PostgresStore final : public Store, private MigrationTarget {
 
   std::string url_, password_, where_;
   std::unique_ptr<pqxx::connection> conn_;
-  std::unique_ptr<pqxx::work> txn_;
+  std::unique_ptr<pqxx::work> txn_;  // the migration's (destroyed before conn_)
+  bool ready_ = false;  // migrated and prepared: a dropped connection may be reopened
 };
 
 }  // namespace

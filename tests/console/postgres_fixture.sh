@@ -5,6 +5,8 @@
 #   postgres_fixture.sh start STATE_DIR   initdb in a fresh temp dir, start on a free loopback
 #                                         port; writes STATE_DIR/url (postgresql://...) and
 #                                         STATE_DIR/pgdata (the temp dir's path)
+#   postgres_fixture.sh restart STATE_DIR a fast shutdown and a start on the same port and data
+#                                         (the store's reconnection test)
 #   postgres_fixture.sh stop STATE_DIR    stops that server by its PID, removes the temp dir
 #
 # PostgreSQL refuses to run as root: as root the server runs as the `postgres` system account
@@ -12,8 +14,8 @@
 # nothing of a system cluster is touched. A start that fails cleans up after itself.
 set -eu
 
-action=${1:?usage: postgres_fixture.sh start|stop STATE_DIR}
-state=${2:?usage: postgres_fixture.sh start|stop STATE_DIR}
+action=${1:?usage: postgres_fixture.sh start|restart|stop STATE_DIR}
+state=${2:?usage: postgres_fixture.sh start|restart|stop STATE_DIR}
 
 bindir=""
 for d in "${PG_BINDIR:-}" /usr/lib/postgresql/15/bin /usr/lib/postgresql/*/bin; do
@@ -25,7 +27,7 @@ as_db_user() {
   if [ "$(id -u)" -eq 0 ]; then runuser -u postgres -- "$@"; else "$@"; fi
 }
 
-stop_server() {  # $1: the temp dir (the cluster is in $1/data)
+stop_postmaster() {  # $1: the temp dir (the cluster is in $1/data)
   pidfile="$1/data/postmaster.pid"
   if [ -f "$pidfile" ]; then
     pid=$(head -n 1 "$pidfile")
@@ -35,7 +37,16 @@ stop_server() {  # $1: the temp dir (the cluster is in $1/data)
     while kill -0 "$pid" 2>/dev/null && [ $i -lt 300 ]; do sleep 0.1; i=$((i + 1)); done
     if kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid" 2>/dev/null || true; fi
   fi
+}
+
+stop_server() {  # $1: the temp dir
+  stop_postmaster "$1"
   rm -rf "$1"
+}
+
+start_postmaster() {  # $1: the temp dir, $2: the port
+  as_db_user "$bindir/pg_ctl" -D "$1/data" -w -t 60 -l "$1/server.log" \
+    -o "-p $2 -k $1 -c listen_addresses=127.0.0.1" start >/dev/null 2>&1
 }
 
 case "$action" in
@@ -58,10 +69,7 @@ case "$action" in
     tries=0
     while :; do
       port=$((20000 + $(od -An -N2 -tu2 /dev/urandom | tr -d ' ') % 30000))
-      if as_db_user "$bindir/pg_ctl" -D "$tmp/data" -w -t 60 -l "$tmp/server.log" \
-           -o "-p $port -k $tmp -c listen_addresses=127.0.0.1" start >/dev/null 2>&1; then
-        break
-      fi
+      if start_postmaster "$tmp" "$port"; then break; fi
       tries=$((tries + 1))
       if [ $tries -ge 10 ]; then cat "$tmp/server.log" >&2; exit 1; fi
     done
@@ -70,11 +78,17 @@ case "$action" in
     printf 'postgresql://adit:%s@127.0.0.1:%s/postgres\n' "$password" "$port" > "$state/url"
     echo "postgres_fixture: server on 127.0.0.1:$port (pid $(head -n 1 "$tmp/data/postmaster.pid"), $tmp)" >&2
     ;;
+  restart)
+    tmp=$(cat "$state/pgdata")
+    port=$(sed -n 's|.*@127.0.0.1:\([0-9]*\)/.*|\1|p' "$state/url")
+    stop_postmaster "$tmp"
+    start_postmaster "$tmp" "$port" || { cat "$tmp/server.log" >&2; exit 1; }
+    ;;
   stop)
     if [ -f "$state/pgdata" ]; then
       stop_server "$(cat "$state/pgdata")"
     fi
     rm -f "$state/url" "$state/pgdata"
     ;;
-  *) echo "usage: postgres_fixture.sh start|stop STATE_DIR" >&2; exit 2 ;;
+  *) echo "usage: postgres_fixture.sh start|restart|stop STATE_DIR" >&2; exit 2 ;;
 esac

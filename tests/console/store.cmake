@@ -9,6 +9,8 @@ pkg_check_modules(PQXX REQUIRED IMPORTED_TARGET libpqxx libpq)
 add_executable(adit_console_store_tests ${CMAKE_CURRENT_LIST_DIR}/store_test.cpp)
 target_link_libraries(adit_console_store_tests PRIVATE adit::console SQLite::SQLite3 PkgConfig::PQXX
                       GTest::gtest_main adit_warnings)
+target_compile_definitions(adit_console_store_tests PRIVATE
+  ADIT_PG_FIXTURE_SCRIPT="${CMAKE_CURRENT_LIST_DIR}/postgres_fixture.sh")
 gtest_discover_tests(adit_console_store_tests TEST_FILTER "-*/postgresql:*Postgresql*"
                      PROPERTIES LABELS unit DISCOVERY_TIMEOUT 60)
 

@@ -555,5 +555,65 @@ TEST_F(StoreOpenTest, AWrongPostgresqlPasswordIsRefusedWithoutPrintingIt) {
   EXPECT_NE(s.status().message().find("password authentication failed"), std::string::npos) << s.status().message();
 }
 
+/// A second throw-away server of the test's own (the suite's shared one must not restart under
+/// the other tests), stopped and removed however the test ends.
+class OwnPostgresServer {
+ public:
+  OwnPostgresServer() {
+    std::string tmpl = (fs::temp_directory_path() / "adit-pgstate-XXXXXX").string();
+    if (!mkdtemp(tmpl.data())) return;
+    state_ = tmpl;
+    if (run("start") != 0) return;
+    std::ifstream in(state_ / "url");
+    std::getline(in, url_);
+  }
+  ~OwnPostgresServer() {
+    if (state_.empty()) return;
+    run("stop");
+    fs::remove_all(state_);
+  }
+  int run(const std::string& action) const {
+    return std::system(("sh '" ADIT_PG_FIXTURE_SCRIPT "' " + action + " '" + state_.string() + "'").c_str());
+  }
+  const std::string& url() const { return url_; }
+
+ private:
+  fs::path state_;
+  std::string url_;
+};
+
+// The database server restarts under a running centre: the idempotent calls reconnect and
+// retry by themselves, so the centre sees nothing; addCommand (not idempotent) may fail once,
+// cleanly, and never stores a command twice; nothing stored before is lost.
+TEST(PostgresqlRestartTest, AStoreReconnectsAfterTheDatabaseServerRestarts) {
+  if (postgresServerUrl().empty()) GTEST_SKIP() << "no PostgreSQL fixture (ADIT_TEST_POSTGRES_STATE unset)";
+  OwnPostgresServer server;
+  ASSERT_FALSE(server.url().empty()) << "could not start a second throw-away server";
+  StatusOr<std::unique_ptr<Store>> opened = Store::open(server.url());
+  ASSERT_TRUE(opened.ok()) << opened.status().toString();
+  Store& db = **opened;
+  for (std::int64_t s = 1; s <= 10; ++s) ASSERT_TRUE(*db.appendMessage(telemetry("r1", s)));
+
+  ASSERT_EQ(server.run("restart"), 0);
+  for (std::int64_t s = 11; s <= 20; ++s) {
+    StatusOr<bool> r = db.appendMessage(telemetry("r1", s));
+    ASSERT_TRUE(r.ok()) << r.status().toString();
+    EXPECT_TRUE(*r);
+  }
+  EXPECT_EQ(*db.lastSeq("r1"), 20);
+  EXPECT_EQ(db.history("r1", 0, 100)->size(), 20u);
+
+  ASSERT_EQ(server.run("restart"), 0);
+  const std::string password = server.url().substr(13, server.url().find('@') - 13);
+  StatusOr<std::int64_t> id = db.addCommand(goalCommand("r1", "t0"));
+  if (!id.ok()) {
+    EXPECT_EQ(id.status().code(), StatusCode::kFailedPrecondition) << id.status().toString();
+    EXPECT_EQ(id.status().message().find(password), std::string::npos) << "password printed";
+    id = db.addCommand(goalCommand("r1", "t0"));
+  }
+  ASSERT_TRUE(id.ok()) << id.status().toString();
+  EXPECT_EQ(db.commands("r1", 10)->size(), 1u);
+}
+
 }  // namespace
 }  // namespace adit::console
