@@ -85,7 +85,9 @@ class Store {
   virtual StatusOr<std::optional<RobotRecord>> robot(const std::string& robot) = 0;
 
   /// Stores the message (and its telemetry row) in one transaction. Returns false, storing
-  /// nothing, when (robot, seq) is stored already.
+  /// nothing, when (robot, seq) is stored already. (PostgreSQL: a call that lost its connection
+  /// during COMMIT retries on a new one, and may then answer false for the message its first
+  /// attempt stored; either way the message is stored, so the server acknowledges it.)
   virtual StatusOr<bool> appendMessage(const RobotMessage& message) = 0;
   /// Stores several messages in ONE transaction (one disk flush instead of one per message),
   /// each at most once per (robot, seq); returns how many were new. All or nothing: a message
