@@ -17,16 +17,20 @@ BUILD_DIR="${BUILD_DIR:-build}"
 JOBS="${JOBS:-$(nproc)}"
 
 # Debian 12 packages adit builds against. OMPL's CMake config also needs its boost and ODE
-# companions (the global planner). slurm-wlm and munge: the campaign test's throw-away one-node
-# Slurm cluster (tests/tools/campaign_slurm.sh starts its own daemons, never the system's).
+# companions (the global planner).
 PKGS=(cmake g++ make pkg-config
       liboctomap-dev libfcl-dev libccd-dev libeigen3-dev
       libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
       libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev libode-dev
       libgtest-dev libgmock-dev libbenchmark-dev
       libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev
-      libsqlite3-dev libpqxx-dev postgresql
-      slurm-wlm munge)
+      libsqlite3-dev libpqxx-dev)
+# What only the test suite needs: headless Chromium for the pages' browser tests; slurm-wlm and
+# munge for the campaign test's throw-away one-node Slurm cluster (tests/tools/campaign_slurm.sh
+# starts its own daemons, never the system's); PostgreSQL's server for the console store's
+# throw-away database (started by the test in a temp dir, never the system's cluster).
+TEST_PKGS=(chromium slurm-wlm munge postgresql)
+if [ "$mode" = test ]; then PKGS+=("${TEST_PKGS[@]}"); fi
 
 missing=()
 for p in "${PKGS[@]}"; do
@@ -37,8 +41,8 @@ if [ ${#missing[@]} -gt 0 ]; then
   SUDO=""
   [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -q
-  # Installing munge and slurm-wlm must not start their daemons (a fresh container has no init to
-  # run them; a host needs none of them): a policy-rc.d that denies every start, for the install
+  # Installing munge, slurm-wlm and postgresql must not start their daemons (a fresh container has
+  # no init to run them; a host needs none of them): a policy-rc.d that denies every start, for the install
   # only, unless one is there already (Debian's container images ship one).
   policy=/usr/sbin/policy-rc.d
   added_policy=""
