@@ -3,7 +3,9 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <initializer_list>
 #include <limits>
+#include <utility>
 
 #include "store_internal.hpp"
 
@@ -117,6 +119,43 @@ namespace {
 Status refuse(const std::string& where, const std::string& what) {
   return invalidArgument(where + ": " + what + "; nothing stored");
 }
+
+/// Why PostgreSQL's TEXT could not hold `s` (a NUL byte, invalid UTF-8: RFC 3629, no overlong
+/// forms, no surrogates), "" when it can. Checked for both backends, so that a message SQLite
+/// would take and PostgreSQL refuse is refused by both alike.
+std::string textProblem(const std::string& s) {
+  const auto* p = reinterpret_cast<const unsigned char*>(s.data());
+  const std::size_t n = s.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned c = p[i];
+    if (c == 0) return "contains a NUL byte at offset " + std::to_string(i);
+    std::size_t len = 0;
+    unsigned lo = 0x80, hi = 0xBF;  // the allowed range of the second byte
+    if (c < 0x80) len = 1;
+    else if (c >= 0xC2 && c <= 0xDF) len = 2;
+    else if (c == 0xE0) len = 3, lo = 0xA0;
+    else if (c >= 0xE1 && c <= 0xEF) len = 3, hi = c == 0xED ? 0x9F : 0xBF;
+    else if (c == 0xF0) len = 4, lo = 0x90;
+    else if (c >= 0xF1 && c <= 0xF3) len = 4;
+    else if (c == 0xF4) len = 4, hi = 0x8F;
+    bool ok = len > 0 && i + len <= n;
+    for (std::size_t k = 1; ok && k < len; ++k)
+      ok = k == 1 ? (p[i + 1] >= lo && p[i + 1] <= hi) : (p[i + k] >= 0x80 && p[i + k] <= 0xBF);
+    if (!ok) return "is not valid UTF-8 at offset " + std::to_string(i);
+    i += len;
+  }
+  return "";
+}
+
+/// The first field of `fields` ({name, value}) that is no valid text, as a refusal.
+Status checkTexts(std::initializer_list<std::pair<const char*, const std::string*>> fields,
+                  const std::string& where, const std::string& who) {
+  for (const auto& [name, value] : fields) {
+    const std::string problem = textProblem(*value);
+    if (!problem.empty()) return refuse(where, who + ": " + name + " " + problem);
+  }
+  return {};
+}
 }  // namespace
 
 std::string messageName(const RobotMessage& m) {
@@ -141,20 +180,32 @@ Status checkMessage(const RobotMessage& m, const std::string& where) {
     const RobotMessage::Pose& p = *m.pose;
     for (double v : {p.x, p.y, p.z, p.vx, p.vy, p.vz})
       if (!std::isfinite(v)) return refuse(where, who + ": a pose or velocity component is not finite");
+    ADIT_RETURN_IF_ERROR(checkTexts({{"status", &p.status}}, where, who));
   }
-  return {};
+  return checkTexts({{"robot", &m.robot}, {"type", &m.type}, {"received_at", &m.received_at}, {"body", &m.body}},
+                    where, who);
 }
 
 Status checkRobot(const RobotRecord& r, const std::string& where) {
   if (r.robot.empty()) return refuse(where, "robot record with an empty robot id");
   if (!std::isfinite(r.radius)) return refuse(where, "robot '" + r.robot + "': radius is not finite");
-  return {};
+  return checkTexts({{"robot", &r.robot}, {"map_hash", &r.map_hash}, {"first_seen", &r.first_seen},
+                     {"last_seen", &r.last_seen}},
+                    where, "robot record");
 }
 
 Status checkCommand(const Command& c, const std::string& where) {
   if (c.robot.empty()) return refuse(where, "command with an empty robot id");
   if (c.kind.empty()) return refuse(where, "command for robot '" + c.robot + "' has no kind");
-  return {};
+  return checkTexts({{"robot", &c.robot}, {"operator", &c.operator_name}, {"issued_at", &c.issued_at},
+                     {"kind", &c.kind}, {"body", &c.body}},
+                    where, "command");
+}
+
+Status checkCommandUpdate(std::int64_t id, const std::string& reason, const std::string& updated_at,
+                          const std::string& where) {
+  return checkTexts({{"reason", &reason}, {"updated_at", &updated_at}}, where,
+                    "update of command " + std::to_string(id));
 }
 
 bool commandStatusAdvances(CommandStatus from, CommandStatus to) {

@@ -57,6 +57,8 @@ std::string batchName(const RobotMessage* messages, std::size_t count);
 Status checkMessage(const RobotMessage& m, const std::string& where);
 Status checkRobot(const RobotRecord& r, const std::string& where);
 Status checkCommand(const Command& c, const std::string& where);
+Status checkCommandUpdate(std::int64_t id, const std::string& reason, const std::string& updated_at,
+                          const std::string& where);
 
 /// Commands only move forward: pending → sent → accepted → executed, or → refused from any
 /// unanswered state; executed and refused are final. A repeated or late answer (the robot

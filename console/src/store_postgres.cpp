@@ -162,6 +162,7 @@ class PostgresStore final : public Store, private MigrationTarget {
 
   Status updateCommand(std::int64_t id, CommandStatus status, const std::string& reason,
                        const std::string& updated_at) override {
+    ADIT_RETURN_IF_ERROR(checkCommandUpdate(id, reason, updated_at, where_));
     return guard("cannot update command " + std::to_string(id), [&]() -> Status {
       pqxx::work txn(*conn_);
       // FOR UPDATE: two centres answering the same command serialise on its row.

@@ -180,6 +180,7 @@ class SqliteStore final : public Store, private MigrationTarget {
 
   Status updateCommand(std::int64_t id, CommandStatus status, const std::string& reason,
                        const std::string& updated_at) override {
+    ADIT_RETURN_IF_ERROR(checkCommandUpdate(id, reason, updated_at, where_));
     ADIT_ASSIGN_OR_RETURN(std::optional<Command> current, command(id));
     if (!current) return notFound(where_ + ": no command " + std::to_string(id));
     if (!commandStatusAdvances(current->status, status)) return {};

@@ -269,6 +269,37 @@ TEST_P(StoreTest, RefusedMessagesStoreNothing) {
   EXPECT_TRUE(*db.appendMessage(telemetry("r1", 1)));
 }
 
+// PostgreSQL's TEXT holds no NUL byte and only valid UTF-8; SQLite would hold anything. Both
+// refuse the same texts, naming the field, and take every valid UTF-8 text unchanged.
+TEST_P(StoreTest, TextsThatAreNotUtf8AreRefusedAlikeByBothBackends) {
+  Store& db = open();
+  const std::string bad[] = {std::string("{\"a\":\"\0\"}", 9), "{\"a\":\"\xff\"}", "\xc0\xaf" /* overlong '/' */,
+                             "\xed\xa0\x80" /* a surrogate */, "\xf4\x90\x80\x80" /* above U+10FFFF */, "\xe2\x82"};
+  std::int64_t seq = 0;
+  for (const std::string& text : bad) {
+    RobotMessage m = telemetry("r1", ++seq);
+    m.body = text;
+    StatusOr<bool> r = db.appendMessage(m);
+    ASSERT_FALSE(r.ok()) << "seq " << seq;
+    EXPECT_EQ(r.status().code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(r.status().message().find("body"), std::string::npos) << r.status().message();
+    Command c = goalCommand("r1", "t0");
+    c.operator_name = text;
+    EXPECT_EQ(db.addCommand(c).status().code(), StatusCode::kInvalidArgument);
+  }
+  EXPECT_EQ(rawScalar("SELECT count(*) FROM messages"), "0");
+  EXPECT_TRUE(db.commands("", 10)->empty());
+
+  const std::int64_t id = *db.addCommand(goalCommand("r1", "t0"));
+  EXPECT_EQ(db.updateCommand(id, CommandStatus::kRefused, "\xfe", "t1").code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ((*db.command(id))->status, CommandStatus::kPending);
+
+  RobotMessage good = telemetry("r1", 100);
+  good.body = "{\"where\":\"Querschlag 3 \xc3\xb6stlich, \xe5\xb7\xb7\xe9\x81\x93 \xf0\x9f\x9a\xa7\"}";
+  ASSERT_TRUE(*db.appendMessage(good));
+  EXPECT_EQ(db.history("r1", 100, 1)->front().body, good.body);
+}
+
 TEST_P(StoreTest, ABatchIsStoredInOneTransactionAllOrNothing) {
   Store& db = open();
   ASSERT_TRUE(*db.appendMessage(telemetry("r1", 2)));
