@@ -232,9 +232,19 @@ long long sqlLimit(std::size_t limit) {
 StatusOr<std::unique_ptr<Store>> Store::open(const std::string& url) {
   const std::string sqlite_prefix = "sqlite:";
   if (url.rfind(sqlite_prefix, 0) == 0) {
-    const std::string path = url.substr(sqlite_prefix.size());
+    std::string path = url.substr(sqlite_prefix.size());
+    bool synchronous_full = true;
+    const std::size_t query = path.rfind('?');
+    if (query != std::string::npos) {
+      const std::string option = path.substr(query + 1);
+      if (option == "synchronous=normal") synchronous_full = false;
+      else if (option != "synchronous=full")
+        return invalidArgument("database URL '" + url + "': unknown option '" + option +
+                               "' (sqlite:PATH takes ?synchronous=full, the default, or ?synchronous=normal)");
+      path.resize(query);
+    }
     if (path.empty()) return invalidArgument("database URL '" + url + "': no file path after 'sqlite:' (expected sqlite:PATH)");
-    return detail::openSqlite(path);
+    return detail::openSqlite(path, synchronous_full);
   }
   if (url.rfind("postgresql://", 0) == 0 || url.rfind("postgres://", 0) == 0)
     return detail::openPostgres(url);

@@ -117,7 +117,8 @@ StatusOr<Command> commandFromRow(const Row& row, const std::string& where) {
 /// Clamps a caller's row limit to what SQL LIMIT takes.
 long long sqlLimit(std::size_t limit);
 
-StatusOr<std::unique_ptr<Store>> openSqlite(const std::string& path);
+/// synchronous_full false: PRAGMA synchronous=NORMAL (see store_sqlite.cpp).
+StatusOr<std::unique_ptr<Store>> openSqlite(const std::string& path, bool synchronous_full);
 StatusOr<std::unique_ptr<Store>> openPostgres(const std::string& url);
 
 }  // namespace adit::console::detail

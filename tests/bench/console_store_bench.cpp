@@ -8,7 +8,8 @@
 //   ADIT_BENCH_POSTGRES_URL=$(cat /tmp/pgbench/url) build/tests/adit_console_store_bench
 //   tests/console/postgres_fixture.sh stop /tmp/pgbench
 //
-// Wall-clock time (UseRealTime): the cost is the disk flush at each commit, not CPU. The
+// sqlite_normal is `sqlite:PATH?synchronous=normal` (no fsync per commit: survives a killed
+// process, not a power cut). Wall-clock time (UseRealTime): the cost is the disk flush at each commit, not CPU. The
 // summary prints each backend's batch speed-up against its own one-per-transaction baseline,
 // and SQLite against PostgreSQL, all measured in this run.
 #include <benchmark/benchmark.h>
@@ -28,19 +29,23 @@ using adit::console::RobotMessage;
 using adit::console::Store;
 namespace fs = std::filesystem;
 
+std::string sqliteFile() {
+  return (fs::temp_directory_path() / ("adit-store-bench-" + std::to_string(getpid()) + ".db")).string();
+}
+
 /// The store of a backend, opened once per process; nullptr (with a reason) when unavailable.
 Store* storeFor(const std::string& backend, std::string& why) {
   static std::map<std::string, std::unique_ptr<Store>> stores;
   auto it = stores.find(backend);
   if (it != stores.end()) return it->second.get();
   std::string url;
-  if (backend == "sqlite") {
-    const fs::path file = fs::temp_directory_path() / ("adit-store-bench-" + std::to_string(getpid()) + ".db");
-    url = "sqlite:" + file.string();
-    std::atexit([] {
-      const std::string base = (fs::temp_directory_path() / ("adit-store-bench-" + std::to_string(getpid()) + ".db")).string();
-      for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(base + suffix);
+  if (backend.rfind("sqlite", 0) == 0) {
+    // One file per process, removed at exit (both SQLite modes share it: the mode is per connection).
+    url = "sqlite:" + sqliteFile() + (backend == "sqlite_normal" ? "?synchronous=normal" : "");
+    static const int registered = std::atexit([] {
+      for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(sqliteFile() + suffix);
     });
+    (void)registered;
   } else {
     const char* env = std::getenv("ADIT_BENCH_POSTGRES_URL");
     if (!env) {
@@ -126,6 +131,7 @@ void BM_ReplayHistory1000(benchmark::State& state, const std::string& backend) {
 }
 
 BENCHMARK_CAPTURE(BM_AppendOnePerTransaction, sqlite, std::string("sqlite"))->UseRealTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_AppendOnePerTransaction, sqlite_normal, std::string("sqlite_normal"))->UseRealTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_AppendOnePerTransaction, postgresql, std::string("postgresql"))->UseRealTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_AppendBatch, sqlite, std::string("sqlite"))->Arg(10)->Arg(50)->Arg(500)->UseRealTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_AppendBatch, postgresql, std::string("postgresql"))->Arg(10)->Arg(50)->Arg(500)->UseRealTime()->Unit(benchmark::kMicrosecond);
@@ -158,6 +164,8 @@ class RateReporter : public benchmark::ConsoleReporter {
     }
     ratio("BM_AppendOnePerTransaction/sqlite/real_time", "BM_AppendOnePerTransaction/postgresql/real_time",
           "one per transaction: sqlite / postgresql");
+    ratio("BM_AppendOnePerTransaction/sqlite_normal/real_time", "BM_AppendOnePerTransaction/sqlite/real_time",
+          "one per transaction: sqlite synchronous=normal / =full");
   }
 
  private:

@@ -72,11 +72,11 @@ Command goalCommand(const std::string& robot, const std::string& issued_at) {
 class StoreTest : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
-    if (GetParam() == "sqlite") {
+    if (isSqlite()) {
       std::string tmpl = (fs::temp_directory_path() / "adit-store-XXXXXX").string();
       ASSERT_NE(mkdtemp(tmpl.data()), nullptr);
       dir_ = tmpl;
-      url_ = "sqlite:" + (dir_ / "centre.db").string();
+      url_ = "sqlite:" + (dir_ / "centre.db").string() + (GetParam() == "sqlite_normal" ? "?synchronous=normal" : "");
       return;
     }
     server_ = postgresServerUrl();
@@ -100,8 +100,10 @@ class StoreTest : public ::testing::TestWithParam<std::string> {
   }
 
   /// The first column of the first row of `sql` run on the test's database, bypassing Store.
+  bool isSqlite() const { return GetParam().rfind("sqlite", 0) == 0; }
+
   std::string rawScalar(const std::string& sql) {
-    if (GetParam() == "sqlite") {
+    if (isSqlite()) {
       sqlite3* db = nullptr;
       std::string out;
       if (sqlite3_open((dir_ / "centre.db").c_str(), &db) == SQLITE_OK) {
@@ -138,7 +140,7 @@ class StoreTest : public ::testing::TestWithParam<std::string> {
 
 TEST_P(StoreTest, MigratesAnEmptyDatabaseToTheCurrentVersion) {
   Store& db = open();
-  EXPECT_EQ(db.backend(), GetParam());
+  EXPECT_EQ(db.backend(), isSqlite() ? "sqlite" : "postgresql");
   StatusOr<int> version = db.schemaVersion();
   ASSERT_TRUE(version.ok()) << version.status().toString();
   EXPECT_EQ(*version, kSchemaVersion);
@@ -174,7 +176,7 @@ TEST_P(StoreTest, RefusesADatabaseNewerThanThisBuild) {
   EXPECT_EQ(s.status().code(), StatusCode::kFailedPrecondition);
   EXPECT_NE(s.status().message().find("schema version " + std::to_string(kSchemaVersion + 1)), std::string::npos)
       << s.status().message();
-  if (GetParam() == "sqlite") {
+  if (isSqlite()) {
     EXPECT_NE(s.status().message().find((dir_ / "centre.db").string()), std::string::npos) << s.status().message();
   } else {
     EXPECT_NE(s.status().message().find(database_), std::string::npos) << s.status().message();
@@ -345,7 +347,7 @@ TEST_P(StoreTest, CentresStartingTogetherMigrateOnce) {
 
 TEST_P(StoreTest, ADatabaseWithForeignTablesIsRefusedUntouched) {
   // Someone else's database: a `robots` table of another shape, no schema_migrations.
-  if (GetParam() == "sqlite") {
+  if (isSqlite()) {
     sqlite3* raw = nullptr;
     ASSERT_EQ(sqlite3_open((dir_ / "centre.db").c_str(), &raw), SQLITE_OK);
     ASSERT_EQ(sqlite3_exec(raw, "CREATE TABLE robots(name TEXT)", nullptr, nullptr, nullptr), SQLITE_OK);
@@ -359,7 +361,7 @@ TEST_P(StoreTest, ADatabaseWithForeignTablesIsRefusedUntouched) {
             std::string::npos)
       << s.status().message();
   // Nothing half-applied: the migration's transaction (schema_migrations included) rolled back.
-  const std::string tables = GetParam() == "sqlite"
+  const std::string tables = isSqlite()
                                  ? "SELECT count(*) FROM sqlite_master WHERE type = 'table'"
                                  : "SELECT count(*) FROM information_schema.tables WHERE table_schema = 'public'";
   EXPECT_EQ(rawScalar(tables), "1");
@@ -517,7 +519,8 @@ TEST_P(StoreTest, ACentreKilledMidWayKeepsAGaplessPrefixAndResendsFillIt) {
   EXPECT_EQ(*db.telemetryRows(), kMessages);
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, StoreTest, ::testing::Values("sqlite", "postgresql"),
+// sqlite_normal: sqlite:PATH?synchronous=normal, which must keep every guarantee but the power cut.
+INSTANTIATE_TEST_SUITE_P(Backends, StoreTest, ::testing::Values("sqlite", "sqlite_normal", "postgresql"),
                          [](const ::testing::TestParamInfo<std::string>& param_info) { return param_info.param; });
 
 // --- bad URLs and files: an error naming the place, never a crash ---
@@ -534,7 +537,8 @@ class StoreOpenTest : public ::testing::Test {
 };
 
 TEST_F(StoreOpenTest, AnUnknownSchemeIsRefused) {
-  for (const std::string url : {"mysql://centre", "", "sqlite:", "/var/lib/centre.db"}) {
+  for (const std::string url : {"mysql://centre", "", "sqlite:", "/var/lib/centre.db", "sqlite:?synchronous=full",
+                                "sqlite:centre.db?synchronous=off", "sqlite:centre.db?mode=ro"}) {
     StatusOr<std::unique_ptr<Store>> s = Store::open(url);
     ASSERT_FALSE(s.ok()) << url;
     EXPECT_EQ(s.status().code(), StatusCode::kInvalidArgument);
