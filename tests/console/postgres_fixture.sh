@@ -54,7 +54,11 @@ case "$action" in
     mkdir -p "$state"
     if [ -f "$state/pgdata" ]; then stop_server "$(cat "$state/pgdata")"; fi
     rm -f "$state/url" "$state/pgdata"
-    tmp=$(mktemp -d "${TMPDIR:-/tmp}/adit-pg.XXXXXX")
+    base=${TMPDIR:-/tmp}
+    # As root the server runs as `postgres`, which must reach the temp dir: a private TMPDIR
+    # (under /root, say) would not do.
+    if [ "$(id -u)" -eq 0 ] && ! runuser -u postgres -- test -x "$base"; then base=/tmp; fi
+    tmp=$(mktemp -d "$base/adit-pg.XXXXXX")
     trap 'stop_server "$tmp"' EXIT INT TERM
     if [ "$(id -u)" -eq 0 ]; then chown postgres: "$tmp"; fi
     chmod 700 "$tmp"
