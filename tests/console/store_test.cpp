@@ -20,6 +20,12 @@
 
 #include "adit/console/store.hpp"
 
+// Debian 12's libpqxx 6.4.5 leaks libpq's error result when a lost connection fails its
+// client-encoding query (fixed upstream in 7.x: jtv/libpqxx#500); the restart test meets it
+// under ADIT_SANITIZE. Only allocations made inside libpqxx are exempt; a leaked connection
+// object of ours is still reported (it is allocated from our code).
+extern "C" const char* __lsan_default_suppressions() { return "leak:libpqxx-6.4.so\n"; }
+
 namespace adit::console {
 namespace {
 
