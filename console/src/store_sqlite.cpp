@@ -89,7 +89,7 @@ class SqliteStore final : public Store, private MigrationTarget {
     // Another process (a second reader, a backup) may hold the lock briefly: wait, do not fail.
     sqlite3_busy_timeout(db_, 5000);
     // The first statement reads the header: a file that is not a database fails here.
-    ADIT_RETURN_IF_ERROR(execChecked("PRAGMA journal_mode=WAL", "cannot switch to WAL"));
+    ADIT_RETURN_IF_ERROR(switchToWal());
     ADIT_RETURN_IF_ERROR(execChecked(synchronous_full_ ? "PRAGMA synchronous=FULL" : "PRAGMA synchronous=NORMAL",
                                      "cannot set the synchronous mode"));
     ADIT_RETURN_IF_ERROR(applyMigrations(*this, where_));
@@ -185,16 +185,14 @@ class SqliteStore final : public Store, private MigrationTarget {
   Status updateCommand(std::int64_t id, CommandStatus status, const std::string& reason,
                        const std::string& updated_at) override {
     ADIT_RETURN_IF_ERROR(checkCommandUpdate(id, reason, updated_at, where_));
-    ADIT_ASSIGN_OR_RETURN(std::optional<Command> current, command(id));
-    if (!current) return notFound(where_ + ": no command " + std::to_string(id));
-    if (!commandStatusAdvances(current->status, status)) return {};
-    Use u(update_command_);
-    u.bind(1, std::string(commandStatusName(status)));
-    u.bind(2, reason);
-    u.bind(3, updated_at);
-    u.bind(4, static_cast<long long>(id));
-    const int rc = u.step();
-    return rc == SQLITE_DONE ? Status() : error(rc, "cannot update command " + std::to_string(id));
+    // The read and the write in one write transaction: two centres on one file answering the
+    // same command cannot both move it (PostgreSQL: SELECT ... FOR UPDATE).
+    const std::string what = "cannot update command " + std::to_string(id);
+    ADIT_RETURN_IF_ERROR(execChecked("BEGIN IMMEDIATE", what));
+    Status s = advanceCommand(id, status, reason, updated_at, what);
+    if (s.ok()) s = execChecked("COMMIT", what);
+    if (!s.ok()) rollback();
+    return s;
   }
 
   StatusOr<std::optional<Command>> command(std::int64_t id) override {
@@ -260,6 +258,20 @@ class SqliteStore final : public Store, private MigrationTarget {
     if (!s.ok() || fresh == 0) rollback();
     if (!s.ok()) return s;
     return fresh;
+  }
+
+  Status advanceCommand(std::int64_t id, CommandStatus status, const std::string& reason,
+                        const std::string& updated_at, const std::string& what) {
+    ADIT_ASSIGN_OR_RETURN(std::optional<Command> current, command(id));
+    if (!current) return notFound(where_ + ": no command " + std::to_string(id));
+    if (!commandStatusAdvances(current->status, status)) return {};
+    Use u(update_command_);
+    u.bind(1, std::string(commandStatusName(status)));
+    u.bind(2, reason);
+    u.bind(3, updated_at);
+    u.bind(4, static_cast<long long>(id));
+    const int rc = u.step();
+    return rc == SQLITE_DONE ? Status() : error(rc, what);
   }
 
   Status insertMessage(const RobotMessage& m, const std::string& what, bool& fresh) {
@@ -345,6 +357,20 @@ class SqliteStore final : public Store, private MigrationTarget {
       if (rc != SQLITE_OK) return error(rc, "cannot prepare '" + sql + "'");
     }
     return {};
+  }
+
+  /// Switching a fresh file to WAL needs it exclusively, and SQLite answers "database is locked"
+  /// at once, without the busy handler, when another centre opening the same file holds it:
+  /// retry for as long as the busy timeout. Once a file is in WAL mode it stays so (the mode
+  /// is stored in the file), and the pragma no longer contends.
+  Status switchToWal() {
+    int rc = SQLITE_OK;
+    for (int attempt = 0; attempt < 500; ++attempt) {
+      rc = sqlite3_exec(db_, "PRAGMA journal_mode=WAL", nullptr, nullptr, nullptr);
+      if ((rc & 0xff) != SQLITE_BUSY && (rc & 0xff) != SQLITE_LOCKED) break;
+      sqlite3_sleep(10);
+    }
+    return rc == SQLITE_OK ? Status() : error(rc, "cannot switch to WAL");
   }
 
   Status execChecked(const std::string& sql, const std::string& what) {

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -339,6 +340,7 @@ TEST_P(StoreTest, CentresStartingTogetherMigrateOnce) {
     ASSERT_GE(child, 0);
     if (child == 0) {
       StatusOr<std::unique_ptr<Store>> db = Store::open(url_);
+      if (!db.ok()) std::fprintf(stderr, "centre %d: %s\n", i, db.status().toString().c_str());
       _exit(db.ok() && *(*db)->schemaVersion() == kSchemaVersion ? 0 : 1);
     }
     children.push_back(child);
