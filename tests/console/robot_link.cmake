@@ -8,3 +8,8 @@ add_executable(adit_robot_link_tests ${CMAKE_CURRENT_LIST_DIR}/robot_link_test.c
 target_link_libraries(adit_robot_link_tests PRIVATE adit::console adit_test_support Boost::headers Threads::Threads
                       nlohmann_json::nlohmann_json GTest::gtest_main adit_warnings)
 gtest_discover_tests(adit_robot_link_tests PROPERTIES LABELS unit DISCOVERY_TIMEOUT 60)
+# `adit simulate --live` end to end against the same test centre.
+if(TARGET adit)
+  target_compile_definitions(adit_robot_link_tests PRIVATE ADIT_TOOL_PATH="$<TARGET_FILE:adit>")
+  add_dependencies(adit_robot_link_tests adit)
+endif()

@@ -6,12 +6,17 @@
 // answered again from the stored result and never executed twice.
 #include <gtest/gtest.h>
 #include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
 #include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -52,6 +57,9 @@ struct CentreOptions {
   std::vector<json> commands;         // sent after every welcome, as the centre resends pending ones
   std::string refuse;                 // answer hello with this error and close
   bool ack = true;
+  // Called with every newly stored message: what the centre sends back besides the ack (e.g. an
+  // operator's command once the robot reached a place).
+  std::function<std::vector<json>(const json&)> react;
 };
 
 class Centre {
@@ -128,13 +136,16 @@ class Centre {
       const json m = json::parse(beast::buffers_to_string(buf.data()));
       buf.consume(buf.size());
       const std::uint64_t seq = m["seq"].get<std::uint64_t>();
+      bool fresh = false;
       {
         std::lock_guard lock(ledger_.mu);
         ++ledger_.received[seq];
-        ledger_.stored.emplace(seq, m);  // at most once per seq
+        fresh = ledger_.stored.emplace(seq, m).second;  // at most once per seq
       }
       ++stored_here;
       if (opt_.ack) ws.write(net::buffer(json{{"type", "ack"}, {"seq", seq}}.dump()), ec);
+      if (fresh && opt_.react)
+        for (const json& out : opt_.react(m)) ws.write(net::buffer(out.dump()), ec);
       if (opt_.drop_after > 0 && stored_here == opt_.drop_after) {
         opt_.drop_after = 0;
         ::shutdown(ws.next_layer().native_handle(), SHUT_RDWR);  // no close frame: a lost link
@@ -343,6 +354,137 @@ TEST(RobotLink, MapFileHashIsFnv1aOfTheBytes) {
   EXPECT_EQ(h->size(), 8u + 16u);
   EXPECT_FALSE(mapFileHash("/nonexistent/map.yaml").ok());
 }
+
+#ifdef ADIT_TOOL_PATH
+// `adit simulate --live` end to end against the test centre: a loop of four roadways; the
+// operator blocks the south roadway the robot is on, pauses it, resumes it. The run still ends
+// as without the console (arrived, same JSON), every message arrives once and in order.
+class LiveSimulation : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = ::testing::TempDir() + "adit_live_" + std::to_string(::getpid());
+    ASSERT_EQ(std::system(("mkdir -p " + dir_).c_str()), 0);
+    std::ofstream(dir_ + "/loop.yaml") << R"(name: loop
+resolution: 0.2
+rock_shell: 0.6
+stations: {A: [0, 0, 0], B: [24, 0, 0], C: [24, 16, 0], D: [0, 16, 0]}
+sections: {drift: {shape: rectangle, width: 4.0, height: 3.2}}
+roadways:
+  - {name: south, section: drift, stations: [A, B]}
+  - {name: east, section: drift, stations: [B, C]}
+  - {name: north, section: drift, stations: [C, D]}
+  - {name: west, section: drift, stations: [D, A]}
+)";
+    std::ofstream(dir_ + "/loop_run.yaml") << R"(name: loop-run
+map: loop.yaml
+start: [3, 0, 1.6]
+goal: [21, 0, 1.6]
+expected_path: plan
+robot: {radius: 0.4, v_max: 1.0, a_max: 0.5, sensor_range: 10}
+method: tian2016
+dt: 0.1
+t_max: 200
+seed: 1
+)";
+  }
+  void TearDown() override { (void)std::system(("rm -rf " + dir_).c_str()); }
+  int simulate(const std::string& url, const std::string& extra = "--live-speed 0") {
+    const std::string cmd = std::string(ADIT_TOOL_PATH) + " simulate " + dir_ + "/loop_run.yaml --live " + url +
+                            " --out " + dir_ + "/run.json " + extra + " 2>" + dir_ + "/stderr.txt";
+    const int rc = std::system(cmd.c_str());
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  }
+  std::string dir_;
+};
+
+json command(int id, const std::string& kind) {
+  return json{{"type", "command"}, {"command_id", id}, {"kind", kind}, {"operator", "alice"}};
+}
+
+TEST_F(LiveSimulation, OperatorBlocksPausesResumesAndTheRunArrives) {
+  Ledger ledger;
+  CentreOptions opt;
+  int stage = 0;
+  opt.react = [&](const json& m) -> std::vector<json> {
+    if (m["type"] != "telemetry") return {};
+    const double t = m["t"].get<double>();
+    if (stage == 0 && t >= 1.0) {
+      ++stage;
+      json b = command(1, "block");
+      b["roadway"] = "south";
+      return {b};
+    }
+    if (stage == 1 && t >= 4.0) return ++stage, std::vector<json>{command(2, "pause")};
+    if (stage == 2 && t >= 8.0) return ++stage, std::vector<json>{command(3, "resume")};
+    return {};
+  };
+  Centre centre(ledger, opt);
+  ASSERT_EQ(simulate(centre.url(), "--robot-id r1 --live-speed 40"), 0) << std::ifstream(dir_ + "/stderr.txt").rdbuf();
+  json run;
+  std::ifstream(dir_ + "/run.json") >> run;
+  EXPECT_EQ(run["outcome"], "arrived");
+
+  std::lock_guard lock(ledger.mu);
+  ASSERT_FALSE(ledger.stored.empty());
+  EXPECT_EQ(ledger.stored.rbegin()->first, ledger.stored.size()) << "seq 1..N, none lost";
+  for (const auto& [seq, n] : ledger.received) EXPECT_EQ(n, 1) << seq;
+  const json& first = ledger.stored.begin()->second;
+  EXPECT_EQ(first["type"], "plan");
+  EXPECT_EQ(first["reason"], "initial");
+  EXPECT_EQ(first["robot"], "r1");
+  std::vector<std::string> plans, results;
+  std::vector<json> paused;
+  json last_telemetry;
+  for (const auto& [seq, m] : ledger.stored) {
+    if (m["type"] == "plan") plans.push_back(m["reason"]);
+    if (m["type"] == "command_result")
+      results.push_back(std::to_string(m["command_id"].get<int>()) + ":" + m["result"].get<std::string>());
+    if (m["type"] == "telemetry") {
+      last_telemetry = m;
+      if (m["status"] == "paused") paused.push_back(m);
+    }
+  }
+  EXPECT_EQ(plans.at(1), "blocked");
+  EXPECT_EQ(results, (std::vector<std::string>{"1:accepted", "1:executed", "2:accepted", "2:executed", "3:accepted",
+                                               "3:executed"}));
+  ASSERT_GT(paused.size(), 10u);  // 4 s of pause at 0.1 s
+  // Held: once braked, the paused robot does not move.
+  const json& a = paused[paused.size() / 2];
+  const json& b = paused.back();
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(a["pose"][i].get<double>(), b["pose"][i].get<double>(), 1e-6);
+  EXPECT_EQ(last_telemetry["status"], "arrived");
+  EXPECT_NEAR(last_telemetry["pose"][0].get<double>(), 21.0, 0.5);
+}
+
+TEST_F(LiveSimulation, NoConsoleIsExitTwoAndAGoalInRockIsRefused) {
+  unsigned short free_port = 0;
+  Ledger ledger;
+  {
+    Centre gone(ledger, {});
+    free_port = gone.port();
+  }
+  EXPECT_EQ(simulate("ws://127.0.0.1:" + std::to_string(free_port)), 2);
+  EXPECT_EQ(simulate("http://127.0.0.1:1"), 2);
+
+  CentreOptions opt;
+  json g = command(5, "goal");
+  g["goal"] = {12, 8, 1.6};  // inside the loop: rock
+  opt.commands = {g};
+  Centre centre(ledger, opt);
+  ASSERT_EQ(simulate(centre.url()), 0);
+  std::lock_guard lock(ledger.mu);
+  int refused = 0;
+  for (const auto& [seq, m] : ledger.stored) {
+    EXPECT_EQ(m["robot"], "loop_run");  // the scenario file's stem
+    if (m["type"] == "command_result") {
+      EXPECT_EQ(m["result"], "refused");
+      EXPECT_NE(m["reason"].get<std::string>().find("in rock"), std::string::npos) << m["reason"];
+      ++refused;
+    }
+  }
+  EXPECT_GE(refused, 1);
+}
+#endif
 
 }  // namespace
 }  // namespace adit::console
