@@ -83,6 +83,12 @@ Status pointList(const Json& j, const char* key, bool required) {
   return Status::okStatus();
 }
 
+StatusOr<std::string> robotField(const Json& j) {
+  ADIT_ASSIGN_OR_RETURN(std::string robot, stringField(j, "robot"));
+  if (!validRobotId(robot)) return refuse(kBadRobotId);
+  return robot;
+}
+
 bool oneOf(const std::string& s, std::initializer_list<const char*> values) {
   for (const char* v : values)
     if (s == v) return true;
@@ -167,8 +173,7 @@ StatusOr<Json> parseObject(const std::string& text) {
 StatusOr<Hello> parseHello(const Json& j) {
   ADIT_RETURN_IF_ERROR(requireFinite(j));
   Hello h;
-  ADIT_ASSIGN_OR_RETURN(h.robot, stringField(j, "robot"));
-  if (!validRobotId(h.robot)) return refuse("robot id must be 1-64 characters of [A-Za-z0-9_.-]");
+  ADIT_ASSIGN_OR_RETURN(h.robot, robotField(j));
   ADIT_ASSIGN_OR_RETURN(h.map_hash, stringField(j, "map_hash"));
   if (j.contains("map")) {
     if (!j["map"].is_string()) return refuse("field 'map' must be a string");
@@ -183,8 +188,7 @@ StatusOr<RobotMessage> parseRobotMessage(const Json& j) {
   ADIT_RETURN_IF_ERROR(requireFinite(j));
   RobotMessage m;
   ADIT_ASSIGN_OR_RETURN(m.type, stringField(j, "type"));
-  ADIT_ASSIGN_OR_RETURN(m.robot, stringField(j, "robot"));
-  if (!validRobotId(m.robot)) return refuse("robot id must be 1-64 characters of [A-Za-z0-9_.-]");
+  ADIT_ASSIGN_OR_RETURN(m.robot, robotField(j));
   auto seq = j.find("seq");
   if (seq == j.end()) return refuse("missing field 'seq'");
   if (!seq->is_number_integer() || seq->get<std::int64_t>() < 1) return refuse("field 'seq' must be a positive integer");
@@ -217,8 +221,7 @@ CommandResult commandResultOf(const Json& j) {
 StatusOr<CommandRequest> parseCommandRequest(const Json& j) {
   ADIT_RETURN_IF_ERROR(requireFinite(j));
   CommandRequest c;
-  ADIT_ASSIGN_OR_RETURN(c.robot, stringField(j, "robot"));
-  if (!validRobotId(c.robot)) return refuse("robot id must be 1-64 characters of [A-Za-z0-9_.-]");
+  ADIT_ASSIGN_OR_RETURN(c.robot, robotField(j));
   ADIT_ASSIGN_OR_RETURN(c.kind, stringField(j, "kind"));
   if (c.kind == "goal") {
     ADIT_ASSIGN_OR_RETURN(map::Vec3 goal, pointField(j, "goal"));

@@ -669,7 +669,7 @@ Response Server::Impl::handle(const Request& req) {
   if (path == "/api/commands") {
     const std::string robot = query.count("robot") ? query.at("robot") : "";
     if (!robot.empty() && !protocol::validRobotId(robot))
-      return refusal(req, http::status::bad_request, "robot id must be 1-64 characters of [A-Za-z0-9_.-]");
+      return refusal(req, http::status::bad_request, protocol::kBadRobotId);
     auto list = store.commands(robot, 10000);
     if (!list.ok()) return refusal(req, http::status::internal_server_error, "database: " + list.status().message());
     Json out = Json::array();
@@ -680,7 +680,7 @@ Response Server::Impl::handle(const Request& req) {
     if (!query.count("robot")) return refusal(req, http::status::bad_request, "missing parameter 'robot'");
     const std::string robot = query.at("robot");
     if (!protocol::validRobotId(robot))
-      return refusal(req, http::status::bad_request, "robot id must be 1-64 characters of [A-Za-z0-9_.-]");
+      return refusal(req, http::status::bad_request, protocol::kBadRobotId);
     std::optional<std::int64_t> from = query.count("from_seq") ? parseCount(query.at("from_seq")) : 1;
     std::optional<std::int64_t> limit = query.count("limit") ? parseCount(query.at("limit")) : 1000;
     if (!from) return refusal(req, http::status::bad_request, "from_seq must be a non-negative integer");
