@@ -87,6 +87,13 @@ class Store {
   /// Stores the message (and its telemetry row) in one transaction. Returns false, storing
   /// nothing, when (robot, seq) is stored already.
   virtual StatusOr<bool> appendMessage(const RobotMessage& message) = 0;
+  /// Stores several messages in ONE transaction (one disk flush instead of one per message),
+  /// each at most once per (robot, seq); returns how many were new. All or nothing: a message
+  /// that fails its checks refuses the whole batch, and nothing of it is stored.
+  /// Durability, both backends: once appendMessage/appendMessages returned, the messages
+  /// survive a killed process and a power cut (SQLite: WAL + synchronous=FULL; PostgreSQL:
+  /// synchronous_commit=on), so the server may acknowledge them.
+  virtual StatusOr<std::size_t> appendMessages(const std::vector<RobotMessage>& messages) = 0;
   /// Highest stored seq of the robot, 0 when none.
   virtual StatusOr<std::int64_t> lastSeq(const std::string& robot) = 0;
   /// Messages of `robot` with seq >= from_seq, in seq order, at most `limit`.
@@ -96,6 +103,10 @@ class Store {
 
   /// Stores a new command (status pending) and returns its id.
   virtual StatusOr<std::int64_t> addCommand(const Command& command) = 0;
+  /// Commands only move forward: pending → sent → accepted → executed, or refused (with the
+  /// reason) from any unanswered state; executed and refused are final. An update that would
+  /// not move the command forward (a repeated or late answer) changes nothing and returns OK;
+  /// compare with command() first to know whether it changed. NotFound for an unknown id.
   virtual Status updateCommand(std::int64_t command_id, CommandStatus status, const std::string& reason,
                                const std::string& updated_at) = 0;
   virtual StatusOr<std::optional<Command>> command(std::int64_t command_id) = 0;

@@ -1,0 +1,369 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The embedded backend. Durability: WAL journal with synchronous=FULL, so every committed
+// transaction is fsynced to the WAL before appendMessage() returns: an acknowledged message
+// survives a killed process AND a power cut or OS crash (synchronous=NORMAL would survive the
+// killed process only, and the robot drops what the centre acknowledged, so a power cut would
+// lose it for good). WAL rather than a rollback journal: one fsync per commit instead of two,
+// and readers (a second `adit` process, a backup) never block the writer.
+#include <sqlite3.h>
+
+#include <cmath>
+#include <utility>
+
+#include "store_internal.hpp"
+
+namespace adit::console::detail {
+namespace {
+
+/// A prepared statement, reset after each use so it can be reused.
+class Statement {
+ public:
+  Statement() = default;
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+  ~Statement() { sqlite3_finalize(stmt_); }
+  sqlite3_stmt** out() { return &stmt_; }
+  sqlite3_stmt* get() const { return stmt_; }
+
+ private:
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+/// Resets and clears a statement's bindings when a use of it ends, whichever way.
+class Use {
+ public:
+  explicit Use(const Statement& s) : stmt_(s.get()) {}
+  Use(const Use&) = delete;
+  Use& operator=(const Use&) = delete;
+  ~Use() {
+    sqlite3_reset(stmt_);
+    sqlite3_clear_bindings(stmt_);
+  }
+  void bind(int i, const std::string& v) { sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT); }
+  void bind(int i, double v) { sqlite3_bind_double(stmt_, i, v); }
+  void bind(int i, long long v) { sqlite3_bind_int64(stmt_, i, v); }
+  int step() { return sqlite3_step(stmt_); }
+  std::string text(int col) const {
+    const unsigned char* p = sqlite3_column_text(stmt_, col);
+    return p ? std::string(reinterpret_cast<const char*>(p), static_cast<std::size_t>(sqlite3_column_bytes(stmt_, col)))
+             : std::string();
+  }
+  double real(int col) const { return sqlite3_column_double(stmt_, col); }
+  long long integer(int col) const { return sqlite3_column_int64(stmt_, col); }
+  bool isNull(int col) const { return sqlite3_column_type(stmt_, col) == SQLITE_NULL; }
+
+ private:
+  sqlite3_stmt* stmt_;
+};
+
+StatusCode codeOf(int rc) {
+  switch (rc & 0xff) {
+    case SQLITE_NOTADB:
+    case SQLITE_CORRUPT: return StatusCode::kDataLoss;
+    case SQLITE_CANTOPEN: return StatusCode::kNotFound;
+    case SQLITE_CONSTRAINT:
+    case SQLITE_MISMATCH:
+    case SQLITE_TOOBIG: return StatusCode::kInvalidArgument;
+    case SQLITE_READONLY:
+    case SQLITE_PERM:
+    case SQLITE_BUSY:
+    case SQLITE_LOCKED: return StatusCode::kFailedPrecondition;
+    default: return StatusCode::kInternal;
+  }
+}
+
+class SqliteStore final : public Store, private MigrationTarget {
+ public:
+  explicit SqliteStore(std::string path) : path_(std::move(path)), where_("sqlite:" + path_) {}
+  // close_v2: the connection closes once the member statements are finalised after this body.
+  ~SqliteStore() override { sqlite3_close_v2(db_); }
+
+  Status open() {
+    const int rc = sqlite3_open_v2(path_.c_str(), &db_,
+                                   SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr);
+    if (rc != SQLITE_OK) return error(rc, "cannot open the database file");
+    sqlite3_extended_result_codes(db_, 1);
+    // Another process (a second reader, a backup) may hold the lock briefly: wait, do not fail.
+    sqlite3_busy_timeout(db_, 5000);
+    // The first statement reads the header: a file that is not a database fails here.
+    ADIT_RETURN_IF_ERROR(execChecked("PRAGMA journal_mode=WAL", "cannot switch to WAL"));
+    ADIT_RETURN_IF_ERROR(execChecked("PRAGMA synchronous=FULL", "cannot set synchronous=FULL"));
+    ADIT_RETURN_IF_ERROR(applyMigrations(*this, where_));
+    return prepareAll();
+  }
+
+  std::string backend() const override { return "sqlite"; }
+
+  StatusOr<int> schemaVersion() override { return currentVersion(); }
+
+  Status upsertRobot(const RobotRecord& r) override {
+    ADIT_RETURN_IF_ERROR(checkRobot(r, where_));
+    Use u(upsert_robot_);
+    u.bind(1, r.robot);
+    u.bind(2, r.map_hash);
+    u.bind(3, r.radius);
+    u.bind(4, r.first_seen.empty() ? r.last_seen : r.first_seen);
+    u.bind(5, r.last_seen);
+    const int rc = u.step();
+    return rc == SQLITE_DONE ? Status() : error(rc, "cannot store robot '" + r.robot + "'");
+  }
+
+  StatusOr<std::vector<RobotRecord>> robots() override {
+    std::vector<RobotRecord> out;
+    Use u(robots_);
+    ADIT_RETURN_IF_ERROR(readRobots(u, out, "cannot read the robots"));
+    return out;
+  }
+
+  StatusOr<std::optional<RobotRecord>> robot(const std::string& robot) override {
+    std::vector<RobotRecord> out;
+    Use u(robot_);
+    u.bind(1, robot);
+    ADIT_RETURN_IF_ERROR(readRobots(u, out, "cannot read robot '" + robot + "'"));
+    if (out.empty()) return std::optional<RobotRecord>();
+    return std::optional<RobotRecord>(std::move(out.front()));
+  }
+
+  StatusOr<bool> appendMessage(const RobotMessage& m) override {
+    ADIT_ASSIGN_OR_RETURN(std::size_t fresh, appendBatch(&m, 1));
+    return fresh > 0;
+  }
+
+  StatusOr<std::size_t> appendMessages(const std::vector<RobotMessage>& messages) override {
+    return appendBatch(messages.data(), messages.size());
+  }
+
+  StatusOr<std::int64_t> lastSeq(const std::string& robot) override {
+    Use u(last_seq_);
+    u.bind(1, robot);
+    const int rc = u.step();
+    if (rc != SQLITE_ROW) return error(rc, "cannot read the last seq of robot '" + robot + "'");
+    return static_cast<std::int64_t>(u.integer(0));
+  }
+
+  StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq,
+                                              std::size_t limit) override {
+    std::vector<RobotMessage> out;
+    Use u(history_);
+    u.bind(1, robot);
+    u.bind(2, static_cast<long long>(from_seq));
+    u.bind(3, sqlLimit(limit));
+    int rc;
+    while ((rc = u.step()) == SQLITE_ROW) {
+      out.push_back(messageFromRow(u));
+      if (!u.isNull(6)) out.back().pose = poseFromRow(u, 6);
+    }
+    if (rc != SQLITE_DONE) return error(rc, "cannot read the history of robot '" + robot + "'");
+    return out;
+  }
+
+  StatusOr<std::int64_t> telemetryRows() override {
+    Use u(telemetry_rows_);
+    const int rc = u.step();
+    if (rc != SQLITE_ROW) return error(rc, "cannot count the telemetry rows");
+    return static_cast<std::int64_t>(u.integer(0));
+  }
+
+  StatusOr<std::int64_t> addCommand(const Command& c) override {
+    ADIT_RETURN_IF_ERROR(checkCommand(c, where_));
+    Use u(add_command_);
+    u.bind(1, c.robot);
+    u.bind(2, c.operator_name);
+    u.bind(3, c.issued_at);
+    u.bind(4, c.kind);
+    u.bind(5, c.body);
+    u.bind(6, std::string(commandStatusName(CommandStatus::kPending)));
+    const int rc = u.step();
+    if (rc != SQLITE_DONE) return error(rc, "cannot store a '" + c.kind + "' command for robot '" + c.robot + "'");
+    return static_cast<std::int64_t>(sqlite3_last_insert_rowid(db_));
+  }
+
+  Status updateCommand(std::int64_t id, CommandStatus status, const std::string& reason,
+                       const std::string& updated_at) override {
+    ADIT_ASSIGN_OR_RETURN(std::optional<Command> current, command(id));
+    if (!current) return notFound(where_ + ": no command " + std::to_string(id));
+    if (!commandStatusAdvances(current->status, status)) return {};
+    Use u(update_command_);
+    u.bind(1, std::string(commandStatusName(status)));
+    u.bind(2, reason);
+    u.bind(3, updated_at);
+    u.bind(4, static_cast<long long>(id));
+    const int rc = u.step();
+    return rc == SQLITE_DONE ? Status() : error(rc, "cannot update command " + std::to_string(id));
+  }
+
+  StatusOr<std::optional<Command>> command(std::int64_t id) override {
+    std::vector<Command> out;
+    Use u(command_);
+    u.bind(1, static_cast<long long>(id));
+    ADIT_RETURN_IF_ERROR(readCommands(u, out, "cannot read command " + std::to_string(id)));
+    if (out.empty()) return std::optional<Command>();
+    return std::optional<Command>(std::move(out.front()));
+  }
+
+  StatusOr<std::vector<Command>> commands(const std::string& robot, std::size_t limit) override {
+    std::vector<Command> out;
+    Use u(commands_);
+    u.bind(1, robot);
+    u.bind(2, sqlLimit(limit));
+    ADIT_RETURN_IF_ERROR(readCommands(u, out, "cannot read the commands"));
+    return out;
+  }
+
+  StatusOr<std::vector<Command>> unansweredCommands(const std::string& robot) override {
+    std::vector<Command> out;
+    Use u(unanswered_);
+    u.bind(1, robot);
+    ADIT_RETURN_IF_ERROR(readCommands(u, out, "cannot read the unanswered commands of robot '" + robot + "'"));
+    return out;
+  }
+
+ private:
+  // MigrationTarget. BEGIN IMMEDIATE takes the write lock at once: a second process migrating
+  // the same file waits (busy timeout) and then sees the new version.
+  Status beginExclusive() override { return execChecked("BEGIN IMMEDIATE", "cannot start a transaction"); }
+  Status exec(const std::string& sql) override { return execChecked(sql, "'" + sql + "' failed"); }
+  StatusOr<int> currentVersion() override {
+    Statement s;
+    int rc = sqlite3_prepare_v2(db_, "SELECT coalesce(max(version), 0) FROM schema_migrations", -1, s.out(), nullptr);
+    if (rc != SQLITE_OK) return error(rc, "cannot read the schema version");
+    Use u(s);
+    rc = u.step();
+    if (rc != SQLITE_ROW) return error(rc, "cannot read the schema version");
+    return static_cast<int>(u.integer(0));
+  }
+  Status commit() override { return execChecked("COMMIT", "cannot commit"); }
+  void rollback() override {
+    if (!sqlite3_get_autocommit(db_)) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+  }
+  bool isPostgres() const override { return false; }
+
+  StatusOr<std::size_t> appendBatch(const RobotMessage* messages, std::size_t count) {
+    for (std::size_t i = 0; i < count; ++i) ADIT_RETURN_IF_ERROR(checkMessage(messages[i], where_));
+    if (count == 0) return std::size_t{0};
+    const std::string what = "cannot store " + batchName(messages, count);
+    ADIT_RETURN_IF_ERROR(execChecked("BEGIN IMMEDIATE", what));
+    std::size_t fresh = 0;
+    Status s;
+    for (std::size_t i = 0; i < count && s.ok(); ++i) {
+      bool stored = false;
+      s = insertMessage(messages[i], what, stored);
+      fresh += stored ? 1 : 0;
+    }
+    // Only duplicates: nothing to flush, end without a commit's fsync.
+    if (s.ok() && fresh > 0) s = execChecked("COMMIT", what);
+    if (!s.ok() || fresh == 0) rollback();
+    if (!s.ok()) return s;
+    return fresh;
+  }
+
+  Status insertMessage(const RobotMessage& m, const std::string& what, bool& fresh) {
+    {
+      Use u(insert_message_);
+      u.bind(1, m.robot);
+      u.bind(2, static_cast<long long>(m.seq));
+      u.bind(3, m.type);
+      u.bind(4, m.t);
+      u.bind(5, m.received_at);
+      u.bind(6, m.body);
+      const int rc = u.step();
+      if (rc != SQLITE_DONE) return error(rc, what);
+      fresh = sqlite3_changes(db_) > 0;
+    }
+    if (!fresh || m.type != "telemetry") return {};
+    const RobotMessage::Pose& p = *m.pose;
+    Use u(insert_telemetry_);
+    u.bind(1, m.robot);
+    u.bind(2, static_cast<long long>(m.seq));
+    u.bind(3, m.t);
+    int i = 4;
+    for (double v : {p.x, p.y, p.z, p.vx, p.vy, p.vz}) u.bind(i++, v);
+    u.bind(10, p.status);
+    const int rc = u.step();
+    return rc == SQLITE_DONE ? Status() : error(rc, what);
+  }
+
+  Status readRobots(Use& u, std::vector<RobotRecord>& out, const std::string& what) {
+    int rc;
+    while ((rc = u.step()) == SQLITE_ROW)
+      out.push_back(robotFromRow(u));
+    return rc == SQLITE_DONE ? Status() : error(rc, what);
+  }
+
+  Status readCommands(Use& u, std::vector<Command>& out, const std::string& what) {
+    int rc;
+    while ((rc = u.step()) == SQLITE_ROW) {
+      ADIT_ASSIGN_OR_RETURN(Command c, commandFromRow(u, where_));
+      out.push_back(std::move(c));
+    }
+    return rc == SQLITE_DONE ? Status() : error(rc, what);
+  }
+
+  Status prepareAll() {
+    const std::string robot_cols =
+        "SELECT r.robot, r.map_hash, r.radius, r.first_seen, r.last_seen,"
+        " coalesce((SELECT max(seq) FROM messages m WHERE m.robot = r.robot), 0) FROM robots r";
+    const std::string command_cols =
+        "SELECT command_id, robot, operator, issued_at, kind, body, status, reason, updated_at FROM commands";
+    const std::pair<Statement*, std::string> statements[] = {
+        {&upsert_robot_,
+         "INSERT INTO robots(robot, map_hash, radius, first_seen, last_seen) VALUES (?1, ?2, ?3, ?4, ?5)"
+         " ON CONFLICT(robot) DO UPDATE SET map_hash = excluded.map_hash, radius = excluded.radius,"
+         " last_seen = excluded.last_seen"},
+        {&robots_, robot_cols + " ORDER BY r.robot"},
+        {&robot_, robot_cols + " WHERE r.robot = ?1"},
+        {&insert_message_,
+         "INSERT INTO messages(robot, seq, type, t, received_at, body) VALUES (?1, ?2, ?3, ?4, ?5, ?6)"
+         " ON CONFLICT(robot, seq) DO NOTHING"},
+        {&insert_telemetry_,
+         "INSERT INTO telemetry(robot, seq, t, x, y, z, vx, vy, vz, status)"
+         " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)"},
+        {&last_seq_, "SELECT coalesce(max(seq), 0) FROM messages WHERE robot = ?1"},
+        {&history_,
+         "SELECT m.robot, m.seq, m.type, m.t, m.received_at, m.body, t.x, t.y, t.z, t.vx, t.vy, t.vz, t.status"
+         " FROM messages m LEFT JOIN telemetry t ON t.robot = m.robot AND t.seq = m.seq"
+         " WHERE m.robot = ?1 AND m.seq >= ?2 ORDER BY m.seq LIMIT ?3"},
+        {&telemetry_rows_, "SELECT count(*) FROM telemetry"},
+        {&add_command_,
+         "INSERT INTO commands(robot, operator, issued_at, kind, body, status, reason, updated_at)"
+         " VALUES (?1, ?2, ?3, ?4, ?5, ?6, '', ?3)"},
+        {&update_command_, "UPDATE commands SET status = ?1, reason = ?2, updated_at = ?3 WHERE command_id = ?4"},
+        {&command_, command_cols + " WHERE command_id = ?1"},
+        {&commands_,
+         "SELECT * FROM (" + command_cols + " WHERE ?1 = '' OR robot = ?1 ORDER BY command_id DESC LIMIT ?2)"
+         " ORDER BY command_id"},
+        {&unanswered_,
+         command_cols + " WHERE robot = ?1 AND status IN ('pending', 'sent') ORDER BY command_id"},
+    };
+    for (const auto& [stmt, sql] : statements) {
+      const int rc = sqlite3_prepare_v3(db_, sql.c_str(), -1, SQLITE_PREPARE_PERSISTENT, stmt->out(), nullptr);
+      if (rc != SQLITE_OK) return error(rc, "cannot prepare '" + sql + "'");
+    }
+    return {};
+  }
+
+  Status execChecked(const std::string& sql, const std::string& what) {
+    const int rc = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, nullptr);
+    return rc == SQLITE_OK ? Status() : error(rc, what);
+  }
+
+  Status error(int rc, const std::string& what) const {
+    const char* detail = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
+    return Status(codeOf(rc), where_ + ": " + what + ": " + detail);
+  }
+
+  std::string path_, where_;
+  sqlite3* db_ = nullptr;
+  Statement upsert_robot_, robots_, robot_, insert_message_, insert_telemetry_, last_seq_, history_,
+      telemetry_rows_, add_command_, update_command_, command_, commands_, unanswered_;
+};
+
+}  // namespace
+
+StatusOr<std::unique_ptr<Store>> openSqlite(const std::string& path) {
+  auto store = std::make_unique<SqliteStore>(path);
+  ADIT_RETURN_IF_ERROR(store->open());
+  return std::unique_ptr<Store>(std::move(store));
+}
+
+}  // namespace adit::console::detail
