@@ -164,8 +164,16 @@ bool validRobotId(const std::string& id) {
 }
 
 StatusOr<Json> parseObject(const std::string& text) {
-  Json j = Json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) return refuse("malformed JSON");
+  // nlohmann refuses 1e999 as "number overflow" (out_of_range), which is valid JSON with a
+  // non-finite number: an error like NaN, not a broken stream. Caught here, nothing escapes.
+  Json j;
+  try {
+    j = Json::parse(text);
+  } catch (const nlohmann::json::out_of_range&) {
+    return refuse("a number is not finite (overflows a double)");
+  } catch (const nlohmann::json::exception&) {
+    return refuse(kMalformedJson);
+  }
   if (!j.is_object()) return refuse("a message must be a JSON object");
   return j;
 }

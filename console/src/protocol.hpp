@@ -19,6 +19,7 @@ namespace adit::console::protocol {
 
 using Json = nlohmann::json;
 
+inline constexpr const char* kMalformedJson = "malformed JSON";
 inline constexpr const char* kBadRobotId = "robot id must be 1-64 characters of [A-Za-z0-9_.-]";
 /// 1–64 characters of [A-Za-z0-9_.-].
 bool validRobotId(const std::string& id);

@@ -456,7 +456,8 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
   StatusOr<Json> parsed = protocol::parseObject(text);
   if (!parsed.ok()) {
     session.send(errorJson(parsed.status().message()));
-    session.closeAfterWrites(websocket::close_code::bad_payload);
+    // Not JSON at all: the stream is out of step, start over; a JSON non-object is an error only.
+    if (parsed.status().message() == protocol::kMalformedJson) session.closeAfterWrites(websocket::close_code::bad_payload);
     return;
   }
   const Json& j = *parsed;
