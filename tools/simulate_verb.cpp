@@ -88,7 +88,7 @@ class LiveConsole final : public fusion::NavigatedObserver {
   }
 
   void beforeCycle(double t_s, fusion::Navigator& nav, const local::RobotState&) override {
-    for (const console::Command& c : link_.pollCommands()) execute(t_s, nav, c);
+    for (const console::ReceivedCommand& c : link_.pollCommands()) execute(t_s, nav, c);
   }
 
   void roofFall(const local::ScenarioEvent& e) override {
@@ -187,7 +187,7 @@ class LiveConsole final : public fusion::NavigatedObserver {
 
   // One command between periods: accepted or refused at once; executed at once, or (a goal) on
   // arrival.
-  void execute(double t, fusion::Navigator& nav, const console::Command& c) {
+  void execute(double t, fusion::Navigator& nav, const console::ReceivedCommand& c) {
     const std::int64_t id = c.id;
     auto refuse = [&](const std::string& why) { answer(id, "refused", why, t); };
     auto done = [&](const std::string& note) {

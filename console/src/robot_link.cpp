@@ -90,11 +90,11 @@ StatusOr<std::string> mapFileHash(const std::string& path) {
   return std::string(buf);
 }
 
-StatusOr<Command> parseCommand(const std::string& text) {
+StatusOr<ReceivedCommand> parseCommand(const std::string& text) {
   const json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (!j.is_object()) return invalidArgument("command: not a JSON object");
   if (!j.contains("type") || j["type"] != "command") return invalidArgument("command: type is not \"command\"");
-  Command c;
+  ReceivedCommand c;
   if (!j.contains("command_id") || !j["command_id"].is_number_integer())
     return invalidArgument("command: command_id missing or not an integer");
   c.id = j["command_id"].get<std::int64_t>();
@@ -151,7 +151,7 @@ struct RobotLink::Impl {
   std::condition_variable cv;
   std::deque<Outgoing> outbox;  // ascending seq
   std::uint64_t next_seq = 1;
-  std::deque<Command> inbox;
+  std::deque<ReceivedCommand> inbox;
   std::set<std::int64_t> received;               // command ids seen (answered or not)
   std::map<std::int64_t, std::string> answers;   // command id -> its last command_result (no robot/seq)
   LinkStats stats;
@@ -262,7 +262,7 @@ struct RobotLink::Impl {
       stats.outbox = outbox.size();
       cv.notify_all();
     } else if (type == "command") {
-      StatusOr<Command> c = parseCommand(text);
+      StatusOr<ReceivedCommand> c = parseCommand(text);
       if (!c.ok()) {
         stats.last_error = c.status().message();
         // Refused here, so the centre does not resend it forever (an id is needed to answer).
@@ -409,9 +409,9 @@ StatusOr<std::uint64_t> RobotLink::send(const std::string& json_object) {
   return seq;
 }
 
-std::vector<Command> RobotLink::pollCommands() {
+std::vector<ReceivedCommand> RobotLink::pollCommands() {
   std::lock_guard lock(impl_->mu);
-  std::vector<Command> out(impl_->inbox.begin(), impl_->inbox.end());
+  std::vector<ReceivedCommand> out(impl_->inbox.begin(), impl_->inbox.end());
   impl_->inbox.clear();
   return out;
 }

@@ -238,9 +238,9 @@ TEST(RobotLink, ARepeatedCommandIsAnsweredFromTheStoredResultNotExecutedAgain) {
   Centre centre(ledger, opt);
   StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
   ASSERT_TRUE(link.ok()) << link.status().message();
-  std::vector<Command> got;
+  std::vector<ReceivedCommand> got;
   for (int k = 0; k < 100 && got.size() < 2; ++k) {
-    for (Command& c : (*link)->pollCommands()) got.push_back(std::move(c));
+    for (ReceivedCommand& c : (*link)->pollCommands()) got.push_back(std::move(c));
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   ASSERT_EQ(got.size(), 2u);
@@ -341,7 +341,7 @@ TEST(RobotLink, ParseCommandNamesTheField) {
             std::string::npos);
   EXPECT_NE(parseCommand(R"({"type":"command","command_id":1,"kind":"block"})").status().message().find("roadway"),
             std::string::npos);
-  const StatusOr<Command> c = parseCommand(R"({"type":"command","command_id":3,"kind":"block","roadway":"crosscut-90"})");
+  const StatusOr<ReceivedCommand> c = parseCommand(R"({"type":"command","command_id":3,"kind":"block","roadway":"crosscut-90"})");
   ASSERT_TRUE(c.ok());
   EXPECT_EQ(c->roadway, "crosscut-90");
   EXPECT_TRUE(parseCommand(R"({"type":"command","command_id":4,"kind":"release"})").ok());

@@ -24,7 +24,7 @@
 ///
 ///   StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect("ws://127.0.0.1:8080", hello);
 ///   (*link)->send(telemetry);                      // JSON object; robot and seq are filled in
-///   for (const Command& c : (*link)->pollCommands()) (*link)->answer(c.id, "accepted", "", t);
+///   for (const ReceivedCommand& c : (*link)->pollCommands()) (*link)->answer(c.id, "accepted", "", t);
 ///   (*link)->flush(5.0);                           // wait for the acks before exiting
 
 #include <chrono>
@@ -56,7 +56,7 @@ struct LinkOptions {
 
 /// An operator command as received (protocol.md, centre → robot). Fields not given for the kind
 /// are empty.
-struct Command {
+struct ReceivedCommand {
   std::int64_t id = 0;
   std::string kind;  ///< pause | resume | goal | block | reopen | manual | release
   std::optional<map::Vec3> goal;
@@ -67,7 +67,7 @@ struct Command {
 
 /// Parses one `command` message; the error names the field (kinds outside the protocol, missing
 /// or non-finite arguments are refused here, before the robot sees them).
-StatusOr<Command> parseCommand(const std::string& json_text);
+StatusOr<ReceivedCommand> parseCommand(const std::string& json_text);
 
 struct LinkStats {
   std::uint64_t sent = 0;               ///< frames written (resends included)
@@ -104,7 +104,7 @@ class RobotLink {
   /// while the outbox is full of messages that are never dropped (see the file comment).
   StatusOr<std::uint64_t> send(const std::string& json_object);
   /// The commands received since the last call, in arrival order, each once.
-  std::vector<Command> pollCommands();
+  std::vector<ReceivedCommand> pollCommands();
   /// Sends command_result for `command_id` and stores it as that command's answer.
   Status answer(std::int64_t command_id, const std::string& result, const std::string& reason, double t_s);
   /// Waits until every message sent so far is acknowledged; false after `timeout_s`.
