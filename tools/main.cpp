@@ -22,6 +22,7 @@ int run(int argc, char** argv) {
   adit::tools::registerBenchVerb(app, &rc);
   adit::tools::registerSimulateVerb(app, &rc);
   adit::tools::registerCampaignVerb(app, &rc);
+  adit::tools::registerServeVerb(app, &rc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -22,9 +22,10 @@ PKGS=(cmake g++ make pkg-config
       liboctomap-dev libfcl-dev libccd-dev libeigen3-dev
       libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
       libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev libode-dev
+      libboost1.74-dev
       libgtest-dev libgmock-dev libbenchmark-dev
       libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev
-      libsqlite3-dev libpqxx-dev)
+      libsqlite3-dev libpqxx-dev libjs-three)
 # What only the test suite needs: headless Chromium for the pages' browser tests; slurm-wlm and
 # munge for the campaign test's throw-away one-node Slurm cluster (tests/tools/campaign_slurm.sh
 # starts its own daemons, never the system's); PostgreSQL's server for the console store's

@@ -20,4 +20,7 @@ void registerSimulateVerb(CLI::App& app, int* rc);
 /// `adit campaign run|merge`.
 void registerCampaignVerb(CLI::App& app, int* rc);
 
+/// `adit serve --map M`: the operations console.
+void registerServeVerb(CLI::App& app, int* rc);
+
 }  // namespace adit::tools

@@ -1,0 +1,103 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#pragma once
+/// @file
+/// The virtual remote-control centre's server (issue 11; Guo 2022 §1): one port for the page,
+/// the REST API and the two WebSocket streams (robots upload, viewers watch), exactly as
+/// console/doc/protocol.md. Everything a robot sends is validated (size, types, finite numbers,
+/// known robot) before the Store sees it; a refused message stores nothing and the server keeps
+/// serving. Operator commands need the token, goals are checked against the served map's
+/// distance field (free, clearance >= the robot's radius).
+///
+/// Boost.Beast, because it does HTTP and WebSocket on one port with one io_context (Debian's
+/// libboost1.74-dev, header-only): cpp-httplib 0.11 has no WebSocket, and websocketpp's HTTP side
+/// cannot serve a page with its assets. All I/O and every Store call run on the thread that
+/// calls run(); stop() may be called from any thread.
+///
+///   ADIT_ASSIGN_OR_RETURN(auto server, Server::create(loaded, field, *store, options));
+///   std::fprintf(stderr, "http://127.0.0.1:%u/\n", server->port());
+///   server->run();  // until stop() or, with options.stop_on_signals, SIGINT / SIGTERM
+///
+/// The roadway surface the page draws (`GET /api/map/mesh`) is buildRoadwayMesh(): the boundary
+/// between free and rock cells, coplanar faces merged into rectangles.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "adit/console/store.hpp"
+#include "adit/map/distance_field.hpp"
+#include "adit/map/map_io.hpp"
+#include "adit/status.hpp"
+
+namespace adit::console {
+
+/// Maximum size of one message (WebSocket frame or HTTP body), protocol.md "Limits".
+inline constexpr std::size_t kMaxMessageBytes = 256 * 1024;
+/// Points in one path or obstacle list.
+inline constexpr std::size_t kMaxPoints = 10000;
+/// Messages a viewer may have waiting before the oldest telemetry is dropped.
+inline constexpr std::size_t kMaxViewerQueue = 1024;
+/// Commands of one robot still pending or sent before POST /api/commands answers 429.
+inline constexpr std::size_t kMaxPendingCommands = 64;
+/// Fastest manual velocity set-point an operator may send [m/s].
+inline constexpr double kMaxManualSpeed = 2.0;
+
+struct ServerOptions {
+  std::string address = "127.0.0.1";  ///< loopback unless told otherwise
+  unsigned short port = 8080;         ///< 0: any free port (see Server::port())
+  std::string token;                  ///< operator token, required
+  std::string operator_name = "operator";  ///< who the token's commands are logged as
+  std::string map_name;               ///< `name` in GET /api/map (the map file's name)
+  std::string map_hash;               ///< "fnv1a64:..." a robot's hello must match
+  std::string web_dir;                ///< console/web: index.html, console.js, console.css
+  std::string three_dir = "/usr/share/javascript/three";  ///< Debian's libjs-three
+  bool stop_on_signals = false;       ///< SIGINT / SIGTERM end run() cleanly
+  /// Mesh cell edge [m]; 0 picks a multiple of the voxel size that keeps the surface small.
+  double mesh_cell = 0.0;
+
+  Status validate() const;
+};
+
+/// Parses `HOST:PORT` (`127.0.0.1:8080`, `0.0.0.0:0`, `[::1]:8080`) into the options.
+Status parseListen(const std::string& listen, ServerOptions* options);
+
+/// The roadway surface: a triangle list with one normal per vertex, pointing into free space.
+struct RoadwayMesh {
+  double cell = 0.0;                 ///< edge of the cells the surface was extracted at [m]
+  std::vector<float> positions;      ///< x, y, z per vertex
+  std::vector<float> normals;        ///< x, y, z per vertex
+  std::vector<std::uint32_t> indices;  ///< three per triangle
+  std::size_t quads() const { return indices.size() / 6; }
+};
+
+/// Extracts the free/rock boundary at `cell` (a multiple of the map's resolution; 0 chooses
+/// one so that the free space is at most ~150,000 cells). A cell is free when the voxel at its
+/// centre is free; outside the map is rock. Coplanar faces are merged greedily into rectangles.
+StatusOr<RoadwayMesh> buildRoadwayMesh(const map::OccupancyMap& map, double cell = 0.0);
+
+class Server {
+ public:
+  /// Binds the listening socket (so port() is known) and prepares the map's JSON and mesh.
+  /// `loaded`, `field` and `store` must outlive the server.
+  static StatusOr<std::unique_ptr<Server>> create(const map::LoadedMap& loaded, const map::DistanceField& field,
+                                                  Store& store, ServerOptions options);
+  ~Server();
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  unsigned short port() const;
+  /// Serves until stop() (or a signal with stop_on_signals). Returns the reason it stopped
+  /// abnormally (a Store failure is logged and answered 500, never fatal).
+  Status run();
+  /// Thread-safe: closes the listener and every connection; run() returns.
+  void stop();
+
+ struct Impl;  ///< private to server.cpp (named here so its sessions can reach it)
+
+ private:
+  explicit Server(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace adit::console

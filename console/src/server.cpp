@@ -1,0 +1,779 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The console's server: Beast HTTP + WebSocket sessions on one io_context thread. Every Store
+// call happens on that thread (the Store is not thread-safe), synchronously inside a handler, so
+// a robot message is stored, or refused, before its ack or error is queued.
+#include "adit/console/server.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <deque>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+#include <nlohmann/json.hpp>
+
+#include "protocol.hpp"
+#include "web_assets.hpp"
+
+namespace adit::console {
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using protocol::Json;
+using Request = http::request<http::string_body>;
+using Response = http::response<http::string_body>;
+
+// A robot that never reads its acks must not grow the server's memory either.
+constexpr std::size_t kMaxRobotQueue = 4 * kMaxViewerQueue;
+
+void logLine(const std::string& line) { std::fprintf(stderr, "adit serve: %s\n", line.c_str()); }
+
+Json errorJson(const std::string& reason, std::optional<std::int64_t> seq = std::nullopt) {
+  Json j = {{"type", "error"}, {"reason", reason}};
+  if (seq) j["seq"] = *seq;
+  return j;
+}
+
+std::string percentDecode(const std::string& s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+      out += static_cast<char>(std::stoi(s.substr(i + 1, 2), nullptr, 16));
+      i += 2;
+    } else {
+      out += s[i] == '+' ? ' ' : s[i];
+    }
+  }
+  return out;
+}
+
+std::map<std::string, std::string> parseQuery(const std::string& query) {
+  std::map<std::string, std::string> out;
+  std::istringstream in(query);
+  std::string pair;
+  while (std::getline(in, pair, '&')) {
+    const auto eq = pair.find('=');
+    if (eq == std::string::npos) {
+      out[percentDecode(pair)] = "";
+    } else {
+      out[percentDecode(pair.substr(0, eq))] = percentDecode(pair.substr(eq + 1));
+    }
+  }
+  return out;
+}
+
+// Strict non-negative integer (no sign, no spaces, no trailing text, fits int64).
+std::optional<std::int64_t> parseCount(const std::string& s) {
+  if (s.empty() || s.size() > 18) return std::nullopt;
+  for (char c : s)
+    if (c < '0' || c > '9') return std::nullopt;
+  return std::stoll(s);
+}
+
+// Compares without an early exit, so the answer time does not reveal a token's prefix.
+bool sameToken(const std::string& a, const std::string& b) {
+  unsigned diff = a.size() == b.size() ? 0u : 1u;
+  for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned>(a[i] ^ b[i % std::max<std::size_t>(1, b.size())]);
+  return diff == 0;
+}
+
+StatusOr<std::string> readWholeFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return notFound(path + ": cannot read (is libjs-three installed?)");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+Json pointJson(const map::Vec3& p) { return Json::array({p.x(), p.y(), p.z()}); }
+
+}  // namespace
+
+class WsSession;
+
+struct RobotCache {
+  Json telemetry, plan, tracks;
+  std::string last_seen;
+};
+
+struct Server::Impl {
+  net::io_context ioc{1};
+  tcp::acceptor acceptor{ioc};
+  std::optional<net::signal_set> signals;
+  const map::LoadedMap& loaded;
+  const map::DistanceField& field;
+  Store& store;
+  ServerOptions options;
+  std::map<std::string, std::pair<std::string, std::string>> assets;  // path -> (content type, bytes)
+  std::string map_json, mesh_json;
+  std::set<std::string> roadways;
+  std::map<std::string, RobotCache> cache;
+  std::map<std::string, std::weak_ptr<WsSession>> robot_sessions;
+  std::map<WsSession*, std::weak_ptr<WsSession>> viewers;
+
+  Impl(const map::LoadedMap& l, const map::DistanceField& f, Store& s, ServerOptions o)
+      : loaded(l), field(f), store(s), options(std::move(o)) {}
+
+  Status prepare();
+  void accept();
+  Response handle(const Request& req);
+  Response handleCommandPost(const Request& req);
+  void onRobotText(WsSession& session, const std::string& text);
+  void onViewerOpen(const std::shared_ptr<WsSession>& session);
+  void broadcast(const Json& message, bool telemetry);
+  void deliver(Command command);
+  void setCommandStatus(Command command, CommandStatus status, const std::string& reason);
+  Json robotsJson();
+  void warmCache();
+};
+
+// One WebSocket connection, robot or viewer: a read loop and a write queue (one write in flight,
+// as Beast requires). A viewer's queue is bounded by dropping the oldest telemetry.
+class WsSession : public std::enable_shared_from_this<WsSession> {
+ public:
+  WsSession(tcp::socket&& socket, Server::Impl& impl, bool robot)
+      : ws_(std::move(socket)), impl_(impl), robot_(robot) {}
+
+  void run(Request req) {
+    ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+    ws_.read_message_max(kMaxMessageBytes);
+    ws_.text(true);
+    ws_.async_accept(req, beast::bind_front_handler(&WsSession::onAccept, shared_from_this()));
+  }
+
+  void send(const Json& j, bool telemetry = false) { send(std::make_shared<const std::string>(j.dump()), telemetry); }
+
+  void send(std::shared_ptr<const std::string> text, bool telemetry) {
+    if (closing_) return;
+    const std::size_t limit = robot_ ? kMaxRobotQueue : kMaxViewerQueue;
+    if (queue_.size() >= limit) {
+      if (robot_) {  // it stopped reading: drop it; it resends after reconnecting
+        closeAfterWrites(websocket::close_code::policy_error);
+        return;
+      }
+      const std::size_t first = writing_ ? 1 : 0;  // the front one is being written
+      auto victim = std::find_if(queue_.begin() + static_cast<long>(first), queue_.end(),
+                                 [](const Out& o) { return o.telemetry; });
+      if (victim == queue_.end()) victim = queue_.begin() + static_cast<long>(first);
+      if (victim != queue_.end()) {
+        queue_.erase(victim);
+        ++dropped_;
+      }
+    }
+    queue_.push_back({std::move(text), telemetry});
+    if (!writing_) writeNext();
+  }
+
+  void closeAfterWrites(websocket::close_code code) {
+    closing_ = true;
+    close_code_ = code;
+    if (!writing_) writeNext();
+  }
+
+  bool robot() const { return robot_; }
+  const std::string& robotId() const { return robot_id_; }
+  double radius() const { return radius_; }
+  void bind(const std::string& id, double radius) {
+    robot_id_ = id;
+    radius_ = radius;
+  }
+
+ private:
+  struct Out {
+    std::shared_ptr<const std::string> text;
+    bool telemetry = false;
+  };
+
+  void onAccept(beast::error_code ec) {
+    if (ec) return;
+    if (!robot_) impl_.onViewerOpen(shared_from_this());
+    read();
+  }
+
+  void read() {
+    ws_.async_read(buffer_, beast::bind_front_handler(&WsSession::onRead, shared_from_this()));
+  }
+
+  void onRead(beast::error_code ec, std::size_t) {
+    if (ec) {  // closed, or oversized (Beast has closed it with 1009 then)
+      if (ec == websocket::error::message_too_big) logLine("closed a connection that sent an oversized message");
+      dead_ = true;
+      return;
+    }
+    std::string text = beast::buffers_to_string(buffer_.data());
+    buffer_.consume(buffer_.size());
+    if (robot_) {
+      impl_.onRobotText(*this, text);
+    } else {
+      send(errorJson("viewers send nothing; commands go to POST /api/commands"));
+    }
+    if (!dead_) read();
+  }
+
+  void writeNext() {
+    if (dead_) return;
+    if (dropped_ > 0) {
+      queue_.push_front({std::make_shared<const std::string>(Json{{"type", "lag"}, {"dropped", dropped_}}.dump()), false});
+      dropped_ = 0;
+    }
+    if (queue_.empty()) {
+      if (closing_ && !close_sent_) {
+        close_sent_ = true;
+        ws_.async_close(close_code_, [self = shared_from_this()](beast::error_code) { self->dead_ = true; });
+      }
+      return;
+    }
+    writing_ = true;
+    ws_.async_write(net::buffer(*queue_.front().text),
+                    beast::bind_front_handler(&WsSession::onWrite, shared_from_this()));
+  }
+
+  void onWrite(beast::error_code ec, std::size_t) {
+    writing_ = false;
+    if (ec) {
+      dead_ = true;
+      return;
+    }
+    queue_.pop_front();
+    writeNext();
+  }
+
+  websocket::stream<beast::tcp_stream> ws_;
+  beast::flat_buffer buffer_;
+  Server::Impl& impl_;
+  const bool robot_;
+  std::deque<Out> queue_;
+  bool writing_ = false, closing_ = false, close_sent_ = false, dead_ = false;
+  websocket::close_code close_code_ = websocket::close_code::normal;
+  std::size_t dropped_ = 0;
+  std::string robot_id_;
+  double radius_ = 0.0;
+
+ public:
+  bool dead() const { return dead_; }
+};
+
+// One HTTP connection: requests in turn (keep-alive) until it upgrades to a WebSocket.
+class HttpSession : public std::enable_shared_from_this<HttpSession> {
+ public:
+  HttpSession(tcp::socket&& socket, Server::Impl& impl) : stream_(std::move(socket)), impl_(impl) {}
+  void run() { read(); }
+
+ private:
+  void read() {
+    parser_.emplace();
+    parser_->body_limit(kMaxMessageBytes);
+    parser_->header_limit(16 * 1024);
+    stream_.expires_after(std::chrono::seconds(30));
+    http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::onRead, shared_from_this()));
+  }
+
+  void onRead(beast::error_code ec, std::size_t) {
+    if (ec == http::error::body_limit) {
+      Response res{http::status::payload_too_large, 11};
+      res.set(http::field::content_type, "application/json");
+      res.body() = Json{{"error", "the body is larger than " + std::to_string(kMaxMessageBytes) + " bytes"}}.dump();
+      res.keep_alive(false);
+      res.prepare_payload();
+      write(std::move(res));
+      return;
+    }
+    if (ec) return;  // closed, timed out or not HTTP
+    Request req = parser_->release();
+    if (websocket::is_upgrade(req)) {
+      const std::string target(req.target());
+      const bool robot = target == "/ws/robot", viewer = target == "/ws/view";
+      if (robot || viewer) {
+        stream_.expires_never();
+        std::make_shared<WsSession>(stream_.release_socket(), impl_, robot)->run(std::move(req));
+        return;
+      }
+    }
+    write(impl_.handle(req));
+  }
+
+  void write(Response res) {
+    auto sp = std::make_shared<Response>(std::move(res));
+    http::async_write(stream_, *sp, [self = shared_from_this(), sp](beast::error_code ec, std::size_t) {
+      if (ec) return;
+      if (!sp->keep_alive()) {
+        beast::error_code ignored;
+        self->stream_.socket().shutdown(tcp::socket::shutdown_send, ignored);
+        return;
+      }
+      self->read();
+    });
+  }
+
+  beast::tcp_stream stream_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+  Server::Impl& impl_;
+};
+
+namespace {
+
+Response jsonResponse(const Request& req, http::status status, const std::string& body) {
+  Response res{status, req.version()};
+  res.set(http::field::content_type, "application/json");
+  res.set(http::field::cache_control, "no-store");
+  res.keep_alive(req.keep_alive());
+  res.body() = body;
+  res.prepare_payload();
+  return res;
+}
+
+Response refusal(const Request& req, http::status status, const std::string& reason) {
+  return jsonResponse(req, status, Json{{"error", reason}}.dump());
+}
+
+}  // namespace
+
+Status Server::Impl::prepare() {
+  for (const auto& [name, content] : webAssets()) {
+    std::string type = "application/octet-stream";
+    if (name.size() > 5 && name.compare(name.size() - 5, 5, ".html") == 0) type = "text/html; charset=utf-8";
+    if (name.size() > 3 && name.compare(name.size() - 3, 3, ".js") == 0) type = "text/javascript; charset=utf-8";
+    if (name.size() > 4 && name.compare(name.size() - 4, 4, ".css") == 0) type = "text/css; charset=utf-8";
+    assets[name == "index.html" ? "/" : "/assets/" + name] = {type, content};
+  }
+  // three.js comes from Debian's libjs-three at run time: the package is a dependency anyway,
+  // its security updates then reach the console without a rebuild, and the binary stays small.
+  ADIT_ASSIGN_OR_RETURN(std::string three, readWholeFile(options.three_dir + "/three.min.js"));
+  ADIT_ASSIGN_OR_RETURN(std::string orbit, readWholeFile(options.three_dir + "/examples/js/controls/OrbitControls.js"));
+  assets["/assets/three.min.js"] = {"text/javascript; charset=utf-8", std::move(three)};
+  assets["/assets/OrbitControls.js"] = {"text/javascript; charset=utf-8", std::move(orbit)};
+
+  const map::OccupancyMap& m = loaded.map;
+  Json roadway_list = Json::array();
+  if (loaded.survey) {
+    for (const map::SurveyRoadway& r : loaded.survey->roadways) {
+      Json line = Json::array();
+      for (const map::Vec3& p : loaded.survey->centreline(r).points) line.push_back(pointJson(p));
+      const auto section = loaded.survey->sections.find(r.section);
+      const double width = section == loaded.survey->sections.end() ? 0.0 : section->second.maxWidth();
+      roadway_list.push_back({{"name", r.name}, {"centreline", line}, {"width", width}});
+      roadways.insert(r.name);
+    }
+  }
+  map_json = Json{{"name", options.map_name},
+                  {"hash", options.map_hash},
+                  {"resolution", m.stats().resolution_m},
+                  {"bounds", {{"min", pointJson(m.bounds().min)}, {"max", pointJson(m.bounds().max)}}},
+                  {"roadways", roadway_list}}
+                 .dump();
+  ADIT_ASSIGN_OR_RETURN(RoadwayMesh mesh, buildRoadwayMesh(m, options.mesh_cell));
+  mesh_json = Json{{"cell", mesh.cell}, {"positions", mesh.positions}, {"normals", mesh.normals}, {"indices", mesh.indices}}
+                  .dump();
+  warmCache();
+  return Status::okStatus();
+}
+
+// A restarted centre shows what it had: the last telemetry, plan and tracks of every robot.
+void Server::Impl::warmCache() {
+  auto robots = store.robots();
+  if (!robots.ok()) return;
+  for (const RobotRecord& r : *robots) {
+    const std::int64_t from = std::max<std::int64_t>(1, r.last_seq - 2000);
+    auto msgs = store.history(r.robot, from, 2001);
+    if (!msgs.ok()) continue;
+    RobotCache& c = cache[r.robot];
+    c.last_seen = r.last_seen;
+    for (const RobotMessage& m : *msgs) {
+      Json j = Json::parse(m.body, nullptr, false);
+      if (!j.is_object()) continue;
+      j["received_at"] = m.received_at;
+      if (m.type == "telemetry") c.telemetry = j;
+      if (m.type == "plan") c.plan = j;
+      if (m.type == "obstacles") c.tracks = j.value("tracks", Json::array());
+    }
+  }
+}
+
+void Server::Impl::accept() {
+  acceptor.async_accept(ioc, [this](beast::error_code ec, tcp::socket socket) {
+    if (ec) {
+      if (ec != net::error::operation_aborted) logLine("accept: " + ec.message());
+      if (!acceptor.is_open()) return;
+    } else {
+      std::make_shared<HttpSession>(std::move(socket), *this)->run();
+    }
+    accept();
+  });
+}
+
+void Server::Impl::broadcast(const Json& message, bool telemetry) {
+  const auto text = std::make_shared<const std::string>(message.dump());
+  for (auto it = viewers.begin(); it != viewers.end();) {
+    auto v = it->second.lock();
+    if (!v || v->dead()) {
+      it = viewers.erase(it);
+      continue;
+    }
+    v->send(text, telemetry);
+    ++it;
+  }
+}
+
+void Server::Impl::setCommandStatus(Command command, CommandStatus status, const std::string& reason) {
+  command.status = status;
+  command.reason = reason;
+  command.updated_at = protocol::isoNow();
+  const Status s = store.updateCommand(command.command_id, status, reason, command.updated_at);
+  if (!s.ok()) {
+    logLine("database: " + s.message());
+    return;
+  }
+  broadcast(protocol::commandState(command), false);
+}
+
+// Sends the command to its robot if connected; a pending one becomes `sent`.
+void Server::Impl::deliver(Command command) {
+  auto it = robot_sessions.find(command.robot);
+  if (it == robot_sessions.end()) return;
+  auto session = it->second.lock();
+  if (!session || session->dead()) return;
+  session->send(protocol::commandMessage(command));
+  if (command.status == CommandStatus::kPending) setCommandStatus(command, CommandStatus::kSent, "");
+}
+
+void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
+  StatusOr<Json> parsed = protocol::parseObject(text);
+  if (!parsed.ok()) {
+    session.send(errorJson(parsed.status().message()));
+    // Not JSON at all: the stream is out of step, start over; a JSON non-object is an error only.
+    if (parsed.status().message() == protocol::kMalformedJson) session.closeAfterWrites(websocket::close_code::bad_payload);
+    return;
+  }
+  const Json& j = *parsed;
+  std::optional<std::int64_t> seq;
+  if (j.contains("seq") && j["seq"].is_number_integer()) seq = j["seq"].get<std::int64_t>();
+  const std::string type = j.contains("type") && j["type"].is_string() ? j["type"].get<std::string>() : "";
+  if (type == "hello") {
+    StatusOr<protocol::Hello> hello = protocol::parseHello(j);
+    if (!hello.ok()) {
+      session.send(errorJson(hello.status().message()));
+      return;
+    }
+    if (hello->map_hash != options.map_hash) {
+      session.send(errorJson("map_hash " + hello->map_hash + " is not the served map's " + options.map_hash));
+      session.closeAfterWrites(websocket::close_code::policy_error);
+      return;
+    }
+    const std::string now = protocol::isoNow();
+    Status s = store.upsertRobot({hello->robot, hello->map_hash, hello->radius, now, now, 0});
+    StatusOr<std::int64_t> acked = s.ok() ? store.lastSeq(hello->robot) : StatusOr<std::int64_t>(s);
+    StatusOr<std::vector<Command>> unanswered =
+        acked.ok() ? store.unansweredCommands(hello->robot) : StatusOr<std::vector<Command>>(acked.status());
+    if (!unanswered.ok()) {
+      logLine("database: " + unanswered.status().message());
+      session.send(errorJson("database: " + unanswered.status().message()));
+      return;
+    }
+    session.bind(hello->robot, hello->radius);
+    robot_sessions[hello->robot] = session.shared_from_this();
+    cache[hello->robot].last_seen = now;
+    session.send(Json{{"type", "welcome"}, {"robot", hello->robot}, {"acked_seq", *acked}});
+    for (const Command& c : *unanswered) deliver(c);
+    return;
+  }
+  if (session.robotId().empty()) {
+    session.send(errorJson("send hello first", seq));
+    return;
+  }
+  StatusOr<RobotMessage> message = protocol::parseRobotMessage(j);
+  if (!message.ok()) {
+    session.send(errorJson(message.status().message(), seq));
+    return;
+  }
+  if (message->robot != session.robotId()) {
+    session.send(errorJson("unknown robot '" + message->robot + "' (this connection is '" + session.robotId() + "')", seq));
+    return;
+  }
+  std::optional<Command> command;
+  if (message->type == "command_result") {
+    const protocol::CommandResult r = protocol::commandResultOf(j);
+    StatusOr<std::optional<Command>> c = store.command(r.command_id);
+    if (c.ok() && (!*c || (*c)->robot != message->robot)) {
+      session.send(errorJson("unknown command_id " + std::to_string(r.command_id) + " for robot " + message->robot, seq));
+      return;
+    }
+    if (c.ok()) command = **c;
+  }
+  message->body = text;
+  message->received_at = protocol::isoNow();
+  StatusOr<bool> fresh = store.appendMessage(*message);
+  if (!fresh.ok()) {  // not acknowledged: the robot keeps it and resends
+    logLine("database: " + fresh.status().message());
+    session.send(errorJson("database: " + fresh.status().message(), seq));
+    return;
+  }
+  session.send(Json{{"type", "ack"}, {"seq", message->seq}});
+  RobotCache& c = cache[message->robot];
+  c.last_seen = message->received_at;
+  if (!*fresh) return;
+  Json stored = j;
+  stored["received_at"] = message->received_at;
+  if (message->type == "telemetry") c.telemetry = stored;
+  if (message->type == "plan") c.plan = stored;
+  if (message->type == "obstacles") c.tracks = stored.value("tracks", Json::array());
+  broadcast(stored, message->type == "telemetry");
+  if (command) {
+    const protocol::CommandResult r = protocol::commandResultOf(j);
+    setCommandStatus(*command, r.status, r.reason);
+  }
+}
+
+Json Server::Impl::robotsJson() {
+  Json out = Json::array();
+  auto robots = store.robots();
+  if (!robots.ok()) return out;
+  for (const RobotRecord& r : *robots) {
+    const RobotCache& c = cache[r.robot];
+    out.push_back({{"robot", r.robot},
+                   {"last_seq", r.last_seq},
+                   {"last_seen", c.last_seen.empty() ? r.last_seen : c.last_seen},
+                   {"radius", r.radius},
+                   {"telemetry", c.telemetry},
+                   {"plan", c.plan},
+                   {"tracks", c.tracks.is_null() ? Json::array() : c.tracks}});
+  }
+  return out;
+}
+
+void Server::Impl::onViewerOpen(const std::shared_ptr<WsSession>& session) {
+  Json commands = Json::array();
+  if (auto list = store.commands("", 100); list.ok())
+    for (const Command& c : *list) commands.push_back(protocol::commandState(c));
+  session->send(Json{{"type", "snapshot"}, {"robots", robotsJson()}, {"commands", commands}});
+  viewers[session.get()] = session;
+}
+
+Response Server::Impl::handleCommandPost(const Request& req) {
+  const auto auth = req.find(http::field::authorization);
+  const std::string bearer = "Bearer ";
+  if (auth == req.end() || auth->value().size() <= bearer.size() ||
+      !sameToken(std::string(auth->value().substr(bearer.size())), options.token) ||
+      std::string(auth->value().substr(0, bearer.size())) != bearer)
+    return refusal(req, http::status::unauthorized, "missing or wrong operator token (Authorization: Bearer TOKEN)");
+  StatusOr<Json> body = protocol::parseObject(req.body());
+  if (!body.ok()) return refusal(req, http::status::bad_request, body.status().message());
+  StatusOr<protocol::CommandRequest> cmd = protocol::parseCommandRequest(*body);
+  if (!cmd.ok()) return refusal(req, http::status::bad_request, cmd.status().message());
+  StatusOr<std::optional<RobotRecord>> robot = store.robot(cmd->robot);
+  if (!robot.ok()) return refusal(req, http::status::internal_server_error, "database: " + robot.status().message());
+  if (!*robot) return refusal(req, http::status::not_found, "unknown robot '" + cmd->robot + "'");
+  const auto unprocessable = http::status::unprocessable_entity;
+  Json args = Json::object();
+  if (cmd->goal) {
+    const map::Vec3 g = *cmd->goal;
+    char where[96];
+    std::snprintf(where, sizeof where, "goal (%.2f, %.2f, %.2f)", g.x(), g.y(), g.z());
+    if (!loaded.map.bounds().contains(g)) return refusal(req, unprocessable, std::string(where) + " is outside the map");
+    if (!field.isFree(g)) return refusal(req, unprocessable, std::string(where) + " is in rock");
+    const double clearance = field.distance(g);
+    if (clearance < (*robot)->radius) {
+      char why[160];
+      std::snprintf(why, sizeof why, "%s has %.2f m clearance, less than the robot's radius %.2f m", where, clearance,
+                    (*robot)->radius);
+      return refusal(req, unprocessable, why);
+    }
+    args["goal"] = pointJson(g);
+  }
+  if (cmd->kind == "block" || cmd->kind == "reopen") {
+    if (!roadways.count(cmd->roadway)) return refusal(req, unprocessable, "unknown roadway '" + cmd->roadway + "'");
+    args["roadway"] = cmd->roadway;
+  }
+  if (cmd->velocity) {
+    if (cmd->velocity->norm() > kMaxManualSpeed) {
+      char why[96];
+      std::snprintf(why, sizeof why, "speed %.2f m/s is above %.1f m/s", cmd->velocity->norm(), kMaxManualSpeed);
+      return refusal(req, unprocessable, why);
+    }
+    args["velocity"] = pointJson(*cmd->velocity);
+  }
+  StatusOr<std::vector<Command>> pending = store.unansweredCommands(cmd->robot);
+  if (!pending.ok()) return refusal(req, http::status::internal_server_error, "database: " + pending.status().message());
+  if (pending->size() >= kMaxPendingCommands)
+    return refusal(req, http::status::too_many_requests,
+                   std::to_string(pending->size()) + " commands of " + cmd->robot + " are still unanswered");
+  Command c;
+  c.robot = cmd->robot;
+  c.operator_name = options.operator_name;
+  c.issued_at = c.updated_at = protocol::isoNow();
+  c.kind = cmd->kind;
+  c.body = args.dump();
+  StatusOr<std::int64_t> id = store.addCommand(c);
+  if (!id.ok()) return refusal(req, http::status::internal_server_error, "database: " + id.status().message());
+  c.command_id = *id;
+  broadcast(protocol::commandState(c), false);
+  deliver(c);
+  return jsonResponse(req, http::status::accepted, Json{{"command_id", *id}, {"status", "pending"}}.dump());
+}
+
+Response Server::Impl::handle(const Request& req) {
+  const std::string target(req.target());
+  const auto q = target.find('?');
+  const std::string path = target.substr(0, q);
+  const auto query = parseQuery(q == std::string::npos ? "" : target.substr(q + 1));
+  const bool get = req.method() == http::verb::get || req.method() == http::verb::head;
+  if (path == "/api/commands" && req.method() == http::verb::post) return handleCommandPost(req);
+  auto asset = assets.find(path);
+  const bool known = asset != assets.end() || path.rfind("/api/", 0) == 0;
+  if (known && !get) return refusal(req, http::status::method_not_allowed, req.method_string().to_string() + " " + path);
+  if (asset != assets.end()) {
+    Response res{http::status::ok, req.version()};
+    res.set(http::field::content_type, asset->second.first);
+    if (path == "/")  // the page fetches from its own server only: no CDN, works offline
+      res.set("Content-Security-Policy",
+              "default-src 'self'; connect-src 'self' ws: ; img-src 'self' data:; style-src 'self'");
+    res.keep_alive(req.keep_alive());
+    res.body() = asset->second.second;
+    res.prepare_payload();
+    return res;
+  }
+  if (path == "/api/health") {
+    StatusOr<int> version = store.schemaVersion();
+    if (!version.ok()) return refusal(req, http::status::internal_server_error, "database: " + version.status().message());
+    std::size_t robots = 0, viewing = 0;
+    for (const auto& [id, s] : robot_sessions) {
+      auto p = s.lock();
+      robots += p && !p->dead();
+    }
+    for (const auto& [ptr, s] : viewers) {
+      auto p = s.lock();
+      viewing += p && !p->dead();
+    }
+    return jsonResponse(req, http::status::ok,
+                        Json{{"ok", true}, {"schema_version", *version}, {"db", store.backend()}, {"robots", robots},
+                             {"viewers", viewing}}
+                            .dump());
+  }
+  if (path == "/api/map") return jsonResponse(req, http::status::ok, map_json);
+  if (path == "/api/map/mesh") return jsonResponse(req, http::status::ok, mesh_json);
+  if (path == "/api/robots") return jsonResponse(req, http::status::ok, robotsJson().dump());
+  if (path == "/api/commands") {
+    const std::string robot = query.count("robot") ? query.at("robot") : "";
+    if (!robot.empty() && !protocol::validRobotId(robot))
+      return refusal(req, http::status::bad_request, protocol::kBadRobotId);
+    auto list = store.commands(robot, 10000);
+    if (!list.ok()) return refusal(req, http::status::internal_server_error, "database: " + list.status().message());
+    Json out = Json::array();
+    for (const Command& c : *list) out.push_back(protocol::commandState(c));
+    return jsonResponse(req, http::status::ok, out.dump());
+  }
+  if (path == "/api/history") {
+    if (!query.count("robot")) return refusal(req, http::status::bad_request, "missing parameter 'robot'");
+    const std::string robot = query.at("robot");
+    if (!protocol::validRobotId(robot))
+      return refusal(req, http::status::bad_request, protocol::kBadRobotId);
+    std::optional<std::int64_t> from = query.count("from_seq") ? parseCount(query.at("from_seq")) : 1;
+    std::optional<std::int64_t> limit = query.count("limit") ? parseCount(query.at("limit")) : 1000;
+    if (!from) return refusal(req, http::status::bad_request, "from_seq must be a non-negative integer");
+    if (!limit || *limit < 1 || *limit > 10000)
+      return refusal(req, http::status::bad_request, "limit must be an integer from 1 to 10000");
+    auto record = store.robot(robot);
+    if (!record.ok()) return refusal(req, http::status::internal_server_error, "database: " + record.status().message());
+    if (!*record) return refusal(req, http::status::not_found, "unknown robot '" + robot + "'");
+    auto msgs = store.history(robot, *from, static_cast<std::size_t>(*limit));
+    if (!msgs.ok()) return refusal(req, http::status::internal_server_error, "database: " + msgs.status().message());
+    Json out = Json::array();
+    for (const RobotMessage& m : *msgs) {
+      Json j = Json::parse(m.body, nullptr, false);
+      if (!j.is_object()) continue;
+      j["received_at"] = m.received_at;
+      out.push_back(std::move(j));
+    }
+    return jsonResponse(req, http::status::ok, out.dump());
+  }
+  return refusal(req, http::status::not_found, "no such path: " + path);
+}
+
+Status ServerOptions::validate() const {
+  if (token.empty()) return invalidArgument("the operator token is empty");
+  for (char c : token)
+    if (std::isspace(static_cast<unsigned char>(c))) return invalidArgument("the operator token contains white space");
+  if (operator_name.empty()) return invalidArgument("the operator name is empty");
+  if (map_hash.empty()) return invalidArgument("the map hash is empty");
+  if (!(mesh_cell >= 0.0)) return invalidArgument("mesh cell must be >= 0");
+  return Status::okStatus();
+}
+
+Status parseListen(const std::string& listen, ServerOptions* options) {
+  const auto colon = listen.rfind(':');
+  if (colon == std::string::npos || colon == 0)
+    return invalidArgument("--listen '" + listen + "': expected HOST:PORT, e.g. 127.0.0.1:8080");
+  std::string host = listen.substr(0, colon);
+  if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  const auto port = parseCount(listen.substr(colon + 1));
+  if (!port || *port > 65535) return invalidArgument("--listen '" + listen + "': the port must be 0-65535");
+  beast::error_code ec;
+  net::ip::make_address(host, ec);
+  if (ec) return invalidArgument("--listen '" + listen + "': '" + host + "' is not an IP address");
+  options->address = host;
+  options->port = static_cast<unsigned short>(*port);
+  return Status::okStatus();
+}
+
+Server::Server(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Server::~Server() = default;
+
+StatusOr<std::unique_ptr<Server>> Server::create(const map::LoadedMap& loaded, const map::DistanceField& field,
+                                                 Store& store, ServerOptions options) {
+  ADIT_RETURN_IF_ERROR(options.validate());
+  auto impl = std::make_unique<Impl>(loaded, field, store, std::move(options));
+  ADIT_RETURN_IF_ERROR(impl->prepare());
+  beast::error_code ec;
+  const tcp::endpoint endpoint(net::ip::make_address(impl->options.address, ec), impl->options.port);
+  if (ec) return invalidArgument("listen address '" + impl->options.address + "': " + ec.message());
+  impl->acceptor.open(endpoint.protocol(), ec);
+  if (!ec) impl->acceptor.set_option(net::socket_base::reuse_address(true), ec);
+  if (!ec) impl->acceptor.bind(endpoint, ec);
+  if (!ec) impl->acceptor.listen(net::socket_base::max_listen_connections, ec);
+  if (ec)
+    return failedPrecondition("cannot listen on " + impl->options.address + ":" + std::to_string(impl->options.port) +
+                              ": " + ec.message());
+  return std::unique_ptr<Server>(new Server(std::move(impl)));
+}
+
+unsigned short Server::port() const { return impl_->acceptor.local_endpoint().port(); }
+
+Status Server::run() {
+  Impl& d = *impl_;
+  if (d.options.stop_on_signals) {
+    d.signals.emplace(d.ioc, SIGINT, SIGTERM);
+    d.signals->async_wait([this](beast::error_code ec, int) {
+      if (!ec) stop();
+    });
+  }
+  d.accept();
+  d.ioc.run();
+  return Status::okStatus();
+}
+
+void Server::stop() {
+  Impl& d = *impl_;
+  net::post(d.ioc, [&d] {
+    beast::error_code ignored;
+    d.acceptor.close(ignored);
+    if (d.signals) d.signals->cancel(ignored);
+    d.ioc.stop();
+  });
+}
+
+}  // namespace adit::console

@@ -1,0 +1,553 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The operations console's page (issue 11): the roadway model in 3-D (three.js r111 from
+// Debian's libjs-three, served by adit itself), a top view and a side profile on 2-D canvases,
+// the robots' state from the /ws/view stream, operator commands through POST /api/commands,
+// and a replay over the stored history. Protocol: console/doc/protocol.md.
+//
+// For tests the <html> element carries data-ready, data-errors, data-robots, data-webgl, and
+// every robot row carries its pose (data-pose) and where its marker is drawn (data-drawn: the
+// marker's 3-D position; data-top: its pixel in the top view).
+'use strict';
+(function () {
+  const root = document.documentElement;
+  const $ = (id) => document.getElementById(id);
+  let errors = 0;
+  function fail(message) {
+    errors += 1;
+    root.dataset.errors = String(errors);
+    $('errors').textContent += message + '\n';
+  }
+  window.addEventListener('error', (e) => fail(e.message));
+  window.addEventListener('unhandledrejection', (e) => fail(String(e.reason)));
+
+  const COLOURS = ['#4fc3f7', '#ffb74d', '#ba68c8', '#81c784', '#f06292', '#fff176', '#90a4ae', '#e57373'];
+  const TRAIL_MAX = 3000;
+  const state = {
+    map: null,
+    robots: new Map(),  // id -> {telemetry, plan, tracks, rock: [], trail: [], colour, radius, view: {...}}
+    commands: new Map(),
+    events: [],
+    replay: null,       // {robot, messages} when not live
+    goalMode: false,
+  };
+
+  // ----- 3-D view --------------------------------------------------------------------------
+  const three = { renderer: null, scene: null, camera: null, controls: null, mesh: null, labels: [] };
+
+  function setUp3d(map, meshData) {
+    const host = $('view3d');
+    let renderer;
+    try {
+      renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    } catch (e) {
+      $('nowebgl').hidden = false;
+      return;
+    }
+    root.dataset.webgl = '1';
+    renderer.setPixelRatio(window.devicePixelRatio || 1);
+    host.appendChild(renderer.domElement);
+    const scene = new THREE.Scene();
+    scene.background = new THREE.Color(0x15181c);
+    const lo = map.bounds.min, hi = map.bounds.max;
+    const centre = new THREE.Vector3((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2);
+    const span = Math.max(hi[0] - lo[0], hi[1] - lo[1], 10);
+    const camera = new THREE.PerspectiveCamera(45, 1, 0.1, span * 20);
+    camera.up.set(0, 0, 1);  // the map's frame: z up
+    camera.position.set(centre.x - 0.15 * span, centre.y - 0.8 * span, centre.z + 0.7 * span);
+    const controls = new THREE.OrbitControls(camera, renderer.domElement);
+    controls.target.copy(centre);
+    controls.update();
+    scene.add(new THREE.HemisphereLight(0xdde6ff, 0x202020, 0.8));
+    const sun = new THREE.DirectionalLight(0xffffff, 0.6);
+    sun.position.set(0.3, -0.5, 1);
+    scene.add(sun);
+    const g = new THREE.BufferGeometry();
+    g.setAttribute('position', new THREE.Float32BufferAttribute(meshData.positions, 3));
+    g.setAttribute('normal', new THREE.Float32BufferAttribute(meshData.normals, 3));
+    g.setIndex(meshData.indices);
+    // See-through rock surface: robots inside the roadways stay visible from outside.
+    const mesh = new THREE.Mesh(g, new THREE.MeshLambertMaterial({
+      color: 0x8d8672, side: THREE.DoubleSide, transparent: true, opacity: 0.35, depthWrite: false }));
+    scene.add(mesh);
+    for (const r of map.roadways) {
+      const pts = r.centreline.map((p) => new THREE.Vector3(p[0], p[1], p[2]));
+      scene.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints(pts),
+        new THREE.LineBasicMaterial({ color: 0x51606f })));
+      const mid = r.centreline[Math.floor(r.centreline.length / 2)];
+      const a = r.centreline[Math.floor((r.centreline.length - 1) / 2)];
+      addLabel(r.name, 'roadway', [(a[0] + mid[0]) / 2, (a[1] + mid[1]) / 2, (a[2] + mid[2]) / 2 + 3]);
+    }
+    Object.assign(three, { renderer, scene, camera, controls, mesh });
+    renderer.domElement.addEventListener('click', onClick3d);
+    window.addEventListener('resize', resize3d);
+    resize3d();
+  }
+
+  function resize3d() {
+    if (!three.renderer) return;
+    const host = $('view3d');
+    const w = host.clientWidth || 800, h = host.clientHeight || 600;
+    three.renderer.setSize(w, h);
+    three.camera.aspect = w / h;
+    three.camera.updateProjectionMatrix();
+  }
+
+  function addLabel(text, kind, position) {
+    const el = document.createElement('span');
+    el.textContent = text;
+    el.className = kind;
+    $('labels').appendChild(el);
+    const label = { el, position: new THREE.Vector3(position[0], position[1], position[2]), kind };
+    three.labels.push(label);
+    return label;
+  }
+
+  function placeLabels() {
+    if (!three.renderer) return;
+    const w = three.renderer.domElement.clientWidth, h = three.renderer.domElement.clientHeight;
+    for (const l of three.labels) {
+      const p = l.position.clone().project(three.camera);
+      const visible = p.z < 1 && Math.abs(p.x) <= 1 && Math.abs(p.y) <= 1 && !l.el.hidden;
+      l.el.style.display = visible ? '' : 'none';
+      l.el.style.left = ((p.x + 1) / 2 * w).toFixed(0) + 'px';
+      l.el.style.top = ((1 - p.y) / 2 * h).toFixed(0) + 'px';
+    }
+  }
+
+  function robotView(r) {
+    if (r.view || !three.scene) return r.view;
+    const colour = new THREE.Color(r.colour);
+    const marker = new THREE.Mesh(new THREE.SphereBufferGeometry(1, 20, 14), new THREE.MeshLambertMaterial({ color: colour }));
+    const trail = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: colour }));
+    const plan = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineDashedMaterial({ color: 0xffd866, dashSize: 1, gapSize: 0.6 }));
+    const subgoal = new THREE.Mesh(new THREE.OctahedronBufferGeometry(0.5), new THREE.MeshBasicMaterial({ color: 0xffd866 }));
+    const rock = new THREE.Points(new THREE.BufferGeometry(), new THREE.PointsMaterial({ color: 0xff7043, size: 0.25 }));
+    const tracks = new THREE.Group();
+    subgoal.visible = false;
+    for (const o of [marker, trail, plan, subgoal, rock, tracks]) three.scene.add(o);
+    r.view = { marker, trail, plan, subgoal, rock, tracks, breakLabels: [], name: addLabel(r.id, 'robot', [0, 0, 0]) };
+    return r.view;
+  }
+
+  function points3(list) { return list.map((p) => new THREE.Vector3(p[0], p[1], p[2])); }
+
+  // ----- robots' state -------------------------------------------------------------------------
+  function robot(id) {
+    let r = state.robots.get(id);
+    if (!r) {
+      r = { id, telemetry: null, plan: null, tracks: [], rock: [], trail: [], radius: 0.4,
+            colour: COLOURS[state.robots.size % COLOURS.length], view: null, dirty: true };
+      state.robots.set(id, r);
+      const option = document.createElement('option');
+      option.value = option.textContent = id;
+      $('robot').appendChild(option);
+      root.dataset.robots = String(state.robots.size);
+    }
+    return r;
+  }
+
+  function apply(m) {
+    if (m.type === 'telemetry') {
+      const r = robot(m.robot);
+      r.telemetry = m;
+      r.trail.push(m.pose);
+      if (r.trail.length > TRAIL_MAX) r.trail.splice(0, r.trail.length - TRAIL_MAX);
+      r.dirty = true;
+    } else if (m.type === 'plan') {
+      robot(m.robot).plan = m;
+      robot(m.robot).dirty = true;
+    } else if (m.type === 'obstacles') {
+      const r = robot(m.robot);
+      r.tracks = m.tracks || [];
+      for (const p of m.rock || []) r.rock.push(p);
+      if (r.rock.length > 50000) r.rock.splice(0, r.rock.length - 50000);
+      r.dirty = true;
+    } else if (m.type === 'event') {
+      state.events.push(m);
+      addItem('events', `${m.robot} t=${Number(m.t).toFixed(1)} s: ${m.kind}` +
+        (m.center ? ` at (${m.center.map((v) => v.toFixed(1)).join(', ')})` : ''));
+    } else if (m.type === 'command') {
+      state.commands.set(m.command_id, m);
+      renderCommands();
+    } else if (m.type === 'lag') {
+      addItem('events', `the view fell behind: ${m.dropped} telemetry messages skipped`);
+    }
+  }
+
+  function addItem(list, text) {
+    const li = document.createElement('li');
+    li.textContent = text;
+    const ul = $(list);
+    ul.appendChild(li);
+    while (ul.children.length > 200) ul.removeChild(ul.firstChild);
+    ul.scrollTop = ul.scrollHeight;
+  }
+
+  function renderCommands() {
+    const ul = $('commands');
+    ul.textContent = '';
+    const list = [...state.commands.values()].sort((a, b) => a.command_id - b.command_id).slice(-50);
+    for (const c of list) {
+      const li = document.createElement('li');
+      const arg = c.goal ? ' (' + c.goal.map((v) => v.toFixed(1)).join(', ') + ')' : c.roadway ? ' ' + c.roadway : '';
+      li.textContent = `#${c.command_id} ${c.robot} ${c.kind}${arg} by ${c.operator}: ${c.status}${c.reason ? ' - ' + c.reason : ''}`;
+      ul.appendChild(li);
+    }
+  }
+
+  // The telemetry shown for a robot: the live one, or the replay's at the slider.
+  function shown(r) {
+    if (state.replay && state.replay.robot === r.id) return state.replay.current;
+    return r.telemetry;
+  }
+
+  function update3d(r) {
+    const v = robotView(r);
+    const t = shown(r);
+    if (!v || !t) return;
+    v.marker.position.set(t.pose[0], t.pose[1], t.pose[2]);
+    v.marker.scale.setScalar(r.radius);
+    v.name.position.set(t.pose[0], t.pose[1], t.pose[2] + r.radius + 0.5);
+    const trail = state.replay && state.replay.robot === r.id ? state.replay.trail : r.trail;
+    v.trail.geometry.setFromPoints(points3(trail));
+    if (r.plan && r.plan.path.length > 1) {
+      v.plan.geometry.setFromPoints(points3(r.plan.path));
+      v.plan.computeLineDistances();
+      const labels = r.plan.labels || [];
+      while (v.breakLabels.length < labels.length) v.breakLabels.push(addLabel('', 'break', [0, 0, 0]));
+      v.breakLabels.forEach((l, i) => {
+        const p = r.plan.path[i + 1];
+        l.el.hidden = i >= labels.length || !p;
+        if (!l.el.hidden) {
+          l.el.textContent = labels[i];
+          l.position.set(p[0], p[1], p[2] + 1);
+        }
+      });
+    }
+    v.subgoal.visible = !!t.subgoal;
+    if (t.subgoal) v.subgoal.position.set(t.subgoal[0], t.subgoal[1], t.subgoal[2]);
+    v.rock.geometry.setFromPoints(points3(r.rock));
+    while (v.tracks.children.length) v.tracks.remove(v.tracks.children[0]);
+    for (const tr of r.tracks) {
+      const s = new THREE.Mesh(new THREE.SphereBufferGeometry(tr.radius || 1, 12, 8),
+        new THREE.MeshLambertMaterial({ color: 0xef5350, transparent: true, opacity: 0.7 }));
+      s.position.set(tr.position[0], tr.position[1], tr.position[2]);
+      v.tracks.add(s);
+    }
+  }
+
+  function renderTable() {
+    const body = $('robots').tBodies[0];
+    for (const r of state.robots.values()) {
+      let row = body.querySelector(`tr[data-robot="${CSS.escape(r.id)}"]`);
+      if (!row) {
+        row = body.insertRow();
+        row.dataset.robot = r.id;
+        for (let i = 0; i < 5; ++i) row.insertCell();
+        row.cells[0].style.color = r.colour;
+        row.cells[0].textContent = r.id;
+      }
+      const t = shown(r);
+      if (!t) continue;
+      row.cells[1].textContent = t.status;
+      row.cells[2].textContent = t.pose.map((v) => v.toFixed(1)).join(', ');
+      row.cells[3].textContent = t.min_clearance != null ? Number(t.min_clearance).toFixed(2) + ' m' : '';
+      row.cells[4].textContent = t.seq;
+      row.dataset.pose = t.pose.join(',');
+      row.dataset.status = t.status;
+      if (r.view) {
+        const p = r.view.marker.position;
+        row.dataset.drawn = [p.x, p.y, p.z].join(',');
+      }
+      const px = topPixel(t.pose);
+      if (px) row.dataset.top = px.map((v) => v.toFixed(1)).join(',');
+    }
+  }
+
+  // ----- top view and side profile -------------------------------------------------------------
+  let topScale = null;
+  function topPixel(p) {
+    if (!topScale) return null;
+    return [topScale.ox + (p[0] - topScale.x0) * topScale.s, topScale.oy - (p[1] - topScale.y0) * topScale.s];
+  }
+  function topPoint(px, py) {
+    return [(px - topScale.ox) / topScale.s + topScale.x0, (topScale.oy - py) / topScale.s + topScale.y0];
+  }
+
+  function drawTop() {
+    const c = $('top'), g = c.getContext('2d');
+    const lo = state.map.bounds.min, hi = state.map.bounds.max;
+    const s = Math.min((c.width - 20) / Math.max(hi[0] - lo[0], 1), (c.height - 20) / Math.max(hi[1] - lo[1], 1));
+    topScale = { s, x0: lo[0], y0: lo[1], ox: 10, oy: c.height - 10 };
+    g.clearRect(0, 0, c.width, c.height);
+    g.lineCap = 'round';
+    g.lineJoin = 'round';
+    for (const r of state.map.roadways) {
+      g.strokeStyle = '#3a4450';
+      g.lineWidth = Math.max(2, r.width * s);
+      polyline(g, r.centreline.map(topPixel));
+    }
+    g.fillStyle = '#9fb3c8';
+    g.font = '10px sans-serif';
+    for (const r of state.map.roadways) {
+      const p = topPixel(r.centreline[Math.floor(r.centreline.length / 2)]);
+      g.fillText(r.name, p[0] + 3, p[1] - 3);
+    }
+    for (const r of state.robots.values()) {
+      const t = shown(r);
+      if (r.plan) {
+        g.strokeStyle = '#ffd866';
+        g.lineWidth = 1;
+        g.setLineDash([4, 3]);
+        polyline(g, r.plan.path.map(topPixel));
+        g.setLineDash([]);
+        g.fillStyle = '#ffd866';
+        (r.plan.labels || []).forEach((l, i) => {
+          const p = r.plan.path[i + 1];
+          if (p) { const q = topPixel(p); g.fillText(l, q[0] + 3, q[1] + 10); }
+        });
+      }
+      g.strokeStyle = r.colour;
+      g.lineWidth = 1.5;
+      polyline(g, (state.replay && state.replay.robot === r.id ? state.replay.trail : r.trail).map(topPixel));
+      g.fillStyle = '#ff7043';
+      for (const p of r.rock) { const q = topPixel(p); g.fillRect(q[0] - 1, q[1] - 1, 2, 2); }
+      g.fillStyle = '#ef5350';
+      for (const tr of r.tracks) dot(g, topPixel(tr.position), Math.max(3, (tr.radius || 1) * s));
+      if (t) {
+        g.fillStyle = r.colour;
+        dot(g, topPixel(t.pose), Math.max(4, r.radius * s));
+        if (t.subgoal) { g.fillStyle = '#ffd866'; dot(g, topPixel(t.subgoal), 3); }
+      }
+    }
+    g.strokeStyle = '#ff7b72';
+    for (const e of state.events) {
+      if (!e.center) continue;
+      const p = topPixel(e.center);
+      g.beginPath();
+      g.arc(p[0], p[1], Math.max(4, (e.radius || 1) * s), 0, 2 * Math.PI);
+      g.stroke();
+    }
+  }
+
+  function drawProfile() {
+    const c = $('profile'), g = c.getContext('2d');
+    const lo = state.map.bounds.min, hi = state.map.bounds.max;
+    const sx = (c.width - 20) / Math.max(hi[0] - lo[0], 1), sz = (c.height - 20) / Math.max(hi[2] - lo[2], 1);
+    const px = (p) => [10 + (p[0] - lo[0]) * sx, c.height - 10 - (p[2] - lo[2]) * sz];
+    g.clearRect(0, 0, c.width, c.height);
+    g.fillStyle = '#9fb3c8';
+    g.font = '10px sans-serif';
+    g.fillText(`profile: z over x, ${lo[2].toFixed(0)} to ${hi[2].toFixed(0)} m`, 4, 11);
+    for (const r of state.map.roadways) {
+      g.strokeStyle = '#3a4450';
+      g.lineWidth = 2;
+      polyline(g, r.centreline.map(px));
+    }
+    for (const r of state.robots.values()) {
+      const t = shown(r);
+      if (r.plan) { g.strokeStyle = '#ffd866'; g.lineWidth = 1; polyline(g, r.plan.path.map(px)); }
+      g.strokeStyle = r.colour;
+      polyline(g, r.trail.map(px));
+      if (t) { g.fillStyle = r.colour; dot(g, px(t.pose), 4); }
+    }
+  }
+
+  function polyline(g, pts) {
+    if (pts.length < 2) return;
+    g.beginPath();
+    g.moveTo(pts[0][0], pts[0][1]);
+    for (const p of pts.slice(1)) g.lineTo(p[0], p[1]);
+    g.stroke();
+  }
+  function dot(g, p, r) { g.beginPath(); g.arc(p[0], p[1], r, 0, 2 * Math.PI); g.fill(); }
+
+  // ----- the frame loop ------------------------------------------------------------------------
+  function frame() {
+    for (const r of state.robots.values()) {
+      if (r.dirty) { update3d(r); r.dirty = false; }
+    }
+    drawTop();
+    drawProfile();
+    renderTable();
+    if (three.renderer) {
+      three.controls.update();
+      placeLabels();
+      three.renderer.render(three.scene, three.camera);
+    }
+    requestAnimationFrame(frame);
+  }
+
+  // ----- the live stream ---------------------------------------------------------------------
+  let retry = 500;
+  function connect() {
+    const ws = new WebSocket(`ws://${location.host}/ws/view`);
+    ws.onopen = () => { $('conn').textContent = 'live'; $('conn').className = 'ok'; retry = 500; };
+    ws.onclose = () => {
+      $('conn').textContent = 'reconnecting';
+      $('conn').className = 'bad';
+      setTimeout(connect, retry);
+      retry = Math.min(retry * 2, 10000);
+    };
+    ws.onmessage = (e) => {
+      const m = JSON.parse(e.data);
+      if (m.type === 'snapshot') {
+        for (const r of m.robots) {
+          const x = robot(r.robot);
+          if (r.radius) x.radius = r.radius;
+          if (r.telemetry) apply(r.telemetry);
+          if (r.plan) apply(r.plan);
+          x.tracks = r.tracks || [];
+        }
+        for (const c of m.commands) apply(c);
+      } else {
+        apply(m);
+      }
+    };
+  }
+
+  // ----- operator commands -------------------------------------------------------------------
+  const token = $('token');
+  token.value = sessionStorage.getItem('adit-token') || '';
+  token.addEventListener('change', () => sessionStorage.setItem('adit-token', token.value.trim()));
+
+  async function command(body) {
+    body.robot = $('robot').value;
+    if (!body.robot) { $('answer').textContent = 'no robot connected yet'; return; }
+    const res = await fetch('/api/commands', {
+      method: 'POST',
+      headers: { 'Content-Type': 'application/json', Authorization: 'Bearer ' + token.value.trim() },
+      body: JSON.stringify(body),
+    });
+    const answer = await res.json();
+    $('answer').textContent = res.ok ? `command #${answer.command_id} ${body.kind}: ${answer.status}`
+                                     : `refused (${res.status}): ${answer.error}`;
+    $('answer').className = res.ok ? 'ok' : 'bad';
+  }
+
+  $('pause').onclick = () => command({ kind: 'pause' });
+  $('resume').onclick = () => command({ kind: 'resume' });
+  $('release').onclick = () => command({ kind: 'release' });
+  $('block').onclick = () => command({ kind: 'block', roadway: $('roadway').value });
+  $('reopen').onclick = () => command({ kind: 'reopen', roadway: $('roadway').value });
+  $('goalmode').onclick = () => {
+    state.goalMode = !state.goalMode;
+    $('goalmode').setAttribute('aria-pressed', String(state.goalMode));
+  };
+  function manual(dx, dy) {
+    const v = Number($('speed').value) || 0.5;
+    command({ kind: 'manual', velocity: [dx * v, dy * v, 0] });
+  }
+  for (const b of document.querySelectorAll('.manual button[data-v]')) {
+    const [dx, dy] = b.dataset.v.split(',').map(Number);
+    b.onclick = () => manual(dx, dy);
+  }
+  const KEYS = { ArrowUp: [0, 1], ArrowDown: [0, -1], ArrowLeft: [-1, 0], ArrowRight: [1, 0], ' ': [0, 0] };
+  window.addEventListener('keydown', (e) => {
+    if (e.target.tagName === 'INPUT' || e.target.tagName === 'SELECT' || !KEYS[e.key]) return;
+    e.preventDefault();
+    manual(...KEYS[e.key]);
+  });
+
+  // A click on the model: the surface point, moved off the surface along its normal by the
+  // robot's radius and a margin, so that a floor click is a goal at the robot's height.
+  function goalOffSurface(point, normal) {
+    const r = state.robots.get($('robot').value);
+    const lift = (r ? r.radius : 0.4) + 0.6;
+    return [point.x + normal.x * lift, point.y + normal.y * lift, point.z + normal.z * lift];
+  }
+
+  function onClick3d(e) {
+    if (!state.goalMode) return;
+    const rect = three.renderer.domElement.getBoundingClientRect();
+    const ndc = new THREE.Vector2(((e.clientX - rect.left) / rect.width) * 2 - 1, -((e.clientY - rect.top) / rect.height) * 2 + 1);
+    const ray = new THREE.Raycaster();
+    ray.setFromCamera(ndc, three.camera);
+    // The first face hit that faces the camera... or the nearest one (DoubleSide).
+    const hit = ray.intersectObject(three.mesh)[0];
+    if (!hit) { $('answer').textContent = 'no roadway under the pointer'; return; }
+    sendGoal(goalOffSurface(hit.point, hit.face.normal));
+  }
+
+  // The top view has no height: the nearest roadway centreline point gives it (the floor),
+  // plus the robot's radius and a margin.
+  $('top').addEventListener('click', (e) => {
+    if (!state.goalMode || !topScale) return;
+    const rect = e.target.getBoundingClientRect();
+    const [x, y] = topPoint((e.clientX - rect.left) * e.target.width / rect.width, (e.clientY - rect.top) * e.target.height / rect.height);
+    let best = null;
+    for (const r of state.map.roadways) {
+      for (let i = 0; i + 1 < r.centreline.length; ++i) {
+        const a = r.centreline[i], b = r.centreline[i + 1];
+        const dx = b[0] - a[0], dy = b[1] - a[1];
+        const u = Math.max(0, Math.min(1, ((x - a[0]) * dx + (y - a[1]) * dy) / (dx * dx + dy * dy || 1)));
+        const d = Math.hypot(a[0] + u * dx - x, a[1] + u * dy - y);
+        if (!best || d < best.d) best = { d, z: a[2] + u * (b[2] - a[2]) };
+      }
+    }
+    const r = state.robots.get($('robot').value);
+    sendGoal([x, y, (best ? best.z : 0) + (r ? r.radius : 0.4) + 0.6]);
+  });
+
+  function sendGoal(goal) {
+    state.goalMode = false;
+    $('goalmode').setAttribute('aria-pressed', 'false');
+    command({ kind: 'goal', goal: goal.map((v) => Math.round(v * 100) / 100) });
+  }
+
+  // ----- replay ------------------------------------------------------------------------------
+  $('load').onclick = async () => {
+    const id = $('robot').value;
+    if (!id) return;
+    const messages = [];
+    for (let from = 1; ;) {
+      const page = await (await fetch(`/api/history?robot=${encodeURIComponent(id)}&from_seq=${from}&limit=10000`)).json();
+      if (!Array.isArray(page) || page.length === 0) break;
+      messages.push(...page.filter((m) => m.type === 'telemetry'));
+      from = page[page.length - 1].seq + 1;
+      if (page.length < 10000) break;
+    }
+    if (!messages.length) { $('answer').textContent = 'no stored telemetry for ' + id; return; }
+    state.replay = { robot: id, messages, trail: [], current: messages[0] };
+    $('live').checked = false;
+    const slider = $('slider');
+    slider.max = String(messages.length - 1);
+    slider.value = '0';
+    slider.disabled = false;
+    seek(0);
+  };
+  function seek(i) {
+    const rp = state.replay;
+    rp.current = rp.messages[i];
+    rp.trail = rp.messages.slice(Math.max(0, i - TRAIL_MAX), i + 1).map((m) => m.pose);
+    $('clock').textContent = `t = ${Number(rp.current.t).toFixed(1)} s`;
+    robot(rp.robot).dirty = true;
+  }
+  $('slider').oninput = (e) => state.replay && seek(Number(e.target.value));
+  $('live').onchange = (e) => {
+    if (!e.target.checked && !state.replay) { e.target.checked = true; return; }
+    if (e.target.checked && state.replay) {
+      const id = state.replay.robot;
+      state.replay = null;
+      $('slider').disabled = true;
+      robot(id).dirty = true;
+    }
+  };
+
+  // ----- start -------------------------------------------------------------------------------
+  async function start() {
+    const [map, mesh] = await Promise.all([fetch('/api/map').then((r) => r.json()), fetch('/api/map/mesh').then((r) => r.json())]);
+    state.map = map;
+    $('mapname').textContent = `${map.name} (${map.roadways.length} roadways, resolution ${map.resolution} m)`;
+    for (const r of map.roadways) {
+      const option = document.createElement('option');
+      option.value = option.textContent = r.name;
+      $('roadway').appendChild(option);
+    }
+    setUp3d(map, mesh);
+    connect();
+    root.dataset.ready = '1';
+    requestAnimationFrame(frame);
+  }
+  start().catch((e) => fail('start: ' + e));
+})();

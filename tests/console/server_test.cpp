@@ -1,0 +1,534 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The console's server against a real SQLite store in a temp dir, started in-process on a free
+// loopback port; Beast clients act as robots, viewers and operators (protocol.md).
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+#include <nlohmann/json.hpp>
+
+#include "adit/console/server.hpp"
+#include "adit/console/store.hpp"
+#include "adit/map/distance_field.hpp"
+#include "support/synthetic_roadway.hpp"
+
+namespace adit::console {
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using Json = nlohmann::json;
+
+constexpr const char* kHash = "fnv1a64:00000000c0ffee00";
+constexpr const char* kToken = "0123456789abcdef0123456789abcdef";
+
+// ----- the roadway mesh -----------------------------------------------------------------------
+
+TEST(RoadwayMesh, IsAClosedSurfaceAroundTheFreeSpace) {
+  const map::OccupancyMap m = test::voxelizeOrFail(test::straightRoadway(map::CrossSection::rectangle(3.0, 2.4), 10.0));
+  StatusOr<RoadwayMesh> mesh = buildRoadwayMesh(m, 0.4);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().toString();
+  EXPECT_NEAR(mesh->cell, 0.4, 1e-12);
+  ASSERT_GT(mesh->quads(), 0u);
+  // Closed: the vector area of the whole surface is zero; and the box of the vertices is the
+  // roadway's (10 m x 3 m x 2.4 m, within a cell).
+  Eigen::Vector3d area = Eigen::Vector3d::Zero();
+  map::Aabb box;
+  for (std::size_t t = 0; t < mesh->indices.size(); t += 3) {
+    Eigen::Vector3d p[3];
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t v = mesh->indices[t + static_cast<std::size_t>(k)];
+      p[k] = {mesh->positions[3 * v], mesh->positions[3 * v + 1], mesh->positions[3 * v + 2]};
+      box.min = box.min.cwiseMin(p[k]);
+      box.max = box.max.cwiseMax(p[k]);
+    }
+    const Eigen::Vector3d a = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]);
+    area += a;
+    // Wound counter-clockwise seen from the free side: the face normal is the stored one.
+    const std::size_t v0 = mesh->indices[t];
+    const Eigen::Vector3d n(mesh->normals[3 * v0], mesh->normals[3 * v0 + 1], mesh->normals[3 * v0 + 2]);
+    EXPECT_GT(a.dot(n), 0.0);
+  }
+  EXPECT_LT(area.norm(), 1e-3);
+  const map::Vec3 size = box.max - box.min;
+  EXPECT_NEAR(size.x(), 10.0, 0.81);
+  EXPECT_NEAR(size.y(), 3.0, 0.81);
+  EXPECT_NEAR(size.z(), 2.4, 0.81);
+  // Merged: far fewer rectangles than the cell faces of a 25 x 7 x 6 box (2 * (175 + 150 + 42)).
+  EXPECT_LT(mesh->quads(), 100u);
+}
+
+TEST(RoadwayMesh, AutomaticCellIsAMultipleOfTheVoxel) {
+  const map::OccupancyMap m = test::voxelizeOrFail(test::junctionNetwork());
+  StatusOr<RoadwayMesh> mesh = buildRoadwayMesh(m);
+  ASSERT_TRUE(mesh.ok());
+  const double k = mesh->cell / 0.2;
+  EXPECT_NEAR(k, std::round(k), 1e-9);
+  EXPECT_GT(mesh->quads(), 10u);
+  EXPECT_FALSE(buildRoadwayMesh(m, -1.0).ok());
+}
+
+TEST(ServerOptions, ListenAndValidation) {
+  ServerOptions o;
+  EXPECT_TRUE(parseListen("0.0.0.0:0", &o).ok());
+  EXPECT_EQ(o.address, "0.0.0.0");
+  EXPECT_EQ(o.port, 0);
+  EXPECT_TRUE(parseListen("[::1]:8081", &o).ok());
+  EXPECT_EQ(o.address, "::1");
+  EXPECT_EQ(o.port, 8081);
+  for (const char* bad : {"8080", "localhost:8080", "127.0.0.1:99999", "127.0.0.1:", "127.0.0.1:-1", ":80"})
+    EXPECT_FALSE(parseListen(bad, &o).ok()) << bad;
+  o.map_hash = kHash;
+  EXPECT_FALSE(o.validate().ok());  // no token
+  o.token = "with space";
+  EXPECT_FALSE(o.validate().ok());
+  o.token = kToken;
+  EXPECT_TRUE(o.validate().ok());
+}
+
+// ----- the server, in-process -------------------------------------------------------------------
+
+struct Reply {
+  int status = 0;
+  std::string body;
+  Json json() const { return Json::parse(body, nullptr, false); }
+};
+
+class WsClient {
+ public:
+  WsClient(unsigned short port, const std::string& path) : ws_(ioc_) {
+    beast::get_lowest_layer(ws_).connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+    ws_.handshake("127.0.0.1", path);
+    ws_.read_message_max(64 << 20);
+  }
+  void send(const std::string& text) { ws_.write(net::buffer(text)); }
+  void send(const Json& j) { send(j.dump()); }
+  Json recv() {
+    beast::flat_buffer b;
+    ws_.read(b);
+    return Json::parse(beast::buffers_to_string(b.data()));
+  }
+  /// Reads until the server closes; the close code (-1: the connection broke otherwise).
+  int closeCode() {
+    beast::error_code ec;
+    while (!ec) {
+      beast::flat_buffer b;
+      ws_.read(b, ec);
+    }
+    return ec == websocket::error::closed ? static_cast<int>(ws_.reason().code) : -1;
+  }
+  /// Sends hello and returns the welcome's acked_seq.
+  std::int64_t hello(const std::string& robot, double radius = 0.4) {
+    send(Json{{"type", "hello"}, {"robot", robot}, {"map", "junction"}, {"map_hash", kHash}, {"radius", radius}});
+    const Json w = recv();
+    EXPECT_EQ(w.value("type", ""), "welcome") << w.dump();
+    return w.value("acked_seq", std::int64_t{-1});
+  }
+
+ private:
+  net::io_context ioc_;
+  websocket::stream<tcp::socket> ws_;
+};
+
+Json telemetry(const std::string& robot, std::int64_t seq, double x = 5.0) {
+  return {{"type", "telemetry"}, {"robot", robot}, {"seq", seq}, {"t", 0.1 * static_cast<double>(seq)},
+          {"pose", {x, 0.0, 1.0}}, {"velocity", {0.5, 0.0, 0.0}}, {"status", "following"},
+          {"goal", {12.0, 0.0, 1.0}}, {"subgoal", nullptr}, {"min_clearance", 1.2}};
+}
+
+class ServerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new std::filesystem::path(std::filesystem::temp_directory_path() /
+                                     ("adit_server_test_" + std::to_string(::getpid())));
+    std::filesystem::remove_all(*dir_);
+    std::filesystem::create_directories(*dir_);
+    map::SurveyNetwork net = test::junctionNetwork();
+    loaded_ = new map::LoadedMap{test::voxelizeOrFail(net), net};
+    StatusOr<map::DistanceField> f = map::DistanceField::build(loaded_->map);
+    ASSERT_TRUE(f.ok());
+    field_ = new map::DistanceField(std::move(*f));
+    startServer();
+  }
+  static void TearDownTestSuite() {
+    stopServer();
+    delete field_;
+    delete loaded_;
+    std::filesystem::remove_all(*dir_);
+    delete dir_;
+  }
+  static void startServer() {
+    StatusOr<std::unique_ptr<Store>> store = Store::open("sqlite:" + (*dir_ / "centre.db").string());
+    ASSERT_TRUE(store.ok()) << store.status().toString();
+    store_ = store->release();
+    ServerOptions o;
+    o.port = 0;
+    o.token = kToken;
+    o.operator_name = "alice";
+    o.map_name = "junction";
+    o.map_hash = kHash;
+    StatusOr<std::unique_ptr<Server>> server = Server::create(*loaded_, *field_, *store_, o);
+    ASSERT_TRUE(server.ok()) << server.status().toString();
+    server_ = server->release();
+    thread_ = new std::thread([] { (void)server_->run(); });
+  }
+  static void stopServer() {
+    if (!server_) return;
+    server_->stop();
+    thread_->join();
+    delete thread_;
+    delete server_;
+    delete store_;
+    server_ = nullptr;
+  }
+  static unsigned short port() { return server_->port(); }
+
+  static Reply request(http::verb verb, const std::string& target, const std::string& body = "",
+                       const std::string& token = "") {
+    net::io_context ioc;
+    tcp::socket s(ioc);
+    s.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port()));
+    http::request<http::string_body> req{verb, target, 11};
+    req.set(http::field::host, "127.0.0.1");
+    if (!token.empty()) req.set(http::field::authorization, "Bearer " + token);
+    req.body() = body;
+    req.prepare_payload();
+    http::write(s, req);
+    beast::flat_buffer b;
+    http::response_parser<http::string_body> p;
+    p.body_limit(64 << 20);
+    http::read(s, b, p);
+    return {static_cast<int>(p.get().result_int()), p.get().body()};
+  }
+  static Reply get(const std::string& target) { return request(http::verb::get, target); }
+  static Reply post(const Json& body, const std::string& token = kToken) {
+    return request(http::verb::post, "/api/commands", body.dump(), token);
+  }
+  static std::size_t stored(const std::string& robot) {
+    const Reply r = get("/api/history?robot=" + robot);
+    return r.status == 200 ? r.json().size() : 0;
+  }
+  static void expectHealthy() {
+    const Reply h = get("/api/health");
+    ASSERT_EQ(h.status, 200);
+    EXPECT_EQ(h.json()["ok"], true);
+    EXPECT_EQ(h.json()["db"], "sqlite");
+    EXPECT_EQ(h.json()["schema_version"], kSchemaVersion);
+  }
+
+  static std::filesystem::path* dir_;
+  static map::LoadedMap* loaded_;
+  static map::DistanceField* field_;
+  static Store* store_;
+  static Server* server_;
+  static std::thread* thread_;
+};
+std::filesystem::path* ServerTest::dir_ = nullptr;
+map::LoadedMap* ServerTest::loaded_ = nullptr;
+map::DistanceField* ServerTest::field_ = nullptr;
+Store* ServerTest::store_ = nullptr;
+Server* ServerTest::server_ = nullptr;
+std::thread* ServerTest::thread_ = nullptr;
+
+TEST_F(ServerTest, ServesThePageItsAssetsAndTheMap) {
+  expectHealthy();
+  const Reply page = get("/");
+  EXPECT_EQ(page.status, 200);
+  EXPECT_NE(page.body.find("console.js"), std::string::npos);
+  for (const char* asset : {"/assets/console.js", "/assets/console.css", "/assets/three.min.js", "/assets/OrbitControls.js"})
+    EXPECT_EQ(get(asset).status, 200) << asset;
+  EXPECT_NE(get("/assets/three.min.js").body.find("REVISION"), std::string::npos);
+  const Json m = get("/api/map").json();
+  EXPECT_EQ(m["hash"], kHash);
+  EXPECT_DOUBLE_EQ(m["resolution"].get<double>(), 0.2);
+  ASSERT_EQ(m["roadways"].size(), 3u);
+  EXPECT_EQ(m["roadways"][0]["name"], "main");
+  EXPECT_DOUBLE_EQ(m["roadways"][0]["width"].get<double>(), 4.0);
+  EXPECT_EQ(m["roadways"][0]["centreline"].size(), 3u);
+  const Json mesh = get("/api/map/mesh").json();
+  EXPECT_GT(mesh["indices"].size(), 0u);
+  EXPECT_EQ(mesh["positions"].size(), mesh["normals"].size());
+  EXPECT_EQ(get("/nope").status, 404);
+  EXPECT_EQ(get("/api/nope").status, 404);
+  EXPECT_EQ(request(http::verb::delete_, "/api/map").status, 405);
+  EXPECT_EQ(request(http::verb::post, "/api/robots", "{}").status, 405);
+}
+
+TEST_F(ServerTest, StoresEachSeqOnceAndAcknowledgesResends) {
+  {
+    WsClient robot(port(), "/ws/robot");
+    EXPECT_EQ(robot.hello("r-ack"), 0);
+    for (int seq = 1; seq <= 3; ++seq) {
+      robot.send(telemetry("r-ack", seq));
+      EXPECT_EQ(robot.recv(), (Json{{"type", "ack"}, {"seq", seq}}));
+    }
+    robot.send(telemetry("r-ack", 2, 99.0));  // a resend after a lost ack: acked, not stored again
+    EXPECT_EQ(robot.recv(), (Json{{"type", "ack"}, {"seq", 2}}));
+  }
+  WsClient again(port(), "/ws/robot");
+  EXPECT_EQ(again.hello("r-ack"), 3);
+  const Json history = get("/api/history?robot=r-ack").json();
+  ASSERT_EQ(history.size(), 3u);
+  EXPECT_EQ(history[1]["pose"][0], 5.0);  // the first copy of seq 2
+  EXPECT_TRUE(history[0].contains("received_at"));
+  EXPECT_EQ(get("/api/history?robot=r-ack&from_seq=2&limit=1").json().size(), 1u);
+  EXPECT_EQ(get("/api/history?robot=r-ack&limit=10001").status, 400);
+  EXPECT_EQ(get("/api/history?robot=r-ack&from_seq=x").status, 400);
+  EXPECT_EQ(get("/api/history?robot=nobody").status, 404);
+  EXPECT_EQ(get("/api/history").status, 400);
+  const Json robots = get("/api/robots").json();
+  bool found = false;
+  for (const Json& r : robots)
+    if (r["robot"] == "r-ack") {
+      found = true;
+      EXPECT_EQ(r["last_seq"], 3);
+      EXPECT_EQ(r["telemetry"]["seq"], 3);
+    }
+  EXPECT_TRUE(found);
+}
+
+TEST_F(ServerTest, RefusesEveryBadRobotMessageAndStoresNothing) {
+  WsClient robot(port(), "/ws/robot");
+  robot.send(telemetry("r-bad", 1));  // before hello
+  EXPECT_EQ(robot.recv()["reason"], "send hello first");
+  EXPECT_EQ(robot.hello("r-bad"), 0);
+  auto without = [](Json j, const char* key) {
+    j.erase(key);
+    return j;
+  };
+  auto with = [](Json j, const char* key, Json v) {
+    j[key] = std::move(v);
+    return j;
+  };
+  const Json t = telemetry("r-bad", 1);
+  const Json plan = {{"type", "plan"}, {"robot", "r-bad"}, {"seq", 1}, {"t", 1.0}, {"reason", "initial"},
+                     {"path", {{0, 0, 1}, {6, 0, 1}, {12, 0, 1}}}, {"labels", {"A", "B"}}};
+  const Json obstacles = {{"type", "obstacles"}, {"robot", "r-bad"}, {"seq", 1}, {"t", 1.0},
+                          {"rock", {{1, 1, 1}}},
+                          {"tracks", {{{"id", "v1"}, {"position", {3, 0, 1}}, {"velocity", {0, 0, 0}}, {"radius", 1.0}}}}};
+  const Json event = {{"type", "event"}, {"robot", "r-bad"}, {"seq", 1}, {"t", 1.0}, {"kind", "roof_fall"},
+                      {"center", {5, 0, 1}}, {"radius", 1.5}};
+  const Json result = {{"type", "command_result"}, {"robot", "r-bad"}, {"seq", 1}, {"t", 1.0}, {"command_id", 999999},
+                       {"result", "accepted"}};
+  Json too_long = plan;
+  too_long["path"] = Json::array();
+  for (int i = 0; i < 10001; ++i) too_long["path"].push_back({0.0, 0.0, 1.0});
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"unknown type", with(t, "type", "gossip").dump()},
+      {"missing seq", without(t, "seq").dump()},
+      {"seq 0", with(t, "seq", 0).dump()},
+      {"seq as string", with(t, "seq", "1").dump()},
+      {"missing t", without(t, "t").dump()},
+      {"missing pose", without(t, "pose").dump()},
+      {"pose of 2", with(t, "pose", {1, 2}).dump()},
+      {"pose with a string", with(t, "pose", {1, "2", 3}).dump()},
+      {"infinite x", R"({"type":"telemetry","robot":"r-bad","seq":1,"t":0.1,"pose":[1e999,0,1],"velocity":[0,0,0],"status":"following"})"},
+      {"infinite t", R"({"type":"telemetry","robot":"r-bad","seq":1,"t":-1e400,"pose":[1,0,1],"velocity":[0,0,0],"status":"following"})"},
+      {"unknown status", with(t, "status", "dancing").dump()},
+      {"other robot", with(t, "robot", "r-other").dump()},
+      {"bad robot id", with(t, "robot", "r bad").dump()},
+      {"plan without path", without(plan, "path").dump()},
+      {"plan labels not strings", with(plan, "labels", {1, 2}).dump()},
+      {"plan of 10001 points", too_long.dump()},
+      {"obstacles rock not points", with(obstacles, "rock", {1, 2, 3}).dump()},
+      {"track without position", with(obstacles, "tracks", {{{"id", "v1"}}}).dump()},
+      {"event without kind", without(event, "kind").dump()},
+      {"event radius string", with(event, "radius", "big").dump()},
+      {"result unknown command", result.dump()},
+      {"result unknown word", with(result, "result", "maybe").dump()},
+      {"result without command", without(result, "command_id").dump()},
+      {"hello without radius", R"({"type":"hello","robot":"r-bad","map_hash":"fnv1a64:00000000c0ffee00"})"},
+      {"hello negative radius", R"({"type":"hello","robot":"r-bad","map_hash":"fnv1a64:00000000c0ffee00","radius":-1})"},
+      {"not an object", "[1,2,3]"},
+  };
+  for (const auto& [what, text] : bad) {
+    robot.send(text);
+    const Json e = robot.recv();
+    EXPECT_EQ(e.value("type", ""), "error") << what << ": " << e.dump();
+    EXPECT_FALSE(e.value("reason", "").empty()) << what;
+  }
+  EXPECT_EQ(stored("r-bad"), 0u);
+  EXPECT_EQ(get("/api/history?robot=r-other").status, 404);
+  // The connection is still open and usable: a good message is stored.
+  robot.send(plan);
+  EXPECT_EQ(robot.recv(), (Json{{"type", "ack"}, {"seq", 1}}));
+  EXPECT_EQ(stored("r-bad"), 1u);
+  expectHealthy();
+}
+
+TEST_F(ServerTest, ClosesOnGarbageOversizeAndAnotherMap) {
+  {
+    WsClient robot(port(), "/ws/robot");
+    robot.send(std::string("{\"type\": \"hel"));
+    EXPECT_EQ(robot.recv()["reason"], "malformed JSON");
+    EXPECT_EQ(robot.closeCode(), 1007);
+  }
+  {
+    WsClient robot(port(), "/ws/robot");
+    robot.hello("r-big");
+    Json t = telemetry("r-big", 1);
+    t["padding"] = std::string(kMaxMessageBytes, 'x');
+    robot.send(t);
+    EXPECT_EQ(robot.closeCode(), 1009);
+  }
+  EXPECT_EQ(stored("r-big"), 0u);
+  {
+    WsClient robot(port(), "/ws/robot");
+    robot.send(Json{{"type", "hello"}, {"robot", "r-map"}, {"map_hash", "fnv1a64:ffffffffffffffff"}, {"radius", 0.4}});
+    EXPECT_EQ(robot.recv()["type"], "error");
+    EXPECT_EQ(robot.closeCode(), 1008);
+  }
+  EXPECT_EQ(get("/api/history?robot=r-map").status, 404);
+  EXPECT_EQ(request(http::verb::post, "/api/commands", std::string(kMaxMessageBytes + 1, ' '), kToken).status, 413);
+  expectHealthy();
+}
+
+TEST_F(ServerTest, OperatorCommandsAreCheckedStoredDeliveredAndTracked) {
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-cmd", 0.5);
+  WsClient viewer(port(), "/ws/view");
+  EXPECT_EQ(viewer.recv()["type"], "snapshot");
+
+  const map::Vec3 free_goal(10.0, 0.0, 1.4), rock_goal(8.0, 5.0, 1.0), off_map(100.0, 0.0, 1.0), tight(7.0, 1.75, 1.0);
+  ASSERT_TRUE(field_->isFree(free_goal));
+  ASSERT_GE(field_->distance(free_goal), 0.5);
+  ASSERT_FALSE(field_->isFree(rock_goal));
+  ASSERT_TRUE(field_->isFree(tight));
+  ASSERT_LT(field_->distance(tight), 0.5);
+  auto goal = [](const map::Vec3& g) { return Json{{"robot", "r-cmd"}, {"kind", "goal"}, {"goal", {g.x(), g.y(), g.z()}}}; };
+
+  EXPECT_EQ(post(goal(free_goal), "").status, 401);
+  EXPECT_EQ(post(goal(free_goal), "wrong-token-wrong-token-wrong-to").status, 401);
+  EXPECT_EQ(request(http::verb::post, "/api/commands", "{\"robot\":", kToken).status, 400);
+  EXPECT_EQ(post({{"robot", "r-cmd"}, {"kind", "dance"}}).status, 400);
+  EXPECT_EQ(post({{"robot", "r-cmd"}, {"kind", "goal"}}).status, 400);
+  EXPECT_EQ(post({{"robot", "r-cmd"}, {"kind", "goal"}, {"goal", {1, "2", 3}}}).status, 400);
+  EXPECT_EQ(request(http::verb::post, "/api/commands", R"({"robot":"r-cmd","kind":"goal","goal":[1e999,0,1]})", kToken).status,
+            400);
+  EXPECT_EQ(post({{"robot", "nobody"}, {"kind", "pause"}}).status, 404);
+  const Reply in_rock = post(goal(rock_goal));
+  EXPECT_EQ(in_rock.status, 422);
+  EXPECT_NE(in_rock.json()["error"].get<std::string>().find("in rock"), std::string::npos);
+  const Reply outside = post(goal(off_map));
+  EXPECT_EQ(outside.status, 422);
+  EXPECT_NE(outside.json()["error"].get<std::string>().find("outside the map"), std::string::npos);
+  const Reply too_close = post(goal(tight));
+  EXPECT_EQ(too_close.status, 422);
+  EXPECT_NE(too_close.json()["error"].get<std::string>().find("radius"), std::string::npos);
+  EXPECT_EQ(post({{"robot", "r-cmd"}, {"kind", "block"}, {"roadway", "nowhere"}}).status, 422);
+  EXPECT_EQ(post({{"robot", "r-cmd"}, {"kind", "manual"}, {"velocity", {2.5, 0, 0}}}).status, 422);
+  EXPECT_TRUE(get("/api/commands?robot=r-cmd").json().empty());  // nothing of the refusals stored
+
+  const Reply ok = post(goal(free_goal));
+  ASSERT_EQ(ok.status, 202) << ok.body;
+  const std::int64_t id = ok.json()["command_id"];
+  EXPECT_EQ(ok.json()["status"], "pending");
+  const Json delivered = robot.recv();
+  EXPECT_EQ(delivered["type"], "command");
+  EXPECT_EQ(delivered["command_id"], id);
+  EXPECT_EQ(delivered["kind"], "goal");
+  EXPECT_EQ(delivered["operator"], "alice");
+  EXPECT_EQ(delivered["goal"], Json({10.0, 0.0, 1.4}));
+  robot.send(Json{{"type", "command_result"}, {"robot", "r-cmd"}, {"seq", 1}, {"t", 2.0}, {"command_id", id},
+                  {"result", "accepted"}});
+  EXPECT_EQ(robot.recv(), (Json{{"type", "ack"}, {"seq", 1}}));
+  // The viewer saw pending, sent, the robot's message, accepted.
+  std::vector<std::string> seen;
+  for (int i = 0; i < 4; ++i) {
+    const Json v = viewer.recv();
+    seen.push_back(v["type"].get<std::string>() + (v.contains("status") && v["type"] == "command" ? ":" + v["status"].get<std::string>() : ""));
+  }
+  EXPECT_EQ(seen, (std::vector<std::string>{"command:pending", "command:sent", "command_result", "command:accepted"}));
+  const Json log = get("/api/commands?robot=r-cmd").json();
+  ASSERT_EQ(log.size(), 1u);
+  EXPECT_EQ(log[0]["status"], "accepted");
+  EXPECT_EQ(log[0]["operator"], "alice");
+  EXPECT_EQ(post({{"robot", "r-cmd"}, {"kind", "block"}, {"roadway", "crosscut"}}).status, 202);
+  EXPECT_EQ(robot.recv()["roadway"], "crosscut");
+}
+
+TEST_F(ServerTest, CommandsWaitForTheRobotsNextHelloAndAreBounded) {
+  {
+    WsClient robot(port(), "/ws/robot");
+    robot.hello("r-away");
+  }
+  const Reply first = post({{"robot", "r-away"}, {"kind", "pause"}});
+  ASSERT_EQ(first.status, 202);
+  for (std::size_t i = 1; i < kMaxPendingCommands; ++i) ASSERT_EQ(post({{"robot", "r-away"}, {"kind", "resume"}}).status, 202);
+  EXPECT_EQ(post({{"robot", "r-away"}, {"kind", "resume"}}).status, 429);
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-away");
+  const Json c = robot.recv();
+  EXPECT_EQ(c["type"], "command");
+  EXPECT_EQ(c["command_id"], first.json()["command_id"]);
+  EXPECT_EQ(c["kind"], "pause");
+}
+
+TEST_F(ServerTest, ViewersGetASnapshotThenEveryStoredMessage) {
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-view");
+  robot.send(telemetry("r-view", 1, 3.0));
+  robot.recv();
+  WsClient viewer(port(), "/ws/view");
+  const Json snap = viewer.recv();
+  ASSERT_EQ(snap["type"], "snapshot");
+  bool found = false;
+  for (const Json& r : snap["robots"])
+    if (r["robot"] == "r-view") {
+      found = true;
+      EXPECT_EQ(r["telemetry"]["pose"][0], 3.0);
+    }
+  EXPECT_TRUE(found);
+  robot.send(telemetry("r-view", 2, 4.0));
+  robot.recv();
+  robot.send(telemetry("r-view", 2, 4.0));  // a resend is not pushed twice
+  robot.recv();
+  robot.send(telemetry("r-view", 3, 4.5));
+  robot.recv();
+  const Json a = viewer.recv(), b = viewer.recv();
+  EXPECT_EQ(a["seq"], 2);
+  EXPECT_EQ(b["seq"], 3);
+  EXPECT_TRUE(a.contains("received_at"));
+  viewer.send(std::string("{}"));
+  EXPECT_EQ(viewer.recv()["type"], "error");
+}
+
+// Runs last in the suite (gtest keeps the file's order): a restarted centre resumes from the
+// database (acked seq, last telemetry in the snapshot).
+TEST_F(ServerTest, ZRestartedServerResumesFromTheDatabase) {
+  {
+    WsClient robot(port(), "/ws/robot");
+    robot.hello("r-restart");
+    for (int seq = 1; seq <= 5; ++seq) {
+      robot.send(telemetry("r-restart", seq, seq));
+      robot.recv();
+    }
+  }
+  stopServer();
+  startServer();
+  WsClient viewer(port(), "/ws/view");
+  const Json snap = viewer.recv();
+  bool found = false;
+  for (const Json& r : snap["robots"])
+    if (r["robot"] == "r-restart") {
+      found = true;
+      EXPECT_EQ(r["telemetry"]["seq"], 5);
+    }
+  EXPECT_TRUE(found);
+  WsClient robot(port(), "/ws/robot");
+  EXPECT_EQ(robot.hello("r-restart"), 5);
+}
+
+}  // namespace
+}  // namespace adit::console

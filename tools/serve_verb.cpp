@@ -1,0 +1,131 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// `adit serve`: the operations console (issue 11). Loads the map and its distance field, opens
+// the data exchange centre's database, and serves the page, the REST API and the robots' and
+// viewers' WebSockets until SIGINT / SIGTERM.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "adit/console/server.hpp"
+#include "adit/console/store.hpp"
+#include "adit/map/distance_field.hpp"
+#include "adit/map/map_io.hpp"
+#include "common/batch_runner.hpp"
+#include "common/cli.hpp"
+#include "common/progress.hpp"
+#include "verbs.hpp"
+
+namespace adit::tools {
+namespace {
+
+struct ServeArgs {
+  std::string map;
+  std::string db = "sqlite:adit-centre.db";
+  std::string listen = "127.0.0.1:8080";
+  std::string token_file;
+  double mesh_cell = 0.0;
+  bool quiet = false;
+};
+
+// 128 random bits as hex: the operator token when no file gives one.
+StatusOr<std::string> randomToken() {
+  std::ifstream in("/dev/urandom", std::ios::binary);
+  unsigned char bytes[16];
+  if (!in.read(reinterpret_cast<char*>(bytes), sizeof bytes)) return internalError("cannot read /dev/urandom");
+  std::string hex;
+  for (unsigned char b : bytes) {
+    char two[3];
+    std::snprintf(two, sizeof two, "%02x", b);
+    hex += two;
+  }
+  return hex;
+}
+
+// The token file: its first non-empty line, `TOKEN` or `LABEL:TOKEN` (the label names the
+// operator in the command log; default "operator").
+Status readTokenFile(const std::string& path, console::ServerOptions* options) {
+  ADIT_ASSIGN_OR_RETURN(std::string text, map::readFile(path, 4096));
+  std::string line;
+  for (std::size_t start = 0; start <= text.size();) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    line = text.substr(start, end - start);
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.pop_back();
+    if (!line.empty()) break;
+    start = end + 1;
+  }
+  if (line.empty()) return invalidArgument(path + ": no token in the file");
+  const auto colon = line.find(':');
+  if (colon != std::string::npos) {
+    options->operator_name = line.substr(0, colon);
+    line = line.substr(colon + 1);
+    if (options->operator_name.empty()) return invalidArgument(path + ":1: the label before ':' is empty");
+  }
+  if (line.size() < 16) return invalidArgument(path + ":1: the token is shorter than 16 characters");
+  options->token = line;
+  return Status::okStatus();
+}
+
+int runServe(const ServeArgs& args) {
+  console::ServerOptions options;
+  if (Status s = console::parseListen(args.listen, &options); !s.ok()) return report(s);
+  options.stop_on_signals = true;
+  options.mesh_cell = args.mesh_cell;
+  if (!args.token_file.empty()) {
+    if (Status s = readTokenFile(args.token_file, &options); !s.ok()) return report(s);
+  } else {
+    StatusOr<std::string> token = randomToken();
+    if (!token.ok()) return report(token.status());
+    options.token = *token;
+  }
+  StatusOr<std::string> hash = fileContentHash(args.map);
+  if (!hash.ok()) return report(hash.status());
+  options.map_hash = *hash;
+  options.map_name = args.map.substr(args.map.find_last_of('/') + 1);
+
+  ProgressBar bar(args.quiet);
+  StatusOr<map::LoadedMap> loaded = map::loadMapAndSurvey(args.map, {map::UnknownPolicy::kRock, bar.callback()});
+  if (!loaded.ok()) return report(loaded.status());
+  StatusOr<map::DistanceField> field = map::DistanceField::build(loaded->map, bar.callback());
+  bar.finish();
+  if (!field.ok()) return report(field.status());
+  StatusOr<std::unique_ptr<console::Store>> store = console::Store::open(args.db);
+  if (!store.ok()) return report(store.status());
+  StatusOr<std::unique_ptr<console::Server>> server = console::Server::create(*loaded, *field, **store, options);
+  if (!server.ok()) return report(server.status());
+  const bool any = options.address == "0.0.0.0" || options.address == "::";
+  const std::string host = options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address;
+  std::fprintf(stderr, "adit serve: %s (%s), database %s\n", args.map.c_str(), options.map_hash.c_str(),
+               (*store)->backend().c_str());
+  std::fprintf(stderr, "adit serve: http://%s:%u/\n", any ? "127.0.0.1" : host.c_str(), (*server)->port());
+  std::fprintf(stderr, "adit serve: operator token (%s): %s\n", options.operator_name.c_str(), options.token.c_str());
+  if (any) std::fprintf(stderr, "adit serve: warning: listening on every interface, not only loopback\n");
+  std::fflush(stderr);
+  if (Status s = (*server)->run(); !s.ok()) return report(s);
+  std::fprintf(stderr, "adit serve: stopped\n");
+  return kExitOk;
+}
+
+}  // namespace
+
+void registerServeVerb(CLI::App& app, int* rc) {
+  auto args = std::make_shared<ServeArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "serve",
+      "Operations console: serve the page, the REST API and the robots' and viewers' WebSockets\n"
+      "(protocol: console/doc/protocol.md) until SIGINT/SIGTERM. Prints the URL and the operator\n"
+      "token on stderr.");
+  cmd->add_option("--map", args->map, "Map (survey .yaml, .bt or .ot) the robots share")->required();
+  cmd->add_option("--db", args->db, "Database: sqlite:PATH or postgresql://user@host:port/db")->capture_default_str();
+  cmd->add_option("--listen", args->listen, "HOST:PORT to listen on (port 0: any free one)")->capture_default_str();
+  cmd->add_option("--token-file", args->token_file,
+                  "File whose first line is the operator token, TOKEN or LABEL:TOKEN (default: a random one)");
+  cmd->add_option("--mesh-cell", args->mesh_cell, "Cell edge of the page's roadway surface [m] (0: automatic)")
+      ->capture_default_str();
+  cmd->add_flag("-q,--quiet", args->quiet, "No progress bar");
+  cmd->callback([args, rc] { *rc = runServe(*args); });
+}
+
+}  // namespace adit::tools
