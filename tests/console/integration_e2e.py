@@ -4,7 +4,7 @@
 `adit simulate --live`, checked through the HTTP API only (python3 stdlib, no WebSocket needed).
 
     integration_e2e.py --adit BIN --map MAP --scenario S --fault F [--db sqlite|sqlite-normal|postgresql]
-                       [--pg-state DIR] [--live-speed X] [--workdir DIR]
+                       [--pg-state DIR] [--live-speed X] [--live-period P] [--workdir DIR]
 
 F is one of
   none     the run goes through undisturbed;
@@ -249,7 +249,7 @@ def run(args):
     t0 = time.monotonic()
     sim = subprocess.Popen(
         [args.adit, "simulate", args.scenario, "--live", "ws://127.0.0.1:%d" % live_port,
-         "--live-speed", str(args.live_speed), "--robot-id", robot, "--out", run_json],
+         "--live-speed", str(args.live_speed), "--live-period", str(args.live_period), "--robot-id", robot, "--out", run_json],
         stdout=subprocess.DEVNULL, stderr=sim_log)
     sim_log.close()
     try:
@@ -355,6 +355,9 @@ def check_commands_after(server, robot, msgs):
           [m["reason"] for m in msgs if m["type"] == "plan"])
     results = [m["result"] for m in msgs if m["type"] == "command_result" and m["command_id"] == c["command_id"]]
     check(results[:2] == ["accepted", "executed"], "the robot's answers to the block: %s" % results)
+    # The plan made for the block leaves crosscut-90 (x = 90, y = 0..40) alone.
+    through = [p for p in blocked[0]["path"] if abs(p[0] - 90.0) < 2.5 and 5.0 < p[1] < 35.0]
+    check(not through, "the plan made for the block still crosses crosscut-90 at %s" % through[:3])
     return ["block executed: %s" % c.get("reason", ""), "plans with reason blocked: %d" % len(blocked)]
 
 
@@ -367,6 +370,7 @@ def main():
     p.add_argument("--db", choices=["sqlite", "sqlite-normal", "postgresql"], default="sqlite")
     p.add_argument("--pg-state", help="the postgres_fixture.sh state dir (with --db postgresql)")
     p.add_argument("--live-speed", type=float, default=0.0)
+    p.add_argument("--live-period", type=float, default=0.1)
     p.add_argument("--pose-tolerance", type=float, default=0.01)
     p.add_argument("--timeout", type=float, default=240.0)
     p.add_argument("--workdir")
