@@ -23,24 +23,15 @@ if(TARGET adit AND Python3_Interpreter_FOUND)
     set_tests_properties(console_e2e_${fault}_${db} PROPERTIES LABELS "cli;scenario" TIMEOUT 300)
   endforeach()
 
-  # PostgreSQL: its own throw-away server (tests/console/postgres_fixture.sh, as store.cmake).
-  find_program(ADIT_PG_INITDB initdb PATHS /usr/lib/postgresql/15/bin NO_DEFAULT_PATH)
-  find_program(ADIT_PG_CTL pg_ctl PATHS /usr/lib/postgresql/15/bin NO_DEFAULT_PATH)
-  if(ADIT_PG_INITDB AND ADIT_PG_CTL)
-    set(_pg_state ${_e2e_dir}/postgres)
-    get_filename_component(_pg_bindir ${ADIT_PG_INITDB} DIRECTORY)
-    add_test(NAME console_e2e_postgres_start
-             COMMAND env PG_BINDIR=${_pg_bindir} sh ${CMAKE_CURRENT_LIST_DIR}/postgres_fixture.sh start ${_pg_state})
-    add_test(NAME console_e2e_postgres_stop COMMAND sh ${CMAKE_CURRENT_LIST_DIR}/postgres_fixture.sh stop ${_pg_state})
-    set_tests_properties(console_e2e_postgres_start PROPERTIES FIXTURES_SETUP console_e2e_postgres
-                         LABELS "cli;scenario" TIMEOUT 120)
-    set_tests_properties(console_e2e_postgres_stop PROPERTIES FIXTURES_CLEANUP console_e2e_postgres
-                         LABELS "cli;scenario" TIMEOUT 60)
+  # PostgreSQL: the store's throw-away server (store.cmake's fixture console_postgres, registered
+  # only where initdb/pg_ctl exist). The store's tests use databases of their own; this one the
+  # server's default database, robot ids unique per run.
+  if(TEST console_postgres_start)
     add_test(NAME console_e2e_kill_postgresql
-             COMMAND ${_e2e} --fault kill --db postgresql --pg-state ${_pg_state} --live-speed 40
-                     --workdir ${_e2e_dir}/kill_postgresql)
+             COMMAND ${_e2e} --fault kill --db postgresql --pg-state ${CMAKE_CURRENT_BINARY_DIR}/console_postgres
+                     --live-speed 40 --workdir ${_e2e_dir}/kill_postgresql)
     set_tests_properties(console_e2e_kill_postgresql PROPERTIES LABELS "cli;scenario" TIMEOUT 300
-                         FIXTURES_REQUIRED console_e2e_postgres)
+                         FIXTURES_REQUIRED console_postgres)
   endif()
 endif()
 

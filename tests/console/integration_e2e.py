@@ -239,7 +239,10 @@ def run(args):
     for suffix in ("", "-wal", "-shm"):
         if args.db != "postgresql" and os.path.exists(os.path.join(work, "c.db" + suffix)):
             os.remove(os.path.join(work, "c.db" + suffix))
-    server = Server(args, db, free_port(), os.path.join(work, "serve.log"))
+    serve_log = os.path.join(work, "serve.log")
+    if os.path.exists(serve_log):  # a previous run's: the announcements are counted per start
+        os.remove(serve_log)
+    server = Server(args, db, free_port(), serve_log)
     server.start()
     proxy = Proxy(server.port) if args.fault == "drop" else None
     live_port = proxy.port if proxy else server.port
