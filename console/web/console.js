@@ -53,7 +53,10 @@
     const span = Math.max(hi[0] - lo[0], hi[1] - lo[1], 10);
     const camera = new THREE.PerspectiveCamera(45, 1, 0.1, span * 20);
     camera.up.set(0, 0, 1);  // the map's frame: z up
-    camera.position.set(centre.x - 0.15 * span, centre.y - 0.8 * span, centre.z + 0.7 * span);
+    // Far enough to see the whole map: its half diagonal fills the field of view.
+    const half = 0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+    const dist = half / Math.sin((camera.fov / 2) * Math.PI / 180);
+    camera.position.set(centre.x, centre.y - 0.55 * dist, centre.z + 0.83 * dist);
     const controls = new THREE.OrbitControls(camera, renderer.domElement);
     controls.target.copy(centre);
     controls.update();
@@ -127,6 +130,11 @@
     for (const o of [marker, trail, plan, subgoal, rock, tracks]) three.scene.add(o);
     r.view = { marker, trail, plan, subgoal, rock, tracks, breakLabels: [], name: addLabel(r.id, 'robot', [0, 0, 0]) };
     return r.view;
+  }
+
+  // A robot is its radius when close, and never smaller than ~1 % of the view when far.
+  function markerScale(r, position) {
+    return Math.max(r.radius, 0.012 * three.camera.position.distanceTo(position));
   }
 
   function points3(list) { return list.map((p) => new THREE.Vector3(p[0], p[1], p[2])); }
@@ -206,7 +214,7 @@
     const t = shown(r);
     if (!v || !t) return;
     v.marker.position.set(t.pose[0], t.pose[1], t.pose[2]);
-    v.marker.scale.setScalar(r.radius);
+    v.marker.scale.setScalar(markerScale(r, v.marker.position));
     v.name.position.set(t.pose[0], t.pose[1], t.pose[2] + r.radius + 0.5);
     const trail = state.replay && state.replay.robot === r.id ? state.replay.trail : r.trail;
     v.trail.geometry.setFromPoints(points3(trail));
@@ -371,6 +379,14 @@
     drawProfile();
     renderTable();
     if (three.renderer) {
+      const followed = $('follow').checked && state.robots.get($('robot').value);
+      if (followed && followed.view && shown(followed)) {
+        const p = followed.view.marker.position;
+        three.camera.position.add(p.clone().sub(three.controls.target));
+        three.controls.target.copy(p);
+      }
+      for (const r of state.robots.values())
+        if (r.view) r.view.marker.scale.setScalar(markerScale(r, r.view.marker.position));
       three.controls.update();
       placeLabels();
       three.renderer.render(three.scene, three.camera);

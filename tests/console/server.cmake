@@ -8,3 +8,18 @@ add_executable(adit_console_server_tests console/server_test.cpp)
 target_link_libraries(adit_console_server_tests PRIVATE adit::console adit_test_support Boost::headers Threads::Threads
                       nlohmann_json::nlohmann_json GTest::gtest_main adit_warnings)
 gtest_discover_tests(adit_console_server_tests PROPERTIES LABELS unit TIMEOUT 120 DISCOVERY_TIMEOUT 60)
+
+# A robot (or ten) speaking the protocol to a running `adit serve`: the browser test's robot and
+# the console's latency / throughput figures.
+add_executable(adit_console_feed console/console_feed.cpp)
+target_include_directories(adit_console_feed PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+target_link_libraries(adit_console_feed PRIVATE Boost::headers Threads::Threads nlohmann_json::nlohmann_json adit_warnings)
+
+# The page in headless Chromium against a real `adit serve` on the bundled district map.
+if(EXISTS /usr/bin/chromium AND ADIT_BUILD_TOOLS)
+  add_test(NAME console_browser
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/console/browser_console.sh $<TARGET_FILE:adit>
+                   $<TARGET_FILE:adit_console_feed> ${PROJECT_SOURCE_DIR}/maps/district.yaml
+                   ${CMAKE_CURRENT_BINARY_DIR}/console_browser $<TARGET_FILE:animation_page_demo>)
+  set_tests_properties(console_browser PROPERTIES LABELS cli TIMEOUT 300)
+endif()

@@ -9,26 +9,16 @@
 #include <filesystem>
 #include <thread>
 
-#include <boost/asio/ip/tcp.hpp>
-#include <boost/beast/core.hpp>
-#include <boost/beast/http.hpp>
-#include <boost/beast/websocket.hpp>
-#include <nlohmann/json.hpp>
-
 #include "adit/console/server.hpp"
 #include "adit/console/store.hpp"
 #include "adit/map/distance_field.hpp"
+#include "console/beast_client.hpp"
 #include "support/synthetic_roadway.hpp"
 
 namespace adit::console {
 namespace {
 
-namespace beast = boost::beast;
-namespace http = beast::http;
-namespace websocket = beast::websocket;
-namespace net = boost::asio;
-using tcp = net::ip::tcp;
-using Json = nlohmann::json;
+using namespace adit::console::testing;  // NOLINT: Beast's names and the client helpers
 
 constexpr const char* kHash = "fnv1a64:00000000c0ffee00";
 constexpr const char* kToken = "0123456789abcdef0123456789abcdef";
@@ -107,18 +97,11 @@ struct Reply {
 
 class WsClient {
  public:
-  WsClient(unsigned short port, const std::string& path) : ws_(ioc_) {
-    beast::get_lowest_layer(ws_).connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
-    ws_.handshake("127.0.0.1", path);
-    ws_.read_message_max(64 << 20);
-  }
+  WsClient(unsigned short port, const std::string& path)
+      : ws_(openWebSocket(ioc_, "127.0.0.1", std::to_string(port), path)) {}
   void send(const std::string& text) { ws_.write(net::buffer(text)); }
   void send(const Json& j) { send(j.dump()); }
-  Json recv() {
-    beast::flat_buffer b;
-    ws_.read(b);
-    return Json::parse(beast::buffers_to_string(b.data()));
-  }
+  Json recv() { return readJson(ws_); }
   /// Reads until the server closes; the close code (-1: the connection broke otherwise).
   int closeCode() {
     beast::error_code ec;
