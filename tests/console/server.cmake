@@ -8,6 +8,13 @@ add_executable(adit_console_server_tests console/server_test.cpp)
 target_link_libraries(adit_console_server_tests PRIVATE adit::console adit_test_support Boost::headers Threads::Threads
                       nlohmann_json::nlohmann_json GTest::gtest_main adit_warnings)
 gtest_discover_tests(adit_console_server_tests PROPERTIES LABELS unit TIMEOUT 120 DISCOVERY_TIMEOUT 60)
+# The same API tests against PostgreSQL, on the store's throw-away server (tests/console/store.cmake).
+if(ADIT_PG_INITDB AND ADIT_PG_CTL AND DEFINED _pg_state)
+  gtest_discover_tests(adit_console_server_tests TEST_PREFIX "postgresql/" TEST_FILTER "ServerTest.*"
+                       DISCOVERY_TIMEOUT 60
+                       PROPERTIES LABELS unit TIMEOUT 120 FIXTURES_REQUIRED console_postgres
+                                  ENVIRONMENT ADIT_TEST_POSTGRES_STATE=${_pg_state})
+endif()
 
 # A robot (or ten) speaking the protocol to a running `adit serve`: the browser test's robot and
 # the console's latency / throughput figures.

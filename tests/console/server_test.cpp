@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include "adit/console/server.hpp"
@@ -152,7 +153,7 @@ class ServerTest : public ::testing::Test {
     delete dir_;
   }
   static void startServer() {
-    StatusOr<std::unique_ptr<Store>> store = Store::open("sqlite:" + (*dir_ / "centre.db").string());
+    StatusOr<std::unique_ptr<Store>> store = Store::open(databaseUrl());
     ASSERT_TRUE(store.ok()) << store.status().toString();
     store_ = store->release();
     ServerOptions o;
@@ -176,6 +177,19 @@ class ServerTest : public ::testing::Test {
     server_ = nullptr;
   }
   static unsigned short port() { return server_->port(); }
+  // SQLite in the temp dir; PostgreSQL when CTest's fixture started a throw-away server
+  // (tests/console/postgres_fixture.sh writes its URL into ADIT_TEST_POSTGRES_STATE/url). Every
+  // test uses its own robot ids, so the tests share that one fresh database.
+  static std::string databaseUrl() {
+    if (const char* state = std::getenv("ADIT_TEST_POSTGRES_STATE")) {
+      std::ifstream in(std::filesystem::path(state) / "url");
+      std::string url;
+      std::getline(in, url);
+      return url;
+    }
+    return "sqlite:" + (*dir_ / "centre.db").string();
+  }
+  static std::string backend() { return std::getenv("ADIT_TEST_POSTGRES_STATE") ? "postgresql" : "sqlite"; }
 
   static Reply request(http::verb verb, const std::string& target, const std::string& body = "",
                        const std::string& token = "") {
@@ -206,7 +220,7 @@ class ServerTest : public ::testing::Test {
     const Reply h = get("/api/health");
     ASSERT_EQ(h.status, 200);
     EXPECT_EQ(h.json()["ok"], true);
-    EXPECT_EQ(h.json()["db"], "sqlite");
+    EXPECT_EQ(h.json()["db"], backend());
     EXPECT_EQ(h.json()["schema_version"], kSchemaVersion);
   }
 
