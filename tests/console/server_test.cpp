@@ -501,6 +501,44 @@ TEST_F(ServerTest, ViewersGetASnapshotThenEveryStoredMessage) {
   EXPECT_EQ(viewer.recv()["type"], "error");
 }
 
+TEST_F(ServerTest, ASlowViewersQueueIsBoundedAndReportsWhatItDropped) {
+  // A viewer with a tiny receive window that reads nothing while a robot sends a burst.
+  net::io_context ioc;
+  websocket::stream<tcp::socket> viewer(ioc);
+  viewer.next_layer().open(tcp::v4());
+  viewer.next_layer().set_option(net::socket_base::receive_buffer_size(4096));
+  viewer.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port()));
+  viewer.handshake("127.0.0.1", "/ws/view");
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-lag");
+  // 4 KiB each: 16 MiB in all, more than the loopback socket buffers can hide.
+  const int n = 4000, chunk = 500;
+  const std::string padding(4096, 'p');
+  for (int seq = 1; seq <= n; seq += chunk) {  // a robot reads its acks as it goes
+    for (int k = seq; k < seq + chunk; ++k) {
+      Json t = telemetry("r-lag", k, 1.0 + 1e-3 * k);
+      t["padding"] = padding;
+      robot.send(t);
+    }
+    for (int k = seq; k < seq + chunk; ++k) ASSERT_EQ(robot.recv()["type"], "ack");
+  }
+  // Every telemetry message is either delivered or counted in a `lag`; the newest always arrives.
+  std::int64_t delivered = 0, dropped = 0, last = 0;
+  while (last < n) {
+    const Json m = readJson(viewer);
+    if (m["type"] == "lag") dropped += m["dropped"].get<std::int64_t>();
+    if (m["type"] == "telemetry" && m["robot"] == "r-lag") {
+      ++delivered;
+      EXPECT_GT(m["seq"].get<std::int64_t>(), last);
+      last = m["seq"];
+    }
+  }
+  EXPECT_GT(dropped, 0);
+  EXPECT_EQ(delivered + dropped, n);
+  EXPECT_EQ(stored("r-lag"), 1000u);  // the history's default page: everything was stored
+  EXPECT_EQ(get("/api/history?robot=r-lag&from_seq=3001&limit=10000").json().size(), 1000u);
+}
+
 // Runs last in the suite (gtest keeps the file's order): a restarted centre resumes from the
 // database (acked seq, last telemetry in the snapshot).
 TEST_F(ServerTest, ZRestartedServerResumesFromTheDatabase) {
