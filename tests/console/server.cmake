@@ -30,3 +30,28 @@ if(EXISTS /usr/bin/chromium AND ADIT_BUILD_TOOLS)
                    ${CMAKE_CURRENT_BINARY_DIR}/console_browser $<TARGET_FILE:animation_page_demo>)
   set_tests_properties(console_browser PROPERTIES LABELS cli TIMEOUT 300)
 endif()
+
+# `adit serve` refuses bad input with exit 2 and a message naming it, before serving anything.
+if(ADIT_BUILD_TOOLS)
+  set(_serve_cli ${PROJECT_SOURCE_DIR}/tests/tools/run_cli.cmake)
+  set(_small ${PROJECT_SOURCE_DIR}/tests/tools/data/small.yaml)
+  set(_serve_out ${CMAKE_CURRENT_BINARY_DIR}/console_cli)
+  file(MAKE_DIRECTORY ${_serve_out})
+  function(adit_serve_cli_test name code stderr)
+    add_test(NAME cli_serve_${name}
+             COMMAND ${CMAKE_COMMAND} "-DCMD=$<TARGET_FILE:adit>;serve;${ARGN}" -DEXPECT_CODE=${code}
+                     "-DEXPECT_STDERR=${stderr}" -P ${_serve_cli}
+             WORKING_DIRECTORY ${_serve_out})
+    set_tests_properties(cli_serve_${name} PROPERTIES LABELS cli)
+  endfunction()
+  adit_serve_cli_test(help 0 "" --help)
+  adit_serve_cli_test(no_map 2 "--map is required")
+  adit_serve_cli_test(missing_map 2 "nope.yaml: no such file" --map ${_serve_out}/nope.yaml)
+  adit_serve_cli_test(bad_listen 2 "'localhost' is not an IP address" --map ${_small} --listen localhost:8080)
+  adit_serve_cli_test(bad_port 2 "the port must be 0-65535" --map ${_small} --listen 127.0.0.1:70000)
+  adit_serve_cli_test(short_token 2 "short_token.txt:1: the token is shorter than 16 characters"
+                      --map ${_small} --token-file ${CMAKE_CURRENT_SOURCE_DIR}/console/data/short_token.txt)
+  adit_serve_cli_test(empty_token 2 "empty_token.txt: no token in the file"
+                      --map ${_small} --token-file ${CMAKE_CURRENT_SOURCE_DIR}/console/data/empty_token.txt)
+  adit_serve_cli_test(bad_db 2 "mysql" --map ${_small} --db mysql://centre/adit --listen 127.0.0.1:0)
+endif()
