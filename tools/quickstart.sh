@@ -22,6 +22,7 @@ PKGS=(cmake g++ make pkg-config
       liboctomap-dev libfcl-dev libccd-dev libeigen3-dev
       libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libcairo2-dev
       libompl-dev libboost-serialization-dev libboost-filesystem-dev libboost-system-dev libode-dev
+      libboost1.74-dev
       libgtest-dev libgmock-dev libbenchmark-dev
       libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev
       libsqlite3-dev libpqxx-dev libjs-three)

@@ -10,13 +10,18 @@
 #include <cmath>
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <optional>
 #include <iostream>
 #include <chrono>
 #include <cstdlib>
 #include <limits>
+#include <array>
+#include <set>
+#include <thread>
 
 
+#include "adit/console/robot_link.hpp"
 #include "adit/fusion/batch.hpp"
 #include "adit/fusion/navigated_simulation.hpp"
 #include "adit/fusion/subgoal_selector.hpp"
@@ -26,6 +31,7 @@
 #include "common/batch_runner.hpp"
 #include "common/cli.hpp"
 #include "common/figure.hpp"
+#include "common/plan_output.hpp"
 #include "common/progress.hpp"
 #include "verbs.hpp"
 
@@ -54,7 +60,214 @@ struct SimulateArgs {
   std::uint64_t seed = 1;
   double t_max = 0.0;
   double max_separation = 150.0;
+  // --live (issue 11)
+  std::string live;
+  double live_speed = 1.0;
+  double live_period = 0.1;
+  std::string robot_id;
 };
+
+using Json = nlohmann::ordered_json;
+
+Json vecJson(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
+
+// `--live`: the navigated run drives the operations console (console/doc/protocol.md) through a
+// RobotLink: telemetry every --live-period of mission time, the expected path on every (re)plan,
+// newly sensed rock and the tracks, roof falls; the operator's commands are executed between
+// periods through the Navigator's operator API and answered with command_result. Paced to
+// --live-speed times real time (0: as fast as it goes).
+class LiveConsole final : public fusion::NavigatedObserver {
+ public:
+  LiveConsole(console::RobotLink& link, double dt_s, double speed, double period_s, bool quiet)
+      : link_(link), dt_(dt_s), speed_(speed), period_(period_s), quiet_(quiet) {}
+
+  void started(const fusion::Navigator& nav, const map::Polyline& path) override {
+    nav.read([&](const map::OccupancyMap& m, const map::DistanceField&) { resolution_ = m.resolution(); });
+    wall0_ = std::chrono::steady_clock::now();
+    sendPlan(0.0, path, "initial");
+  }
+
+  void beforeCycle(double t_s, fusion::Navigator& nav, const local::RobotState&) override {
+    for (const console::ReceivedCommand& c : link_.pollCommands()) execute(t_s, nav, c);
+  }
+
+  void roofFall(const local::ScenarioEvent& e) override {
+    send({{"type", "event"}, {"t", e.t_s}, {"kind", e.type}, {"center", vecJson(e.center)}, {"radius", e.radius_m}});
+  }
+
+  void afterCycle(double t_s, const fusion::Navigator& nav, const fusion::NavigatorCycle& c,
+                  const local::RobotState& state, const fusion::SensorScan& scan,
+                  const std::vector<map::MovingObstacle>& tracks, const local::SimulationResult& res) override {
+    const double t = t_s + dt_;
+    if (c.replanned) sendPlan(t, nav.expectedPath(), "replan");
+    if (c.inserted_points > 0)
+      for (const Vec3& p : scan.returns) {
+        const Vec3 centre = ((p / resolution_).array().floor() + 0.5).matrix() * resolution_;
+        if (sent_rock_.insert({centre.x(), centre.y(), centre.z()}).second) fresh_rock_.push_back(centre);
+      }
+    const bool collided = res.collisions > collisions_;
+    collisions_ = res.collisions;
+    const char* status = collided ? "collision" : fusion::consoleStatusName(c);
+    if (t + 1e-9 >= next_telemetry_ || collided || std::strcmp(status, last_status_) != 0) {
+      const bool steering = c.status == fusion::NavigatorStatus::kDriving;
+      sendTelemetry(t, nav, state, status,
+                    steering ? std::optional<Vec3>(c.subgoal.value_or(c.command.sub_goal)) : std::nullopt,
+                    c.command.clearance_m);
+      if (!fresh_rock_.empty() || !tracks.empty()) sendObstacles(t, tracks);
+      while (next_telemetry_ <= t + 1e-9) next_telemetry_ += period_;
+    }
+    last_status_ = status;
+    pace(t);
+  }
+
+  void finished(double t_s, const fusion::Navigator& nav, const local::RobotState& state,
+                const local::SimulationResult& res) override {
+    const char* status = res.collisions > 0 ? "collision"
+                         : res.outcome == Outcome::kArrived ? "arrived"
+                         : res.outcome == Outcome::kNoRoute ? "no_route"
+                         : res.outcome == Outcome::kStuck  ? "stuck"
+                                                           : last_status_;
+    sendTelemetry(t_s, nav, state, status, std::nullopt, std::numeric_limits<double>::infinity());
+    if (goal_command_) {
+      if (res.outcome == Outcome::kArrived) answer(*goal_command_, "executed", "arrived", t_s);
+      else answer(*goal_command_, "refused", std::string("the run ended: ") + outcomeName(res.outcome), t_s);
+    }
+  }
+
+ private:
+  void send(const Json& j) {
+    const StatusOr<std::uint64_t> s = link_.send(j.dump());
+    if (!s.ok() && !quiet_) std::fprintf(stderr, "adit: live: %s\n", s.status().message().c_str());
+  }
+  void answer(std::int64_t id, const std::string& result, const std::string& reason, double t) {
+    if (Status s = link_.answer(id, result, reason, t); !s.ok() && !quiet_)
+      std::fprintf(stderr, "adit: live: %s\n", s.message().c_str());
+    if (!quiet_)
+      std::fprintf(stderr, "adit: live: t = %.1f s: command %lld %s%s%s\n", t, static_cast<long long>(id), result.c_str(),
+                   reason.empty() ? "" : ": ", reason.c_str());
+  }
+
+  void sendPlan(double t, const map::Polyline& path, const char* reason) {
+    Json pts = Json::array(), labels = Json::array();
+    for (const Vec3& p : path.points) pts.push_back(vecJson(p));
+    // labels[i] names path[i + 1]: the break points A, B, ... between the start and the goal.
+    for (std::size_t i = 0; i + 2 < path.points.size(); ++i) labels.push_back(breakPointLabel(i));
+    send({{"type", "plan"}, {"t", t}, {"reason", reason}, {"path", pts}, {"labels", labels}});
+  }
+
+  void sendTelemetry(double t, const fusion::Navigator& nav, const local::RobotState& state, const char* status,
+                     const std::optional<Vec3>& subgoal, double clearance) {
+    send({{"type", "telemetry"},
+          {"t", t},
+          {"pose", vecJson(state.position)},
+          {"velocity", vecJson(state.velocity)},
+          {"status", status},
+          {"goal", vecJson(nav.goal())},
+          {"subgoal", subgoal ? vecJson(*subgoal) : Json(nullptr)},
+          {"min_clearance", std::isfinite(clearance) ? Json(clearance) : Json(nullptr)}});
+  }
+
+  void sendObstacles(double t, const std::vector<map::MovingObstacle>& tracks) {
+    constexpr std::size_t kMaxPoints = 10000;  // protocol.md's limit per list
+    std::size_t from = 0;
+    do {
+      Json rock = Json::array(), tr = Json::array();
+      for (std::size_t i = from; i < fresh_rock_.size() && i < from + kMaxPoints; ++i) rock.push_back(vecJson(fresh_rock_[i]));
+      if (from == 0)
+        for (std::size_t i = 0; i < tracks.size() && i < kMaxPoints; ++i)
+          tr.push_back({{"id", "v" + std::to_string(i + 1)},
+                        {"position", vecJson(tracks[i].position)},
+                        {"velocity", vecJson(tracks[i].velocity)},
+                        {"radius", tracks[i].shape.boundingRadius()}});
+      send({{"type", "obstacles"}, {"t", t}, {"rock", rock}, {"tracks", tr}});
+      from += kMaxPoints;
+    } while (from < fresh_rock_.size());
+    fresh_rock_.clear();
+  }
+
+  // One command between periods: accepted or refused at once; executed at once, or (a goal) on
+  // arrival.
+  void execute(double t, fusion::Navigator& nav, const console::ReceivedCommand& c) {
+    const std::int64_t id = c.id;
+    auto refuse = [&](const std::string& why) { answer(id, "refused", why, t); };
+    auto done = [&](const std::string& note) {
+      answer(id, "accepted", "", t);
+      answer(id, "executed", note, t);
+    };
+    if (c.kind == "pause") {
+      nav.pause();
+      done("");
+    } else if (c.kind == "resume") {
+      if (!nav.paused()) return refuse("not paused");
+      nav.resume();
+      done("");
+    } else if (c.kind == "manual") {
+      if (Status s = nav.manual(*c.velocity); !s.ok()) return refuse(s.message());
+      done("");
+    } else if (c.kind == "release") {
+      if (!nav.manualControl()) return refuse("not in manual control");
+      const Status s = nav.release();
+      sendPlan(t, nav.expectedPath(), "replan");
+      if (!s.ok()) {
+        answer(id, "accepted", "", t);
+        return answer(id, "executed", "released, but " + s.message(), t);
+      }
+      done("replanned from here");
+    } else if (c.kind == "goal") {
+      if (Status s = nav.setGoal(*c.goal); !s.ok()) return refuse(s.message());
+      if (goal_command_) answer(*goal_command_, "refused", "superseded by command " + std::to_string(id), t);
+      goal_command_ = id;
+      answer(id, "accepted", "", t);
+      sendPlan(t, nav.expectedPath(), "goal");
+    } else if (c.kind == "block" || c.kind == "reopen") {
+      const bool block = c.kind == "block";
+      StatusOr<fusion::RoadwayBlockResult> r = block ? nav.blockRoadway(c.roadway) : nav.reopenRoadway(c.roadway);
+      if (!r.ok()) return refuse(r.status().message());
+      if (r->replanned && !r->no_route) sendPlan(t, nav.expectedPath(), block ? "blocked" : "replan");
+      std::string note = std::to_string(r->voxels) + " voxels " + (block ? "closed" : "reopened");
+      if (r->no_route) note += "; no route to the goal: " + r->message;
+      else if (r->replanned) note += "; replanned";
+      else note += "; the expected path does not cross it";
+      done(note);
+    }
+  }
+
+  void pace(double t) {
+    if (speed_ <= 0.0) return;
+    std::this_thread::sleep_until(wall0_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                               std::chrono::duration<double>(t / speed_)));
+  }
+
+  console::RobotLink& link_;
+  double dt_, speed_, period_;
+  bool quiet_;
+  double resolution_ = 0.2;
+  std::chrono::steady_clock::time_point wall0_ = std::chrono::steady_clock::now();
+  double next_telemetry_ = 0.0;
+  int collisions_ = 0;
+  const char* last_status_ = "following";
+  std::set<std::array<double, 3>> sent_rock_;
+  std::vector<Vec3> fresh_rock_;
+  std::optional<std::int64_t> goal_command_;
+};
+
+// Connects the live link before the run; a console that is not there is bad input (exit 2).
+StatusOr<std::unique_ptr<console::RobotLink>> connectLive(const SimulateArgs& a, const Scenario& sc) {
+  if (!(a.live_speed >= 0.0) || !std::isfinite(a.live_speed))
+    return invalidArgument("--live-speed must be >= 0 (1 real time, 0 as fast as possible)");
+  if (!(a.live_period > 0.0) || !std::isfinite(a.live_period)) return invalidArgument("--live-period must be > 0 s");
+  if (!sc.map_path) return invalidArgument(sc.file + ": --live needs a scenario with a map (the console shows it)");
+  console::RobotHello hello;
+  hello.robot = a.robot_id;
+  if (hello.robot.empty()) {
+    std::string stem = sc.file.substr(sc.file.find_last_of('/') + 1);
+    hello.robot = stem.substr(0, stem.rfind('.'));
+  }
+  hello.map = sc.map_path->substr(sc.map_path->find_last_of('/') + 1);
+  ADIT_ASSIGN_OR_RETURN(hello.map_hash, console::mapFileHash(*sc.map_path));
+  hello.radius_m = sc.params.robot.radius_m;
+  return console::RobotLink::connect(a.live, hello);
+}
 
 nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
   nlohmann::ordered_json j;
@@ -281,6 +494,7 @@ Status writeJson(const nlohmann::ordered_json& j, const std::string& out) {
 
 int run(const SimulateArgs& a) {
   if (a.batch_given && !a.replay.empty()) return report(invalidArgument("--replay is one run, not --batch"));
+  if (a.batch_given && !a.live.empty()) return report(invalidArgument("--live is one run, not --batch"));
   if (a.batch_given) return runBatch(a);
   if (!a.replay.empty() && !a.scenario.empty())
     return report(invalidArgument("--replay CAMPAIGN:INDEX takes no SCENARIO file (got " + a.scenario + ")"));
@@ -304,11 +518,31 @@ int run(const SimulateArgs& a) {
   if (!env.ok()) return report(env.status());
   std::optional<fusion::NavigatedRun> nav;
   StatusOr<SimulationResult> r = internalError("not run");
-  if (sc->needsNavigator()) {
+  std::unique_ptr<console::RobotLink> link;
+  std::optional<LiveConsole> live;
+  if (!a.live.empty()) {
+    StatusOr<std::unique_ptr<console::RobotLink>> l = connectLive(a, *sc);
+    if (!l.ok()) return report(l.status());
+    link = std::move(l).value();
+    live.emplace(*link, sc->dt_s, a.live_speed, a.live_period, a.quiet);
+    if (!a.quiet) std::fprintf(stderr, "adit: live: connected to %s\n", a.live.c_str());
+  }
+  if (sc->needsNavigator() || live) {
     fusion::NavigatedOptions options;
     options.refine_plan = !a.no_refine;
     options.refine_replans = a.refine_replans;
+    if (live) options.observer = &*live;
     StatusOr<fusion::NavigatedRun> n = fusion::simulateNavigated(*sc, *env, options);
+    if (link) {
+      // Bounded wait for the centre to acknowledge everything (the run's end included).
+      if (!link->flush(5.0) && !a.quiet)
+        std::fprintf(stderr, "adit: live: %zu messages not acknowledged after 5 s (%s)\n", link->stats().outbox,
+                     link->stats().last_error.c_str());
+      else if (!a.quiet)
+        std::fprintf(stderr, "adit: live: %llu messages acknowledged, %llu reconnections\n",
+                     static_cast<unsigned long long>(link->stats().acked_seq),
+                     static_cast<unsigned long long>(link->stats().connections - 1));
+    }
     if (!n.ok()) return report(n.status());
     nav = std::move(n).value();
     r = nav->run;
@@ -472,6 +706,12 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
                 "expected_path: plan: keep the global layer's path as planned (no break-point refinement)");
   cmd->add_flag("--refine-replans", args->refine_replans,
                 "expected_path: plan: refine every replanned path too (the replan takes longer)");
+  cmd->add_option("--live", args->live,
+                  "Drive the operations console at URL (ws://HOST:PORT, `adit serve`): telemetry, plans, obstacles, "
+                  "events; the operator's commands steer the run. No console reachable: exit 2");
+  cmd->add_option("--live-speed", args->live_speed, "With --live: times real time (1 default, 0 as fast as possible)");
+  cmd->add_option("--live-period", args->live_period, "With --live: telemetry period of mission time [s] (default 0.1)");
+  cmd->add_option("--robot-id", args->robot_id, "With --live: the robot's id (default: the scenario file's stem)");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   cmd->callback([args, rc, cmd] {
     args->batch_given = cmd->count("--batch") > 0;

@@ -155,6 +155,11 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
       res.message = s.message();
       res.final_goal_distance_m = (sc.start - sc.goal).norm();
       res.trajectory.push_back({0.0, sc.start, Vec3::Zero(), local::StepStatus::kRefused});
+      if (options.observer) {
+        local::RobotState at_start;
+        at_start.position = sc.start;
+        options.observer->finished(0.0, nav, at_start, res);
+      }
       out.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
       return out;
     }
@@ -163,6 +168,8 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   }
   out.initial_path = nav.expectedPath();
   out.refinement = nav.initialRefinement();
+  NavigatedObserver* const observer = options.observer;
+  if (observer) observer->started(nav, out.initial_path);
 
   const double range = sc.sensor_range_m.value_or(kDefaultSensorRangeM);
   const std::size_t nm = sc.moving_obstacles.size();
@@ -187,6 +194,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
     // The true world changes; the robot senses what of it is in range.
     while (next_event < sc.events.size() && sc.events[next_event].t_s <= t + 1e-9) {
       falls.push_back(makeFall(sc.events[next_event], *truth.map()));
+      if (observer) observer->roofFall(sc.events[next_event]);
       ++next_event;
     }
     scan.origin = state.position;
@@ -197,6 +205,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
       tracks[i].position = m.positionAt(t);
       tracks[i].velocity = m.velocityAt(t);
     }
+    if (observer) observer->beforeCycle(t, nav, state);
     const NavigatorCycle c = nav.cycleWithScan(t, state, scan, tracks, sc.dt_s);
     ++res.steps;
     if (c.replanned) out.max_replan_time_s = std::max(out.max_replan_time_s, c.replan_time_s);
@@ -206,7 +215,9 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
     }
     res.escapes = std::max(res.escapes, c.command.escapes);
     last = c.status;
-    if (c.status != NavigatorStatus::kDriving) {
+    // The operator holding or driving the robot is not an end.
+    const bool by_hand = c.status == NavigatorStatus::kPaused || c.status == NavigatorStatus::kManual;
+    if (c.status != NavigatorStatus::kDriving && !by_hand) {
       if (c.status != NavigatorStatus::kArrived) res.message = c.command.message;
       break;
     }
@@ -222,8 +233,10 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
                          });
     t = double(k + 1) * sc.dt_s;
     res.trajectory.push_back({t, state.position, state.velocity, c.command.status, c.subgoal.value_or(c.command.sub_goal)});
+    if (observer) observer->afterCycle(double(k) * sc.dt_s, nav, c, state, scan, tracks, res);
   }
-  res.final_goal_distance_m = (state.position - sc.goal).norm();
+  // The goal the navigator had at the end: the scenario's unless an operator gave another.
+  res.final_goal_distance_m = (state.position - nav.goal()).norm();
   res.step_time_p50_us = local::stepTimePercentile(cycle_us, 0.5);
   res.step_time_p99_us = local::stepTimePercentile(cycle_us, 0.99);
   out.replans = nav.replans();
@@ -245,6 +258,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
     res.outcome = Outcome::kTimeout;
     res.message = "t_max reached";
   }
+  if (observer) observer->finished(t, nav, state, res);
   out.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   return out;
 }

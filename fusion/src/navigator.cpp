@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <shared_mutex>
@@ -46,8 +47,28 @@ const char* navigatorStatusName(NavigatorStatus s) {
     case NavigatorStatus::kStuck: return "stuck";
     case NavigatorStatus::kNoRoute: return "no_route";
     case NavigatorStatus::kRefused: return "refused";
+    case NavigatorStatus::kPaused: return "paused";
+    case NavigatorStatus::kManual: return "manual";
   }
   return "?";
+}
+
+const char* consoleStatusName(const NavigatorCycle& c) {
+  switch (c.status) {
+    case NavigatorStatus::kPaused: return "paused";
+    case NavigatorStatus::kManual: return "manual";
+    case NavigatorStatus::kArrived: return "arrived";
+    case NavigatorStatus::kNoRoute: return "no_route";
+    case NavigatorStatus::kStuck:
+    case NavigatorStatus::kRefused: return "stuck";
+    case NavigatorStatus::kDriving: break;
+  }
+  if (c.replanned || c.operator_replanned) return "replanning";
+  switch (c.command.status) {
+    case local::StepStatus::kYielding: return "yielding";
+    case local::StepStatus::kDetouring: return "detouring";
+    default: return "following";
+  }
 }
 
 struct Navigator::Impl {
@@ -73,6 +94,95 @@ struct Navigator::Impl {
   std::vector<Vec3> selected_path;
   local::SubgoalStats subgoal_stats;
   std::optional<Vec3> subgoal;  // in force
+  // Operator commands (issue 11).
+  Vec3 position = Vec3::Zero();  // of the last cycle, or plan()'s start: where operator replans start
+  double last_t_s = 0.0;
+  bool paused = false;
+  bool manual = false;
+  Vec3 manual_velocity = Vec3::Zero();
+  bool operator_replanned = false;  // reported by the next cycle
+  std::map<std::string, std::vector<Vec3>> blocks;  // roadway -> the voxel centres it made rock
+
+  // An operator command's replan from the robot's position; caller holds the exclusive lock.
+  Status operatorReplan(const std::string& reason, bool refine) {
+    const auto r0 = std::chrono::steady_clock::now();
+    StatusOr<global::GlobalPlanResult> r = planFrom(position, refine);
+    ++replans;
+    if (!r.ok()) {
+      events.push_back({last_t_s, "no_route", reason, secondsSince(r0), {}, r.status().message()});
+      return r.status();
+    }
+    events.push_back({last_t_s, "replan", reason, secondsSince(r0), r->route, "", last_refine_time_s});
+    operator_replanned = true;
+    no_route = false;
+    stuck_replans = 0;
+    return {};
+  }
+
+  // The survey roadway called `name`, or an error listing the known names.
+  StatusOr<const map::SurveyRoadway*> roadway(const std::string& name) const {
+    if (!loaded.survey) return failedPrecondition("roadway '" + name + "': the map has no survey, so no roadway names");
+    std::string known;
+    for (const map::SurveyRoadway& r : loaded.survey->roadways) {
+      if (r.name == name) return &r;
+      known += (known.empty() ? "" : ", ") + r.name;
+    }
+    return notFound("unknown roadway '" + name + "'; known: " + known);
+  }
+
+  // The free voxels (centres) of the roadway's middle cross-section: a slab two voxels thick
+  // across the section grown by a voxel all round.
+  std::vector<Vec3> middleSection(const map::SurveyRoadway& rw) const {
+    const map::SurveyNetwork& net = *loaded.survey;
+    const map::Polyline cl = net.centreline(rw);
+    const map::CrossSection& section = net.sections.at(rw.section);
+    double half_length = 0.0;
+    for (std::size_t i = 0; i + 1 < cl.points.size(); ++i) half_length += (cl.points[i + 1] - cl.points[i]).norm();
+    half_length *= 0.5;
+    Vec3 mid = cl.points.front(), t = Vec3::UnitX();
+    for (std::size_t i = 0; i + 1 < cl.points.size(); ++i) {
+      const Vec3 a = cl.points[i], b = cl.points[i + 1];
+      const double len = (b - a).norm();
+      if (len <= 0.0) continue;
+      t = (b - a) / len;
+      mid = a + t * std::min(half_length, len);
+      if (half_length <= len) break;
+      half_length -= len;
+    }
+    const Vec3 n = Vec3::UnitZ().cross(t).normalized();  // survey segments are never vertical
+    const Vec3 up = t.cross(n).normalized();
+    const double res = loaded.map.resolution(), height = section.height();
+    const double reach = 0.5 * section.maxWidth() + height + 2.0 * res;
+    std::vector<Vec3> out;
+    auto first = [&](double c) { return std::floor((c - reach) / res); };
+    for (double i = first(mid.x()); (i + 0.5) * res <= mid.x() + reach; ++i)
+      for (double j = first(mid.y()); (j + 0.5) * res <= mid.y() + reach; ++j)
+        for (double k = first(mid.z()); (k + 0.5) * res <= mid.z() + reach; ++k) {
+          const Vec3 p((i + 0.5) * res, (j + 0.5) * res, (k + 0.5) * res);
+          const Vec3 d = p - mid;
+          if (std::abs(d.dot(t)) > res) continue;
+          const double v = d.dot(up);
+          if (v < -res || v > height + res) continue;
+          if (std::abs(d.dot(n)) > section.halfWidthAt(std::clamp(v, 0.0, height)) + res) continue;
+          if (loaded.map.state(p) == map::VoxelState::kFree) out.push_back(p);
+        }
+    return out;
+  }
+
+  // Writes `voxels` as `state` and makes the field exact again; on a failed field update the
+  // voxels are put back, so nothing changed. Returns the changed box (inflated by a voxel).
+  StatusOr<map::Aabb> writeVoxels(const std::vector<Vec3>& voxels, map::VoxelState state, map::VoxelState undo) {
+    map::MapChange change;
+    ADIT_RETURN_IF_ERROR(loaded.map.setVoxels(voxels, state, &change));
+    const map::Aabb box = change.box.inflated(field->resolution());
+    if (Status s = field->update(loaded.map, box); !s.ok()) {
+      (void)loaded.map.setVoxels(voxels, undo);
+      (void)field->update(loaded.map, box);
+      return s;
+    }
+    global->mapChanged(box);
+    return box;
+  }
 
   // Hands the local planner a new sub-goal when a period starts, the robot moved on to the next
   // segment, or the expected path is not the one the last sub-goal was chosen on (a replan).
@@ -172,6 +282,7 @@ StatusOr<Navigator> Navigator::create(map::LoadedMap loaded, map::DistanceField 
 Status Navigator::plan(const Vec3& start) {
   std::unique_lock lock(impl_->mutex);
   impl_->initial_refinement.reset();
+  if (allFinite(start)) impl_->position = start;
   ADIT_ASSIGN_OR_RETURN(global::GlobalPlanResult r, impl_->planFrom(start, impl_->params.refine_plan));
   (void)r;
   return {};
@@ -215,6 +326,14 @@ NavigatorCycle Navigator::run(double t_s, const local::RobotState& state, const 
     out.command.message = "non-finite robot state";
     return out;
   }
+  m.position = state.position;
+  m.last_t_s = t_s;
+  out.operator_replanned = m.operator_replanned;
+  m.operator_replanned = false;
+  // The operator's hand, if any, replaces the attraction in this cycle's local step.
+  if (m.paused) m.local->setOverride(Vec3::Zero(), false);
+  else if (m.manual) m.local->setOverride(m.manual_velocity, true);
+  else m.local->clearOverride();
   std::optional<std::string> replan_reason;
   map::Aabb changed;
   {
@@ -285,10 +404,127 @@ NavigatorCycle Navigator::run(double t_s, const local::RobotState& state, const 
       case local::StepStatus::kRefused: out.status = NavigatorStatus::kRefused; break;
       default: out.status = NavigatorStatus::kDriving; break;
     }
+    if (m.paused) out.status = NavigatorStatus::kPaused;
+    else if (m.manual) out.status = NavigatorStatus::kManual;
   }
   out.subgoal = m.subgoal;
   out.cycle_time_s = secondsSince(t0);
   return out;
+}
+
+void Navigator::pause() { impl_->paused = true; }
+void Navigator::resume() { impl_->paused = false; }
+bool Navigator::paused() const { return impl_->paused; }
+bool Navigator::manualControl() const { return impl_->manual; }
+
+Vec3 Navigator::goal() const {
+  std::shared_lock lock(impl_->mutex);
+  return impl_->goal;
+}
+
+Status Navigator::setGoal(const Vec3& goal) {
+  Impl& m = *impl_;
+  if (!allFinite(goal)) return invalidArgument("goal: not finite");
+  std::unique_lock lock(m.mutex);
+  const map::Aabb b = m.loaded.map.bounds();
+  if (!b.contains(goal))
+    return invalidArgument("goal " + pointText(goal) + " is off the map (bounds " + pointText(b.min) + " to " +
+                           pointText(b.max) + ")");
+  if (!m.loaded.map.isFree(goal)) return invalidArgument("goal " + pointText(goal) + " is in rock");
+  const double clearance = m.field->distance(goal), r = m.params.local.robot.radius_m;
+  if (clearance < r) {
+    std::ostringstream os;
+    os.precision(2);
+    os << std::fixed << "goal " << pointText(goal) << " has " << clearance << " m clearance, less than the robot's radius "
+       << r << " m";
+    return invalidArgument(os.str());
+  }
+  const Vec3 old_goal = m.goal;
+  const bool old_no_route = m.no_route;
+  m.goal = goal;
+  if (Status s = m.operatorReplan("operator: new goal " + pointText(goal), m.params.refine_plan); !s.ok()) {
+    m.goal = old_goal;  // the old goal and its path stay
+    m.no_route = old_no_route;
+    return s;
+  }
+  return {};
+}
+
+StatusOr<RoadwayBlockResult> Navigator::blockRoadway(const std::string& name) {
+  Impl& m = *impl_;
+  std::unique_lock lock(m.mutex);
+  ADIT_ASSIGN_OR_RETURN(const map::SurveyRoadway* rw, m.roadway(name));
+  if (m.blocks.count(name)) return failedPrecondition("roadway '" + name + "' is already blocked");
+  std::vector<Vec3> voxels = m.middleSection(*rw);
+  if (voxels.empty()) return failedPrecondition("roadway '" + name + "': its middle cross-section holds no free voxel");
+  const double r = m.params.local.robot.radius_m, res = m.field->resolution();
+  for (const Vec3& p : voxels)
+    if ((p - m.position).norm() < r + res)
+      return failedPrecondition("roadway '" + name + "': the robot stands in its middle cross-section at " +
+                                pointText(m.position));
+  ADIT_ASSIGN_OR_RETURN(const map::Aabb box, m.writeVoxels(voxels, map::VoxelState::kOccupied, map::VoxelState::kFree));
+  RoadwayBlockResult out;
+  out.voxels = voxels.size();
+  m.blocks.emplace(name, std::move(voxels));
+  if (m.blockedAt(m.position, box)) {
+    out.replanned = true;
+    if (Status s = m.operatorReplan("operator: roadway " + name + " blocked", m.params.refine_plan && m.params.refine_replans);
+        !s.ok()) {
+      m.no_route = true;
+      out.no_route = true;
+      out.message = s.message();
+    }
+  }
+  return out;
+}
+
+StatusOr<RoadwayBlockResult> Navigator::reopenRoadway(const std::string& name) {
+  Impl& m = *impl_;
+  std::unique_lock lock(m.mutex);
+  ADIT_ASSIGN_OR_RETURN(const map::SurveyRoadway* rw, m.roadway(name));
+  (void)rw;
+  auto it = m.blocks.find(name);
+  if (it == m.blocks.end()) return failedPrecondition("roadway '" + name + "' is not blocked");
+  ADIT_RETURN_IF_ERROR(m.writeVoxels(it->second, map::VoxelState::kFree, map::VoxelState::kOccupied).status());
+  RoadwayBlockResult out;
+  out.voxels = it->second.size();
+  m.blocks.erase(it);
+  out.replanned = true;
+  const bool was_no_route = m.no_route;
+  if (Status s = m.operatorReplan("operator: roadway " + name + " reopened", m.params.refine_plan && m.params.refine_replans);
+      !s.ok()) {
+    m.no_route = was_no_route;  // a robot on its way keeps its path
+    out.no_route = true;
+    out.message = s.message();
+  }
+  return out;
+}
+
+std::vector<std::string> Navigator::blockedRoadways() const {
+  std::shared_lock lock(impl_->mutex);
+  std::vector<std::string> out;
+  for (const auto& b : impl_->blocks) out.push_back(b.first);
+  return out;
+}
+
+Status Navigator::manual(const Vec3& velocity) {
+  if (!allFinite(velocity)) return invalidArgument("manual: velocity is not finite");
+  impl_->manual = true;
+  impl_->manual_velocity = velocity;
+  return {};
+}
+
+Status Navigator::release() {
+  Impl& m = *impl_;
+  if (!m.manual) return failedPrecondition("release: not in manual control");
+  m.manual = false;
+  std::unique_lock lock(m.mutex);
+  if (Status s = m.operatorReplan("operator: released manual control", m.params.refine_plan && m.params.refine_replans);
+      !s.ok()) {
+    m.no_route = true;
+    return s;
+  }
+  return {};
 }
 
 void Navigator::read(const std::function<void(const map::OccupancyMap&, const map::DistanceField&)>& fn) const {

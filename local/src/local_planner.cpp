@@ -286,6 +286,51 @@ double LocalPlanner::encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v
   return margin;
 }
 
+Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt) const {
+  constexpr double kKeep = 0.05;  // m of rock clearance the cap keeps in reserve
+  const double a_max = params_.robot.a_max_mps2, rr = params_.robot.radius_m;
+  // The fastest approach that still stops short: one period at that speed, then braking at a_max
+  // (v dt + v^2 / 2a = gap), since the next command comes a period later.
+  auto cap = [&](const Vec3& toward, double gap) {
+    const double ad = a_max * dt;
+    const double allowed = std::max(0.0, -ad + std::sqrt(ad * ad + 2.0 * a_max * std::max(0.0, gap - kKeep)));
+    const double approach = v_des.dot(toward);
+    if (approach > allowed) v_des -= (approach - allowed) * toward;
+  };
+  // The nearest rock whatever the influence range (a fast robot needs more than rho0 to stop),
+  // then every static obstacle gathered this period.
+  if (world_.field) {
+    const map::DistanceSample s = world_.field->query(q);
+    const Vec3 toward = s.nearest - q;
+    if (!s.in_rock && toward.norm() > 1e-9) cap(toward.normalized(), s.distance - rr);
+  }
+  for (const ObstacleData& o : obstacles_)
+    if (!o.moving) cap(-o.grad, o.rho);
+  if (!world_.field) return v_des;
+  // The nearest rock is not the only rock (a corner, the face at the end of a rib the robot
+  // slides along): the stopping run itself (a period at v_des, then braking) must stay clear, or
+  // the set-point is scaled down until it does.
+  const double now = world_.field->distance(q) - rr;
+  const double floor = std::min(0.5 * kKeep, now - 1e-6);
+  const double step = 0.5 * world_.field->resolution();
+  auto runIsClear = [&](const Vec3& v) {
+    const double speed = v.norm();
+    if (speed < 1e-9) return true;
+    const double reach = speed * dt + speed * speed / (2.0 * a_max);
+    const int n = std::max(1, int(std::ceil(reach / step)));
+    for (int k = 1; k <= n; ++k)
+      if (world_.field->distance(q + v * (reach / speed * double(k) / double(n))) - rr < floor) return false;
+    return true;
+  };
+  if (runIsClear(v_des)) return v_des;
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 12; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (runIsClear(mid * v_des) ? lo : hi) = mid;
+  }
+  return lo * v_des;
+}
+
 StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& path, const map::MovingObstacle* moving,
                                std::size_t moving_count, double dt) {
   StepCommand cmd;
@@ -302,6 +347,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     if (!allFinite(p)) return refuse("expected path has a non-finite point");
   if (moving_count > 0 && !moving) return refuse("moving obstacles: null array");
   if (has_subgoal_ && !allFinite(subgoal_)) return refuse("the caller's sub-goal is not finite");
+  if (has_override_ && !allFinite(override_velocity_)) return refuse("the operator's velocity is not finite");
   for (std::size_t i = 0; i < moving_count; ++i) {
     const map::MovingObstacle& m = moving[i];
     if (!allFinite(m.position) || !allFinite(m.velocity) || !allFinite(m.acceleration) || !finiteShape(m.shape))
@@ -331,9 +377,10 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     return cmd;
   };
   const double goal_distance = (q - goal).norm();
+  const bool manual = has_override_;
   cmd.sub_goal = goal;
-  if (goal_distance <= P.monitor.arrival_tolerance_m) return brake(StepStatus::kArrived);
-  if (stuck_) {
+  if (!manual && goal_distance <= P.monitor.arrival_tolerance_m) return brake(StepStatus::kArrived);
+  if (!manual && stuck_) {
     cmd.message = "no progress after the escapes; replan";
     cmd.escapes = escapes_;
     return brake(StepStatus::kStuck);
@@ -350,7 +397,9 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     seg_a = path.points[segment_];
     seg_b = path.points[segment_ + 1];
   }
-  const Vec3 sub_goal = has_subgoal_ ? subgoal_ : seg_b;
+  // By hand, the goal-aware terms look where the operator drives.
+  const Vec3 toward_hand = override_velocity_.norm() > 1e-6 ? override_velocity_ : Vec3(1e-3 * unitOr(goal - q, Vec3::UnitX()));
+  const Vec3 sub_goal = manual ? Vec3(q + toward_hand) : has_subgoal_ ? subgoal_ : seg_b;
   cmd.sub_goal = sub_goal;
 
   // Progress: path length still to go from the projection onto the current segment, plus the
@@ -358,7 +407,12 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   const Vec3 proj = nearestOnSegment(q, seg_a, seg_b);
   double progress = (proj - seg_b).norm() + (q - proj).norm();
   for (std::size_t i = segment_ + 1; i + 1 < n; ++i) progress += (path.points[i + 1] - path.points[i]).norm();
-  if (!std::isfinite(best_progress_)) {
+  if (manual) {
+    // The monitor rests while the operator drives: it starts afresh when the override ends.
+    best_progress_ = std::numeric_limits<double>::infinity();
+    escapes_ = 0;
+    escaping_ = false;
+  } else if (!std::isfinite(best_progress_)) {
     best_progress_ = progress;
     last_improvement_s_ = clock_s_;
   } else if (progress < best_progress_ - P.monitor.min_progress_m) {
@@ -395,7 +449,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
 
   // Progress monitor: a window without a new best is a local minimum or an oscillation. Waiting
   // for a moving obstacle does not count against the robot.
-  if (moving_closing && wait_credit_s_ < P.monitor.max_wait_s) {
+  if (!manual && moving_closing && wait_credit_s_ < P.monitor.max_wait_s) {
     last_improvement_s_ += dt;
     wait_credit_s_ += dt;
   }
@@ -403,7 +457,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     escaping_ = false;
     last_improvement_s_ = clock_s_;
   }
-  if (!escaping_ && clock_s_ - last_improvement_s_ > P.monitor.window_s) {
+  if (!manual && !escaping_ && clock_s_ - last_improvement_s_ > P.monitor.window_s) {
     if (P.monitor.escape && escapes_ < P.monitor.max_escapes) {
       ++escapes_;
       escaping_ = true;
@@ -423,7 +477,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   // term plus, for CVFF and UUV, forces the papers define without one).
   TermValue total;
   Vec3 extra = Vec3::Zero();
-  switch (P.method) {
+  if (!manual) switch (P.method) {
     case Method::kClassic: total += classicAttraction(q, sub_goal, P.classic.xi); break;
     case Method::kTian2016: total += tianAttraction(q, v, a, sub_goal, seg_a, seg_b, P.tian2016); break;
     case Method::kWang2014: total += classicAttraction(q, sub_goal, P.wang2014.k_att); break;
@@ -480,13 +534,20 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   }
   cmd.potential = total.u;
   Vec3 force = total.force() + extra;
-  if (!allFinite(force)) return refuse("internal: non-finite force");
+  if (!allFinite(force) || !allFinite(moving_force)) return refuse("internal: non-finite force");
 
   // Desired velocity: along the force (or round the obstacle when escaping), no faster than the
   // robot can still stop at the goal.
   Vec3 v_des;
   Vec3 steer_to = sub_goal;
-  if (escaping_) {
+  if (manual) {
+    // The operator's set-point replaces the attraction; the repulsion (all of it, or only the
+    // moving obstacles' for a pause) bends it as the field would.
+    const Vec3 push = override_rock_ ? force : moving_force;
+    v_des = override_velocity_ + v_max * push / P.monitor.full_speed_force;
+    v_des = capTowardRock(q, v_des, dt);  // pushed or driven, never into rock
+    steer_to = sub_goal;
+  } else if (escaping_) {
     // Virtual sub-goal on the chosen side: circulate about the escape axis round the nearest
     // obstacle, holding about half a metre from its surface.
     const ObstacleData* wall = nullptr;  // the static obstacle being followed
@@ -503,7 +564,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     const double speed = v_max * std::min(1.0, fn / P.monitor.full_speed_force);
     v_des = fn > 1e-12 ? Vec3(force * (speed / fn)) : Vec3::Zero();
   }
-  const double stop_speed = std::sqrt(2.0 * a_max * 0.8 * goal_distance);
+  const double stop_speed = manual ? v_max : std::sqrt(2.0 * a_max * 0.8 * goal_distance);
   v_des = clampNorm(v_des, std::min(v_max, stop_speed));
   bool safety_override = false;
   // Only obstacles that can reach the robot within the safety horizon take part in the check.
@@ -560,6 +621,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
 
   const double along = v_cmd.dot(to_goal);
   if (safety_override) cmd.status = StepStatus::kYielding;
+  else if (manual) cmd.status = StepStatus::kFollowing;
   else if (escaping_) cmd.status = StepStatus::kDetouring;
   else if (moving_closing && along < 0.5 * v_max) cmd.status = StepStatus::kYielding;
   else if (nearest && v_cmd.norm() > 1e-3 && along < std::cos(30.0 * kPi / 180.0) * v_cmd.norm())

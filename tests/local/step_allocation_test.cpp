@@ -55,6 +55,9 @@ TEST(StepAllocation, NoHeapAllocationPerStep) {
       // Every other period with a caller's sub-goal (as the fusion layer's selection gives).
       if (steps % 20 == 10) p->setSubgoal(s.position + Vec3(0.8, 0.3, 0));
       if (steps % 20 == 0) p->clearSubgoal();
+      // And now and then under the operator's hand (issue 11).
+      if (steps % 30 == 15) p->setOverride(Vec3(0.3, 0.8, 0), steps % 60 == 15);
+      if (steps % 30 == 25) p->clearOverride();
       const StepCommand c = p->step(s, path, mov.data(), mov.size(), 0.1);
       if (c.status == StepStatus::kArrived || c.status == StepStatus::kStuck) break;
       s.position += 0.05 * (s.velocity + c.velocity);

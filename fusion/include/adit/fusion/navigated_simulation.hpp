@@ -72,6 +72,31 @@ struct BelievedWorld {
   static StatusOr<BelievedWorld> load(const std::string& map_path);
 };
 
+/// Watches, and may steer, a navigated run while it goes: the live link to the operations console
+/// (issue 11, `adit simulate --live`) is one. Every hook runs on the simulation's thread, between
+/// control periods. With an observer the run goes on through kPaused and kManual (the operator
+/// holds or drives the robot); it still ends in arrival (at the navigator's goal, which the
+/// operator may have changed), no_route, stuck, collision or t_max.
+class NavigatedObserver {
+ public:
+  virtual ~NavigatedObserver() = default;
+  /// The expected path the run starts with (after plan() or the scenario's path).
+  virtual void started(const Navigator& nav, const map::Polyline& path) = 0;
+  /// Before the cycle at `t_s`: the place to give the navigator operator commands.
+  virtual void beforeCycle(double t_s, Navigator& nav, const local::RobotState& state) = 0;
+  /// A roof fall happened in the true world at its `t_s`.
+  virtual void roofFall(const local::ScenarioEvent& event) = 0;
+  /// After the cycle at `t_s` and the robot's move: `state` is at `t_s + dt`. `scan` is what the
+  /// sensor returned this period, `tracks` the moving obstacles it tracked; `result` the referee's
+  /// account so far (collisions).
+  virtual void afterCycle(double t_s, const Navigator& nav, const NavigatorCycle& cycle, const local::RobotState& state,
+                          const SensorScan& scan, const std::vector<map::MovingObstacle>& tracks,
+                          const local::SimulationResult& result) = 0;
+  /// The run is over: the verdict is in `result` (outcome), the robot at `state`.
+  virtual void finished(double t_s, const Navigator& nav, const local::RobotState& state,
+                        const local::SimulationResult& result) = 0;
+};
+
 /// How the navigator treats a planned expected path (`expected_path: plan`; a given one is never
 /// refined).
 struct NavigatedOptions {
@@ -79,6 +104,8 @@ struct NavigatedOptions {
   bool refine_replans = false;   ///< NavigatorParams::refine_replans
   /// Copied instead of loading the scenario's map when its map_path is the scenario's (not owned).
   const BelievedWorld* believed = nullptr;
+  /// Watches and steers the run (not owned); null: none.
+  NavigatedObserver* observer = nullptr;
 };
 
 /// Runs the scenario (its map is required: the navigator plans on it). Errors: those of

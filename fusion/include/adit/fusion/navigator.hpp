@@ -76,7 +76,9 @@ struct NavigatorParams {
   Status validate() const;
 };
 
-enum class NavigatorStatus { kDriving, kArrived, kStuck, kNoRoute, kRefused };
+/// kPaused and kManual: the operator holds the robot or drives it (pause(), manual()); the run
+/// goes on.
+enum class NavigatorStatus { kDriving, kArrived, kStuck, kNoRoute, kRefused, kPaused, kManual };
 const char* navigatorStatusName(NavigatorStatus s);
 
 /// Something the navigator decided: a replan (and why) or the end of the road.
@@ -109,6 +111,22 @@ struct NavigatorCycle {
   double replan_time_s = 0.0;
   double cycle_time_s = 0.0;      ///< whole cycle, replan included
   std::optional<Vec3> subgoal;    ///< the per-period sub-goal in force (NavigatorParams::subgoals)
+  /// An operator command replanned since the previous cycle (setGoal, a block, reopen, release).
+  bool operator_replanned = false;
+};
+
+/// The robot's status as the operations console names it (console/doc/protocol.md): following,
+/// yielding, detouring (the local step while driving), replanning (this cycle, or an operator
+/// command since the last, replanned), stuck, no_route, paused, manual, arrived. `collision` is
+/// the referee's word, not the navigator's. A refused cycle (non-finite input) reads "stuck".
+const char* consoleStatusName(const NavigatorCycle& c);
+
+/// What blockRoadway() / reopenRoadway() did.
+struct RoadwayBlockResult {
+  std::size_t voxels = 0;   ///< free voxels of the cross-section made rock (block) or free again (reopen)
+  bool replanned = false;   ///< the expected path crossed the block (block) / always (reopen)
+  bool no_route = false;    ///< the replan found no route: the navigator stops (kNoRoute) until a reopen or new goal
+  std::string message;      ///< the global layer's message when no route
 };
 
 class Navigator {
@@ -141,6 +159,43 @@ class Navigator {
   /// roadway is not replanned into by itself; the next replan may use it.
   NavigatorCycle cycleWithScan(double t_s, const local::RobotState& state, const SensorScan& scan,
                        const std::vector<map::MovingObstacle>& tracks, double dt_s);
+
+  // Operator commands (issue 11; console/doc/protocol.md). Call them between cycles, from the
+  // cycle's thread; the ones that replan do it at once from the position of the last cycle (or
+  // plan()'s start) and take the exclusive lock.
+
+  /// Holds position from the next cycle on: velocity set-point zero, the local layer still gives
+  /// way to moving obstacles (LocalPlanner::setOverride without the rock terms). Status kPaused.
+  void pause();
+  /// Ends a pause (a manual drive continues if one was in force before).
+  void resume();
+  bool paused() const;
+  /// A new goal: refused (invalidArgument, with the reason) when non-finite, off the map, in rock
+  /// (unknown counts as rock) or with clearance below the robot's radius; refused
+  /// (failedPrecondition, the planner's message) when no route reaches it, and then the old goal
+  /// and path stay. Otherwise replans from the robot's position (refined as NavigatorParams
+  /// say) and clears a no-route verdict.
+  Status setGoal(const Vec3& goal);
+  Vec3 goal() const;
+  /// Closes the survey roadway `name` across its middle cross-section: a slab two voxels thick
+  /// over the whole section (grown by a voxel) whose free voxels become rock in the believed map
+  /// (OccupancyMap::setVoxels + DistanceField::update); replans when the expected path crosses
+  /// it. Errors: no survey, an unknown name (the message lists the known ones), a roadway
+  /// already blocked, a map update that fails (nothing changed then).
+  StatusOr<RoadwayBlockResult> blockRoadway(const std::string& name);
+  /// Undoes blockRoadway(name): exactly the voxels it made rock become free again; replans.
+  StatusOr<RoadwayBlockResult> reopenRoadway(const std::string& name);
+  /// The roadways blocked now, by name.
+  std::vector<std::string> blockedRoadways() const;
+  /// Drives with the operator's velocity set-point instead of the attraction (a new call
+  /// replaces it); the local layer still applies the rock's and the moving obstacles' repulsion,
+  /// its braking cap and speed caps (LocalPlanner::setOverride). Status kManual. Refuses a
+  /// non-finite velocity.
+  Status manual(const Vec3& velocity);
+  /// Ends manual control: replans from where the robot is and follows the new expected path.
+  /// Error when not in manual control, or (failedPrecondition) no route from here.
+  Status release();
+  bool manualControl() const;
 
   /// Runs `fn` on the believed map and field under the shared lock (the readers' side of the
   /// one-writer rule).

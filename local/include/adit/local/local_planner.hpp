@@ -116,6 +116,23 @@ class LocalPlanner {
     has_subgoal_ = true;
   }
   void clearSubgoal() { has_subgoal_ = false; }
+
+  /// The operator's override (Guo 2022 §1, issue 11): until clearOverride(), step() takes
+  /// `velocity` as the set-point in place of the attraction, and the progress monitor, the
+  /// escapes and the arrival test rest (a robot driven by hand is neither stuck nor arrived).
+  /// The local layer still keeps the robot safe: repulsion from moving obstacles and their
+  /// safety check, and a braking cap (the speed toward the nearest rock never exceeds what stops
+  /// the robot, one period late, a few centimetres short of it) always; with
+  /// `keep_clear_of_rock` the rock's repulsion too. So a set-point into a rib never collides. A zero set-point
+  /// without the rock terms is a pause: hold position, give way to what moves. Speed caps as ever.
+  /// No allocation; a non-finite velocity makes step() refuse.
+  void setOverride(const Vec3& velocity, bool keep_clear_of_rock) {
+    override_velocity_ = velocity;
+    override_rock_ = keep_clear_of_rock;
+    has_override_ = true;
+  }
+  void clearOverride() { has_override_ = false; }
+  bool overriding() const { return has_override_; }
   /// Index of the expected path's segment the last step() steered along (0 before the first).
   std::size_t currentSegment() const { return segment_; }
 
@@ -132,6 +149,8 @@ class LocalPlanner {
   // Smallest clearance (negative: overlap) to moving obstacles and static spheres over the safety
   // horizon if the robot steers its velocity to v_target.
   // Only the obstacles listed in reachable_ count.
+  // The operator's set-point with its speed toward rock capped so the robot can still stop.
+  Vec3 capTowardRock(const Vec3& q, Vec3 v_des, double dt) const;
   double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving) const;
 
   LocalParams params_;
@@ -152,6 +171,9 @@ class LocalPlanner {
   std::uint64_t path_signature_ = 0;  // of the path the monitor state belongs to
   Vec3 subgoal_ = Vec3::Zero();       // setSubgoal()
   bool has_subgoal_ = false;
+  Vec3 override_velocity_ = Vec3::Zero();  // setOverride()
+  bool override_rock_ = true;
+  bool has_override_ = false;
 
   // Scratch, sized in create(): never reallocated by step().
   struct ObstacleData {

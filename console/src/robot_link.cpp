@@ -1,0 +1,444 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/console/robot_link.hpp"
+
+#include <algorithm>
+#include <boost/asio/connect.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <thread>
+
+#include "adit/map/map_io.hpp"
+
+namespace adit::console {
+
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using json = nlohmann::ordered_json;
+
+namespace {
+
+bool validRobotId(const std::string& id) {
+  if (id.empty() || id.size() > 64) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) {
+    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '-';
+  });
+}
+
+// [x, y, z] of finite numbers, or nothing.
+std::optional<map::Vec3> vec3(const json& j) {
+  if (!j.is_array() || j.size() != 3) return std::nullopt;
+  map::Vec3 v;
+  for (int i = 0; i < 3; ++i) {
+    if (!j[std::size_t(i)].is_number()) return std::nullopt;
+    v[i] = j[std::size_t(i)].get<double>();
+    if (!std::isfinite(v[i])) return std::nullopt;
+  }
+  return v;
+}
+
+struct Url {
+  std::string host, port, path;
+};
+
+StatusOr<Url> parseUrl(const std::string& url) {
+  const std::string scheme = "ws://";
+  if (url.compare(0, scheme.size(), scheme) != 0)
+    return invalidArgument("live URL '" + url + "': must start with ws:// (e.g. ws://127.0.0.1:8080)");
+  std::string rest = url.substr(scheme.size());
+  Url u;
+  const std::size_t slash = rest.find('/');
+  u.path = slash == std::string::npos || slash + 1 == rest.size() ? "/ws/robot" : rest.substr(slash);
+  rest = rest.substr(0, slash);
+  const std::size_t colon = rest.rfind(':');
+  u.host = colon == std::string::npos ? rest : rest.substr(0, colon);
+  u.port = colon == std::string::npos ? "80" : rest.substr(colon + 1);
+  if (u.host.empty()) return invalidArgument("live URL '" + url + "': no host");
+  if (u.port.empty() || u.port.size() > 5 || !std::all_of(u.port.begin(), u.port.end(), ::isdigit) ||
+      std::stoi(u.port) < 1 || std::stoi(u.port) > 65535)
+    return invalidArgument("live URL '" + url + "': port '" + u.port + "' is not 1-65535");
+  return u;
+}
+
+}  // namespace
+
+Status RobotHello::validate() const {
+  if (!validRobotId(robot)) return invalidArgument("robot id '" + robot + "': must be 1-64 characters of [A-Za-z0-9_.-]");
+  if (map.empty()) return invalidArgument("hello: map name is empty");
+  if (map_hash.empty()) return invalidArgument("hello: map hash is empty");
+  if (!std::isfinite(radius_m) || radius_m <= 0.0) return invalidArgument("hello: radius must be finite and > 0");
+  return {};
+}
+
+StatusOr<std::string> mapFileHash(const std::string& path) {
+  ADIT_ASSIGN_OR_RETURN(const std::string bytes, map::readFile(path));
+  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64: offset basis, then prime per byte
+  for (unsigned char c : bytes) h = (h ^ c) * 0x100000001b3ull;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
+  return std::string(buf);
+}
+
+StatusOr<ReceivedCommand> parseCommand(const std::string& text) {
+  const json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object()) return invalidArgument("command: not a JSON object");
+  if (!j.contains("type") || j["type"] != "command") return invalidArgument("command: type is not \"command\"");
+  ReceivedCommand c;
+  if (!j.contains("command_id") || !j["command_id"].is_number_integer())
+    return invalidArgument("command: command_id missing or not an integer");
+  c.id = j["command_id"].get<std::int64_t>();
+  if (!j.contains("kind") || !j["kind"].is_string()) return invalidArgument("command " + std::to_string(c.id) + ": kind missing");
+  c.kind = j["kind"].get<std::string>();
+  if (j.contains("operator") && j["operator"].is_string()) c.operator_name = j["operator"].get<std::string>();
+  const std::string where = "command " + std::to_string(c.id) + " (" + c.kind + "): ";
+  if (c.kind == "goal") {
+    c.goal = j.contains("goal") ? vec3(j["goal"]) : std::nullopt;
+    if (!c.goal) return invalidArgument(where + "goal must be [x, y, z] of finite numbers");
+  } else if (c.kind == "manual") {
+    c.velocity = j.contains("velocity") ? vec3(j["velocity"]) : std::nullopt;
+    if (!c.velocity) return invalidArgument(where + "velocity must be [vx, vy, vz] of finite numbers");
+  } else if (c.kind == "block" || c.kind == "reopen") {
+    if (!j.contains("roadway") || !j["roadway"].is_string() || j["roadway"].get<std::string>().empty())
+      return invalidArgument(where + "roadway must be a non-empty string");
+    c.roadway = j["roadway"].get<std::string>();
+  } else if (c.kind != "pause" && c.kind != "resume" && c.kind != "release") {
+    return invalidArgument(where + "unknown kind (pause, resume, goal, block, reopen, manual, release)");
+  }
+  return c;
+}
+
+struct RobotLink::Impl {
+  using Stream = websocket::stream<beast::tcp_stream>;
+  struct Outgoing {
+    std::uint64_t seq;
+    std::string text;
+    bool droppable;  // telemetry
+  };
+
+  Impl(Url u, RobotHello h, LinkOptions o) : url(std::move(u)), hello(std::move(h)), options(o) {}
+
+  Url url;
+  RobotHello hello;
+  LinkOptions options;
+  net::io_context ioc;
+  net::executor_work_guard<net::io_context::executor_type> work{ioc.get_executor()};
+  std::thread thread;
+
+  // I/O thread only. Each connection has a generation; handlers of an older one do nothing.
+  std::shared_ptr<Stream> ws;
+  tcp::resolver resolver{ioc};
+  net::steady_timer retry{ioc};
+  beast::flat_buffer rbuf;
+  std::uint64_t generation = 0;
+  bool online = false, writing = false;
+  std::uint64_t written_upto = 0;      // highest seq written on this connection (or acked at welcome)
+  std::uint64_t max_written_ever = 0;  // resends are writes at or below it
+  double backoff_s = 0.1;
+
+  // Shared with the caller's thread.
+  mutable std::mutex mu;
+  std::condition_variable cv;
+  std::deque<Outgoing> outbox;  // ascending seq
+  std::uint64_t next_seq = 1;
+  std::deque<ReceivedCommand> inbox;
+  std::set<std::int64_t> received;               // command ids seen (answered or not)
+  std::map<std::int64_t, std::string> answers;   // command id -> its last command_result (no robot/seq)
+  LinkStats stats;
+  bool first_done = false;
+  Status first_status;
+  bool stopping = false;
+
+  std::string helloText() const {
+    json j;
+    j["type"] = "hello";
+    j["robot"] = hello.robot;
+    j["map"] = hello.map;
+    j["map_hash"] = hello.map_hash;
+    j["radius"] = hello.radius_m;
+    return j.dump();
+  }
+
+  // Gives `j` the robot and the next seq and queues it; caller holds `mu`.
+  std::uint64_t enqueueLocked(json j, bool droppable) {
+    const std::uint64_t seq = next_seq++;
+    j["robot"] = hello.robot;
+    j["seq"] = seq;
+    outbox.push_back({seq, j.dump(), droppable});
+    stats.last_seq = seq;
+    return seq;
+  }
+
+  void startConnect() {
+    const std::uint64_t g = ++generation;
+    ws = std::make_shared<Stream>(ioc);
+    resolver.async_resolve(url.host, url.port, [this, g](beast::error_code ec, tcp::resolver::results_type results) {
+      if (g != generation) return;
+      if (ec) return fail(g, "resolving " + url.host + ": " + ec.message(), false);
+      auto s = ws;
+      beast::get_lowest_layer(*s).expires_after(std::chrono::seconds(5));
+      beast::get_lowest_layer(*s).async_connect(results, [this, g, s](beast::error_code ec2, const tcp::endpoint&) {
+        if (g != generation) return;
+        if (ec2) return fail(g, "connecting to " + url.host + ":" + url.port + ": " + ec2.message(), false);
+        beast::get_lowest_layer(*s).expires_never();
+        s->set_option(websocket::stream_base::timeout::suggested(beast::role_type::client));
+        s->async_handshake(url.host + ":" + url.port, url.path, [this, g, s](beast::error_code ec3) {
+          if (g != generation) return;
+          if (ec3) return fail(g, "WebSocket handshake on " + url.path + ": " + ec3.message(), false);
+          auto text = std::make_shared<std::string>(helloText());
+          s->text(true);
+          s->async_write(net::buffer(*text), [this, g, s, text](beast::error_code ec4, std::size_t) {
+            if (g != generation) return;
+            if (ec4) return fail(g, "sending hello: " + ec4.message(), false);
+            s->async_read(rbuf, [this, g](beast::error_code ec5, std::size_t) { onWelcome(g, ec5); });
+          });
+        });
+      });
+    });
+  }
+
+  void onWelcome(std::uint64_t g, beast::error_code ec) {
+    if (g != generation) return;
+    if (ec) return fail(g, "waiting for welcome: " + ec.message(), false);
+    const json j = json::parse(beast::buffers_to_string(rbuf.data()), nullptr, false);
+    rbuf.consume(rbuf.size());
+    if (j.is_object() && j.value("type", "") == "error")
+      return fail(g, "the centre refused the robot: " + j.value("reason", std::string("(no reason)")), true);
+    if (!j.is_object() || j.value("type", "") != "welcome" || !j.contains("acked_seq") ||
+        !j["acked_seq"].is_number_unsigned())
+      return fail(g, "expected welcome with acked_seq, got: " + j.dump().substr(0, 200), true);
+    const std::uint64_t acked = j["acked_seq"].get<std::uint64_t>();
+    {
+      std::lock_guard lock(mu);
+      while (!outbox.empty() && outbox.front().seq <= acked) outbox.pop_front();
+      stats.acked_seq = std::max(stats.acked_seq, acked);
+      ++stats.connections;
+      stats.connected = true;
+      stats.outbox = outbox.size();
+      first_done = true;
+    }
+    cv.notify_all();
+    online = true;
+    writing = false;
+    written_upto = acked;
+    backoff_s = 0.1;
+    startRead(g);
+    pump(g);
+  }
+
+  void startRead(std::uint64_t g) {
+    auto s = ws;
+    s->async_read(rbuf, [this, g, s](beast::error_code ec, std::size_t) {
+      if (g != generation) return;
+      if (ec) return fail(g, "connection lost: " + ec.message(), false);
+      const std::string text = beast::buffers_to_string(rbuf.data());
+      rbuf.consume(rbuf.size());
+      onMessage(text);
+      startRead(g);
+      pump(g);
+    });
+  }
+
+  void onMessage(const std::string& text) {
+    const json j = json::parse(text, nullptr, false);
+    const std::string type = j.is_object() ? j.value("type", "") : "";
+    std::lock_guard lock(mu);
+    if (type == "ack" && j.contains("seq") && j["seq"].is_number_unsigned()) {
+      const std::uint64_t seq = j["seq"].get<std::uint64_t>();
+      auto it = std::lower_bound(outbox.begin(), outbox.end(), seq,
+                                 [](const Outgoing& o, std::uint64_t s) { return o.seq < s; });
+      if (it != outbox.end() && it->seq == seq) outbox.erase(it);
+      stats.acked_seq = std::max(stats.acked_seq, seq);
+      stats.outbox = outbox.size();
+      cv.notify_all();
+    } else if (type == "command") {
+      StatusOr<ReceivedCommand> c = parseCommand(text);
+      if (!c.ok()) {
+        stats.last_error = c.status().message();
+        // Refused here, so the centre does not resend it forever (an id is needed to answer).
+        if (j.contains("command_id") && j["command_id"].is_number_integer()) {
+          const std::int64_t id = j["command_id"].get<std::int64_t>();
+          json r{{"type", "command_result"}, {"t", 0.0}, {"command_id", id}, {"result", "refused"},
+                 {"reason", c.status().message()}};
+          if (received.insert(id).second) answers[id] = r.dump();
+          enqueueLocked(json::parse(answers[id]), false);
+        }
+        return;
+      }
+      if (auto a = answers.find(c->id); a != answers.end()) {
+        ++stats.duplicate_commands;
+        enqueueLocked(json::parse(a->second), false);  // the stored answer again, no execution
+      } else if (!received.insert(c->id).second) {
+        ++stats.duplicate_commands;  // queued already, its answer is coming
+      } else {
+        inbox.push_back(std::move(*c));
+      }
+    } else if (type == "error") {
+      stats.last_error = "the centre: " + j.value("reason", std::string("(no reason)"));
+    }
+  }
+
+  // Writes the next unwritten message of this connection, one at a time.
+  void pump(std::uint64_t g) {
+    if (g != generation || !online || writing) return;
+    std::shared_ptr<std::string> text;
+    std::uint64_t seq = 0;
+    {
+      std::lock_guard lock(mu);
+      auto it = std::upper_bound(outbox.begin(), outbox.end(), written_upto,
+                                 [](std::uint64_t s, const Outgoing& o) { return s < o.seq; });
+      if (it == outbox.end()) return;
+      text = std::make_shared<std::string>(it->text);
+      seq = it->seq;
+    }
+    writing = true;
+    auto s = ws;
+    s->async_write(net::buffer(*text), [this, g, s, text, seq](beast::error_code ec, std::size_t) {
+      if (g != generation) return;
+      writing = false;
+      if (ec) return fail(g, "sending: " + ec.message(), false);
+      written_upto = seq;
+      {
+        std::lock_guard lock(mu);
+        ++stats.sent;
+        if (seq <= max_written_ever) ++stats.resent;
+      }
+      max_written_ever = std::max(max_written_ever, seq);
+      pump(g);
+    });
+  }
+
+  // Drops the connection and tries again after the backoff. `refused`: the centre said no; the
+  // first connection then fails at once instead of retrying until the timeout.
+  void fail(std::uint64_t g, const std::string& why, bool refused) {
+    if (g != generation) return;
+    ++generation;
+    online = false;
+    writing = false;
+    if (ws) {
+      beast::error_code ignored;
+      beast::get_lowest_layer(*ws).socket().close(ignored);
+    }
+    {
+      std::lock_guard lock(mu);
+      stats.last_error = why;
+      stats.connected = false;
+      if (!first_done && refused) {
+        first_done = true;
+        first_status = failedPrecondition(why);
+      }
+      if (stopping || (first_done && !first_status.ok())) {
+        cv.notify_all();
+        return;
+      }
+    }
+    cv.notify_all();
+    retry.expires_after(std::chrono::milliseconds(int(backoff_s * 1000)));
+    backoff_s = std::min(2.0 * backoff_s, options.max_backoff_s);
+    retry.async_wait([this](beast::error_code ec) {
+      if (!ec) startConnect();
+    });
+  }
+};
+
+RobotLink::RobotLink(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+RobotLink::~RobotLink() {
+  Impl& m = *impl_;
+  {
+    std::lock_guard lock(m.mu);
+    m.stopping = true;
+  }
+  m.cv.notify_all();
+  m.ioc.stop();
+  if (m.thread.joinable()) m.thread.join();
+}
+
+StatusOr<std::unique_ptr<RobotLink>> RobotLink::connect(const std::string& url, const RobotHello& hello,
+                                                        const LinkOptions& options) {
+  ADIT_ASSIGN_OR_RETURN(Url u, parseUrl(url));
+  ADIT_RETURN_IF_ERROR(hello.validate());
+  if (options.outbox_limit < 1 || !(options.connect_timeout_s > 0.0) || !(options.max_backoff_s > 0.0))
+    return invalidArgument("link options: outbox_limit >= 1, timeouts > 0");
+  auto impl = std::make_unique<Impl>(u, hello, options);
+  Impl& m = *impl;
+  std::unique_ptr<RobotLink> link(new RobotLink(std::move(impl)));
+  m.thread = std::thread([&m] { m.ioc.run(); });
+  net::post(m.ioc, [&m] { m.startConnect(); });
+  std::unique_lock lock(m.mu);
+  const bool done = m.cv.wait_for(lock, std::chrono::duration<double>(options.connect_timeout_s), [&] { return m.first_done; });
+  if (!done)
+    return failedPrecondition("no console at " + url + " (" + m.stats.last_error + ") within " +
+                              std::to_string(options.connect_timeout_s) + " s");
+  if (!m.first_status.ok()) return m.first_status;
+  lock.unlock();
+  return link;
+}
+
+StatusOr<std::uint64_t> RobotLink::send(const std::string& json_object) {
+  json j = json::parse(json_object, nullptr, false);
+  if (!j.is_object() || !j.contains("type") || !j["type"].is_string())
+    return invalidArgument("link: a message must be a JSON object with a string \"type\"");
+  const bool droppable = j["type"] == "telemetry";
+  Impl& m = *impl_;
+  std::unique_lock lock(m.mu);
+  while (m.outbox.size() >= m.options.outbox_limit && !m.stopping) {
+    auto oldest = std::find_if(m.outbox.begin(), m.outbox.end(), [](const Impl::Outgoing& o) { return o.droppable; });
+    if (oldest != m.outbox.end()) {
+      m.outbox.erase(oldest);
+      ++m.stats.dropped_telemetry;
+      break;
+    }
+    m.cv.wait(lock);  // only messages that must not be lost: wait for acks
+  }
+  if (m.stopping) return failedPrecondition("link: stopped");
+  const std::uint64_t seq = m.enqueueLocked(std::move(j), droppable);
+  m.stats.outbox = m.outbox.size();
+  lock.unlock();
+  net::post(m.ioc, [&m] { m.pump(m.generation); });
+  return seq;
+}
+
+std::vector<ReceivedCommand> RobotLink::pollCommands() {
+  std::lock_guard lock(impl_->mu);
+  std::vector<ReceivedCommand> out(impl_->inbox.begin(), impl_->inbox.end());
+  impl_->inbox.clear();
+  return out;
+}
+
+Status RobotLink::answer(std::int64_t command_id, const std::string& result, const std::string& reason, double t_s) {
+  if (result != "accepted" && result != "refused" && result != "executed")
+    return invalidArgument("command_result: result '" + result + "' is not accepted, refused or executed");
+  json j{{"type", "command_result"}, {"t", std::isfinite(t_s) ? t_s : 0.0}, {"command_id", command_id},
+         {"result", result}, {"reason", reason}};
+  {
+    std::lock_guard lock(impl_->mu);
+    impl_->answers[command_id] = j.dump();
+    impl_->received.insert(command_id);
+  }
+  return send(j.dump()).status();
+}
+
+bool RobotLink::flush(double timeout_s) {
+  std::unique_lock lock(impl_->mu);
+  return impl_->cv.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return impl_->outbox.empty(); });
+}
+
+LinkStats RobotLink::stats() const {
+  std::lock_guard lock(impl_->mu);
+  LinkStats s = impl_->stats;
+  s.outbox = impl_->outbox.size();
+  return s;
+}
+
+}  // namespace adit::console

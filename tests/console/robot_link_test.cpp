@@ -1,0 +1,490 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// RobotLink against a minimal centre written here with Boost.Beast (the real one is `adit serve`):
+// it accepts, answers hello with welcome.acked_seq from its ledger (the database), stores each
+// (robot, seq) once and acks it, and can drop the connection mid-way or be killed and restarted
+// on the same port. Proves protocol.md's promises: nothing lost, nothing duplicated, a command
+// answered again from the stored result and never executed twice.
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "adit/console/robot_link.hpp"
+
+namespace adit::console {
+namespace {
+
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using json = nlohmann::json;
+
+// What the centre holds across restarts: the stored messages by seq, and how often a seq came.
+struct Ledger {
+  std::mutex mu;
+  std::map<std::uint64_t, json> stored;
+  std::map<std::uint64_t, int> received;
+  int hellos = 0;
+  std::uint64_t maxSeq() {
+    std::lock_guard lock(mu);
+    return stored.empty() ? 0 : stored.rbegin()->first;
+  }
+  std::vector<json> ofType(const std::string& type) {
+    std::lock_guard lock(mu);
+    std::vector<json> out;
+    for (const auto& [seq, j] : stored)
+      if (j["type"] == type) out.push_back(j);
+    return out;
+  }
+};
+
+struct CentreOptions {
+  int drop_after = 0;                 // close the connection after storing this many (once)
+  std::vector<json> commands;         // sent after every welcome, as the centre resends pending ones
+  std::string refuse;                 // answer hello with this error and close
+  bool ack = true;
+  // Called with every newly stored message: what the centre sends back besides the ack (e.g. an
+  // operator's command once the robot reached a place).
+  std::function<std::vector<json>(const json&)> react;
+};
+
+class Centre {
+ public:
+  Centre(Ledger& ledger, CentreOptions opt, unsigned short port = 0) : ledger_(ledger), opt_(std::move(opt)) {
+    tcp::endpoint ep(net::ip::make_address("127.0.0.1"), port);
+    acceptor_.open(ep.protocol());
+    acceptor_.set_option(net::socket_base::reuse_address(true));
+    acceptor_.bind(ep);
+    acceptor_.listen();
+    port_ = acceptor_.local_endpoint().port();
+    thread_ = std::thread([this] { serve(); });
+  }
+  ~Centre() { kill(); }
+  unsigned short port() const { return port_; }
+  std::string url() const { return "ws://127.0.0.1:" + std::to_string(port_); }
+
+  // As a crash would: the listening socket and the live connection go at once.
+  void kill() {
+    if (!thread_.joinable()) return;
+    stop_ = true;
+    ::shutdown(acceptor_.native_handle(), SHUT_RDWR);
+    {
+      std::lock_guard lock(conn_mu_);
+      if (conn_fd_ >= 0) ::shutdown(conn_fd_, SHUT_RDWR);
+    }
+    thread_.join();
+  }
+
+ private:
+  void serve() {
+    while (!stop_) {
+      beast::error_code ec;
+      tcp::socket sock(ioc_);
+      acceptor_.accept(sock, ec);
+      if (ec || stop_) return;
+      {
+        std::lock_guard lock(conn_mu_);
+        conn_fd_ = sock.native_handle();
+      }
+      session(std::move(sock));
+      std::lock_guard lock(conn_mu_);
+      conn_fd_ = -1;
+    }
+  }
+
+  void session(tcp::socket sock) {
+    beast::error_code ec;
+    websocket::stream<tcp::socket> ws(std::move(sock));
+    ws.accept(ec);
+    if (ec) return;
+    beast::flat_buffer buf;
+    ws.read(buf, ec);
+    if (ec) return;
+    const json hello = json::parse(beast::buffers_to_string(buf.data()));
+    buf.consume(buf.size());
+    if (hello["type"] != "hello") return;
+    {
+      std::lock_guard lock(ledger_.mu);
+      ++ledger_.hellos;
+    }
+    ws.text(true);
+    if (!opt_.refuse.empty()) {
+      ws.write(net::buffer(json{{"type", "error"}, {"reason", opt_.refuse}}.dump()), ec);
+      ws.close(websocket::close_code::policy_error, ec);
+      return;
+    }
+    ws.write(net::buffer(json{{"type", "welcome"}, {"robot", hello["robot"]}, {"acked_seq", ledger_.maxSeq()}}.dump()), ec);
+    for (const json& c : opt_.commands) ws.write(net::buffer(c.dump()), ec);
+    int stored_here = 0;
+    for (;;) {
+      ws.read(buf, ec);
+      if (ec) return;
+      const json m = json::parse(beast::buffers_to_string(buf.data()));
+      buf.consume(buf.size());
+      const std::uint64_t seq = m["seq"].get<std::uint64_t>();
+      bool fresh = false;
+      {
+        std::lock_guard lock(ledger_.mu);
+        ++ledger_.received[seq];
+        fresh = ledger_.stored.emplace(seq, m).second;  // at most once per seq
+      }
+      ++stored_here;
+      if (opt_.ack) ws.write(net::buffer(json{{"type", "ack"}, {"seq", seq}}.dump()), ec);
+      if (fresh && opt_.react)
+        for (const json& out : opt_.react(m)) ws.write(net::buffer(out.dump()), ec);
+      if (opt_.drop_after > 0 && stored_here == opt_.drop_after) {
+        opt_.drop_after = 0;
+        ::shutdown(ws.next_layer().native_handle(), SHUT_RDWR);  // no close frame: a lost link
+        return;
+      }
+    }
+  }
+
+  Ledger& ledger_;
+  CentreOptions opt_;
+  net::io_context ioc_;
+  tcp::acceptor acceptor_{ioc_};
+  unsigned short port_ = 0;
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  std::mutex conn_mu_;
+  int conn_fd_ = -1;
+};
+
+RobotHello hello() {
+  RobotHello h;
+  h.robot = "r1";
+  h.map = "district.yaml";
+  h.map_hash = "fnv1a64:0123456789abcdef";
+  h.radius_m = 0.4;
+  return h;
+}
+
+std::string telemetry(int i) {
+  return json{{"type", "telemetry"}, {"t", 0.1 * i}, {"pose", {i, 0, 1.6}}, {"velocity", {1, 0, 0}},
+              {"status", "following"}, {"goal", {100, 0, 1.6}}, {"subgoal", nullptr}, {"min_clearance", 0.8}}
+      .dump();
+}
+
+// Every seq 1..n stored exactly once, in content the one sent with it.
+void expectComplete(Ledger& l, int n) {
+  std::lock_guard lock(l.mu);
+  ASSERT_EQ(l.stored.size(), std::size_t(n));
+  for (int i = 1; i <= n; ++i) {
+    ASSERT_TRUE(l.stored.count(std::uint64_t(i))) << "seq " << i << " lost";
+    EXPECT_EQ(l.stored[std::uint64_t(i)]["robot"], "r1");
+  }
+}
+
+TEST(RobotLink, ResendsAfterADroppedConnectionWithoutLossOrDuplicate) {
+  Ledger ledger;
+  Centre centre(ledger, {/*drop_after=*/30});
+  StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
+  ASSERT_TRUE(link.ok()) << link.status().message();
+  for (int i = 1; i <= 100; ++i) ASSERT_EQ((*link)->send(telemetry(i)).value(), std::uint64_t(i));
+  ASSERT_TRUE((*link)->flush(10.0)) << (*link)->stats().last_error;
+  expectComplete(ledger, 100);
+  for (int i = 1; i <= 100; ++i) EXPECT_DOUBLE_EQ(ledger.stored[std::uint64_t(i)]["t"].get<double>(), 0.1 * i);
+  const LinkStats s = (*link)->stats();
+  EXPECT_GE(s.connections, 2u);
+  EXPECT_EQ(ledger.hellos, int(s.connections));
+  EXPECT_EQ(s.acked_seq, 100u);
+  EXPECT_EQ(s.outbox, 0u);
+}
+
+TEST(RobotLink, CentreKilledAndRestartedResumesFromItsLedger) {
+  Ledger ledger;
+  auto centre = std::make_unique<Centre>(ledger, CentreOptions{});
+  const unsigned short port = centre->port();
+  StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre->url(), hello());
+  ASSERT_TRUE(link.ok()) << link.status().message();
+  for (int i = 1; i <= 40; ++i) ASSERT_TRUE((*link)->send(telemetry(i)).ok());
+  ASSERT_TRUE((*link)->flush(5.0));
+  centre->kill();
+  centre.reset();
+  // The robot goes on while the centre is down: its messages wait in the outbox.
+  for (int i = 41; i <= 80; ++i) ASSERT_TRUE((*link)->send(telemetry(i)).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_FALSE((*link)->stats().connected);
+  EXPECT_EQ((*link)->stats().outbox, 40u);
+  centre = std::make_unique<Centre>(ledger, CentreOptions{}, port);
+  for (int i = 81; i <= 100; ++i) ASSERT_TRUE((*link)->send(telemetry(i)).ok());
+  ASSERT_TRUE((*link)->flush(10.0)) << (*link)->stats().last_error;
+  expectComplete(ledger, 100);
+  std::lock_guard lock(ledger.mu);
+  for (const auto& [seq, n] : ledger.received) EXPECT_EQ(n, 1) << "seq " << seq << " sent " << n << " times";
+}
+
+TEST(RobotLink, ARepeatedCommandIsAnsweredFromTheStoredResultNotExecutedAgain) {
+  Ledger ledger;
+  CentreOptions opt;
+  opt.commands = {json{{"type", "command"}, {"command_id", 7}, {"kind", "pause"}, {"operator", "alice"}},
+                  json{{"type", "command"}, {"command_id", 8}, {"kind", "goal"}, {"goal", {1, 2, 3}}}};
+  opt.drop_after = 3;  // after the results: the centre resends both commands on the next welcome
+  Centre centre(ledger, opt);
+  StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
+  ASSERT_TRUE(link.ok()) << link.status().message();
+  std::vector<ReceivedCommand> got;
+  for (int k = 0; k < 100 && got.size() < 2; ++k) {
+    for (ReceivedCommand& c : (*link)->pollCommands()) got.push_back(std::move(c));
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].id, 7);
+  EXPECT_EQ(got[0].kind, "pause");
+  EXPECT_EQ(got[0].operator_name, "alice");
+  EXPECT_EQ(got[1].kind, "goal");
+  EXPECT_EQ(*got[1].goal, map::Vec3(1, 2, 3));
+  ASSERT_TRUE((*link)->answer(7, "accepted", "", 1.0).ok());
+  ASSERT_TRUE((*link)->answer(7, "executed", "", 1.0).ok());
+  ASSERT_TRUE((*link)->answer(8, "refused", "goal (1.0, 2.0, 3.0) is in rock", 1.0).ok());
+  // The third stored message drops the link; on reconnect both commands come again.
+  for (int k = 0; k < 300 && (*link)->stats().duplicate_commands < 2; ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ((*link)->stats().duplicate_commands, 2u);
+  EXPECT_TRUE((*link)->pollCommands().empty()) << "a command must never be executed twice";
+  ASSERT_TRUE((*link)->flush(5.0));
+  const std::vector<json> results = ledger.ofType("command_result");
+  ASSERT_EQ(results.size(), 5u);
+  EXPECT_EQ(results[3]["command_id"], 7);
+  EXPECT_EQ(results[3]["result"], "executed");  // the last answer given
+  EXPECT_EQ(results[4]["command_id"], 8);
+  EXPECT_EQ(results[4]["result"], "refused");
+  EXPECT_EQ(results[4]["reason"], "goal (1.0, 2.0, 3.0) is in rock");
+}
+
+TEST(RobotLink, AMalformedCommandIsRefusedWithTheReason) {
+  Ledger ledger;
+  CentreOptions opt;
+  opt.commands = {json{{"type", "command"}, {"command_id", 9}, {"kind", "manual"}, {"velocity", {1, "x", 0}}},
+                  json{{"type", "command"}, {"command_id", 10}, {"kind", "dance"}}};
+  Centre centre(ledger, opt);
+  StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
+  ASSERT_TRUE(link.ok());
+  for (int k = 0; k < 300 && ledger.ofType("command_result").size() < 2; ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_TRUE((*link)->pollCommands().empty());
+  const std::vector<json> results = ledger.ofType("command_result");
+  ASSERT_EQ(results.size(), 2u);
+  EXPECT_EQ(results[0]["result"], "refused");
+  EXPECT_NE(results[0]["reason"].get<std::string>().find("velocity"), std::string::npos);
+  EXPECT_NE(results[1]["reason"].get<std::string>().find("unknown kind"), std::string::npos);
+}
+
+TEST(RobotLink, ARefusingCentreOrNoCentreIsAClearError) {
+  Ledger ledger;
+  CentreOptions opt;
+  opt.refuse = "map_hash fnv1a64:0123456789abcdef is not the served map's";
+  {
+    Centre centre(ledger, opt);
+    StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
+    ASSERT_FALSE(link.ok());
+    EXPECT_NE(link.status().message().find("not the served map"), std::string::npos) << link.status().message();
+  }
+  unsigned short free_port = 0;
+  {
+    Centre gone(ledger, {});
+    free_port = gone.port();
+  }
+  LinkOptions o;
+  o.connect_timeout_s = 0.5;
+  const auto t0 = std::chrono::steady_clock::now();
+  StatusOr<std::unique_ptr<RobotLink>> none =
+      RobotLink::connect("ws://127.0.0.1:" + std::to_string(free_port), hello(), o);
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.status().message().find("no console at"), std::string::npos) << none.status().message();
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+  for (const char* bad : {"http://127.0.0.1:8080", "ws://:8080", "ws://127.0.0.1:99999", "ws://127.0.0.1:x"})
+    EXPECT_EQ(RobotLink::connect(bad, hello(), o).status().code(), StatusCode::kInvalidArgument) << bad;
+  RobotHello h = hello();
+  h.robot = "r 1";
+  EXPECT_EQ(RobotLink::connect("ws://127.0.0.1:1", h, o).status().code(), StatusCode::kInvalidArgument);
+}
+
+TEST(RobotLink, AFullOutboxDropsTheOldestTelemetryNeverPlans) {
+  Ledger ledger;
+  CentreOptions opt;
+  opt.ack = false;  // a centre that stores nothing: the outbox only grows
+  Centre centre(ledger, opt);
+  LinkOptions o;
+  o.outbox_limit = 5;
+  StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello(), o);
+  ASSERT_TRUE(link.ok());
+  ASSERT_TRUE((*link)->send(json{{"type", "plan"}, {"t", 0}, {"reason", "initial"}, {"path", json::array()},
+                                 {"labels", json::array()}}.dump()).ok());
+  for (int i = 1; i <= 20; ++i) ASSERT_TRUE((*link)->send(telemetry(i)).ok());
+  const LinkStats s = (*link)->stats();
+  EXPECT_EQ(s.outbox, 5u);
+  EXPECT_EQ(s.dropped_telemetry, 16u);
+  EXPECT_EQ(s.last_seq, 21u);
+  EXPECT_FALSE((*link)->flush(0.2));
+}
+
+TEST(RobotLink, ParseCommandNamesTheField) {
+  EXPECT_FALSE(parseCommand("not json").ok());
+  EXPECT_FALSE(parseCommand(R"({"type":"command","kind":"pause"})").ok());
+  EXPECT_NE(parseCommand(R"({"type":"command","command_id":1,"kind":"goal","goal":[1,2]})").status().message().find("goal"),
+            std::string::npos);
+  EXPECT_NE(parseCommand(R"({"type":"command","command_id":1,"kind":"block"})").status().message().find("roadway"),
+            std::string::npos);
+  const StatusOr<ReceivedCommand> c = parseCommand(R"({"type":"command","command_id":3,"kind":"block","roadway":"crosscut-90"})");
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(c->roadway, "crosscut-90");
+  EXPECT_TRUE(parseCommand(R"({"type":"command","command_id":4,"kind":"release"})").ok());
+}
+
+TEST(RobotLink, MapFileHashIsFnv1aOfTheBytes) {
+  const StatusOr<std::string> h = mapFileHash(std::string(ADIT_MAPS_DIR) + "/district.yaml");
+  ASSERT_TRUE(h.ok()) << h.status().message();
+  EXPECT_EQ(h->rfind("fnv1a64:", 0), 0u);
+  EXPECT_EQ(h->size(), 8u + 16u);
+  EXPECT_FALSE(mapFileHash("/nonexistent/map.yaml").ok());
+}
+
+#ifdef ADIT_TOOL_PATH
+// `adit simulate --live` end to end against the test centre: a loop of four roadways; the
+// operator blocks the south roadway the robot is on, pauses it, resumes it. The run still ends
+// as without the console (arrived, same JSON), every message arrives once and in order.
+class LiveSimulation : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = ::testing::TempDir() + "adit_live_" + std::to_string(::getpid());
+    ASSERT_EQ(std::system(("mkdir -p " + dir_).c_str()), 0);
+    std::ofstream(dir_ + "/loop.yaml") << R"(name: loop
+resolution: 0.2
+rock_shell: 0.6
+stations: {A: [0, 0, 0], B: [24, 0, 0], C: [24, 16, 0], D: [0, 16, 0]}
+sections: {drift: {shape: rectangle, width: 4.0, height: 3.2}}
+roadways:
+  - {name: south, section: drift, stations: [A, B]}
+  - {name: east, section: drift, stations: [B, C]}
+  - {name: north, section: drift, stations: [C, D]}
+  - {name: west, section: drift, stations: [D, A]}
+)";
+    std::ofstream(dir_ + "/loop_run.yaml") << R"(name: loop-run
+map: loop.yaml
+start: [3, 0, 1.6]
+goal: [21, 0, 1.6]
+expected_path: plan
+robot: {radius: 0.4, v_max: 1.0, a_max: 0.5, sensor_range: 10}
+method: tian2016
+dt: 0.1
+t_max: 200
+seed: 1
+)";
+  }
+  void TearDown() override { (void)std::system(("rm -rf " + dir_).c_str()); }
+  int simulate(const std::string& url, const std::string& extra = "--live-speed 0") {
+    const std::string cmd = std::string(ADIT_TOOL_PATH) + " simulate " + dir_ + "/loop_run.yaml --live " + url +
+                            " --out " + dir_ + "/run.json " + extra + " 2>" + dir_ + "/stderr.txt";
+    const int rc = std::system(cmd.c_str());
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  }
+  std::string dir_;
+};
+
+json command(int id, const std::string& kind) {
+  return json{{"type", "command"}, {"command_id", id}, {"kind", kind}, {"operator", "alice"}};
+}
+
+TEST_F(LiveSimulation, OperatorBlocksPausesResumesAndTheRunArrives) {
+  Ledger ledger;
+  CentreOptions opt;
+  int stage = 0;
+  opt.react = [&](const json& m) -> std::vector<json> {
+    if (m["type"] != "telemetry") return {};
+    const double t = m["t"].get<double>();
+    if (stage == 0 && t >= 1.0) {
+      ++stage;
+      json b = command(1, "block");
+      b["roadway"] = "south";
+      return {b};
+    }
+    if (stage == 1 && t >= 4.0) return ++stage, std::vector<json>{command(2, "pause")};
+    if (stage == 2 && t >= 8.0) return ++stage, std::vector<json>{command(3, "resume")};
+    return {};
+  };
+  Centre centre(ledger, opt);
+  ASSERT_EQ(simulate(centre.url(), "--robot-id r1 --live-speed 40"), 0) << std::ifstream(dir_ + "/stderr.txt").rdbuf();
+  json run;
+  std::ifstream(dir_ + "/run.json") >> run;
+  EXPECT_EQ(run["outcome"], "arrived");
+
+  std::lock_guard lock(ledger.mu);
+  ASSERT_FALSE(ledger.stored.empty());
+  EXPECT_EQ(ledger.stored.rbegin()->first, ledger.stored.size()) << "seq 1..N, none lost";
+  for (const auto& [seq, n] : ledger.received) EXPECT_EQ(n, 1) << seq;
+  const json& first = ledger.stored.begin()->second;
+  EXPECT_EQ(first["type"], "plan");
+  EXPECT_EQ(first["reason"], "initial");
+  EXPECT_EQ(first["robot"], "r1");
+  std::vector<std::string> plans, results;
+  std::vector<json> paused;
+  json last_telemetry;
+  for (const auto& [seq, m] : ledger.stored) {
+    if (m["type"] == "plan") plans.push_back(m["reason"]);
+    if (m["type"] == "command_result")
+      results.push_back(std::to_string(m["command_id"].get<int>()) + ":" + m["result"].get<std::string>());
+    if (m["type"] == "telemetry") {
+      last_telemetry = m;
+      if (m["status"] == "paused") paused.push_back(m);
+    }
+  }
+  EXPECT_EQ(plans.at(1), "blocked");
+  EXPECT_EQ(results, (std::vector<std::string>{"1:accepted", "1:executed", "2:accepted", "2:executed", "3:accepted",
+                                               "3:executed"}));
+  ASSERT_GT(paused.size(), 10u);  // 4 s of pause at 0.1 s
+  // Held: once braked, the paused robot does not move.
+  const json& a = paused[paused.size() / 2];
+  const json& b = paused.back();
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(a["pose"][i].get<double>(), b["pose"][i].get<double>(), 1e-6);
+  EXPECT_EQ(last_telemetry["status"], "arrived");
+  EXPECT_NEAR(last_telemetry["pose"][0].get<double>(), 21.0, 0.5);
+}
+
+TEST_F(LiveSimulation, NoConsoleIsExitTwoAndAGoalInRockIsRefused) {
+  unsigned short free_port = 0;
+  Ledger ledger;
+  {
+    Centre gone(ledger, {});
+    free_port = gone.port();
+  }
+  EXPECT_EQ(simulate("ws://127.0.0.1:" + std::to_string(free_port)), 2);
+  EXPECT_EQ(simulate("http://127.0.0.1:1"), 2);
+
+  CentreOptions opt;
+  json g = command(5, "goal");
+  g["goal"] = {12, 8, 1.6};  // inside the loop: rock
+  opt.commands = {g};
+  Centre centre(ledger, opt);
+  ASSERT_EQ(simulate(centre.url()), 0);
+  std::lock_guard lock(ledger.mu);
+  int refused = 0;
+  for (const auto& [seq, m] : ledger.stored) {
+    EXPECT_EQ(m["robot"], "loop_run");  // the scenario file's stem
+    if (m["type"] == "command_result") {
+      EXPECT_EQ(m["result"], "refused");
+      EXPECT_NE(m["reason"].get<std::string>().find("in rock"), std::string::npos) << m["reason"];
+      ++refused;
+    }
+  }
+  EXPECT_GE(refused, 1);
+}
+#endif
+
+}  // namespace
+}  // namespace adit::console
