@@ -143,7 +143,7 @@
   function robot(id) {
     let r = state.robots.get(id);
     if (!r) {
-      r = { id, telemetry: null, plan: null, tracks: [], rock: [], trail: [], radius: 0.4,
+      r = { id, telemetry: null, plan: null, tracks: [], rock: [], trail: [], trailSeq: [], radius: 0.4,
             colour: COLOURS[state.robots.size % COLOURS.length], view: null, dirty: true };
       state.robots.set(id, r);
       const option = document.createElement('option');
@@ -159,7 +159,11 @@
       const r = robot(m.robot);
       r.telemetry = m;
       r.trail.push(m.pose);
-      if (r.trail.length > TRAIL_MAX) r.trail.splice(0, r.trail.length - TRAIL_MAX);
+      r.trailSeq.push(m.seq);
+      if (r.trail.length > TRAIL_MAX) {
+        r.trail.splice(0, r.trail.length - TRAIL_MAX);
+        r.trailSeq.splice(0, r.trailSeq.length - TRAIL_MAX);
+      }
       r.dirty = true;
     } else if (m.type === 'plan') {
       robot(m.robot).plan = m;
@@ -411,6 +415,7 @@
         for (const r of m.robots) {
           const x = robot(r.robot);
           if (r.radius) x.radius = r.radius;
+          if (!x.backfilled) backfill(x, r.last_seq);
           if (r.telemetry) apply(r.telemetry);
           if (r.plan) apply(r.plan);
           x.tracks = r.tracks || [];
@@ -420,6 +425,28 @@
         apply(m);
       }
     };
+  }
+
+  // A page opened mid-run (or after it) draws the robot's recent past from the database: the
+  // trail, sensed rock and events of its last TRAIL_MAX stored messages.
+  async function backfill(r, lastSeq) {
+    r.backfilled = true;
+    const from = Math.max(1, lastSeq - TRAIL_MAX + 1);
+    const res = await fetch(`/api/history?robot=${encodeURIComponent(r.id)}&from_seq=${from}&limit=${TRAIL_MAX}`);
+    if (!res.ok) return;
+    const past = await res.json();
+    const trail = [], seqs = [];
+    for (const m of past) {
+      if (m.type === 'telemetry') { trail.push(m.pose); seqs.push(m.seq); }
+      else if (m.type === 'obstacles') for (const p of m.rock || []) r.rock.push(p);
+      else if (m.type === 'event') apply(m);
+    }
+    // Live telemetry that arrived meanwhile continues the trail.
+    const newest = past.length ? past[past.length - 1].seq : 0;
+    const keep = r.trailSeq.map((seq) => seq > newest);
+    r.trail = trail.concat(r.trail.filter((_, i) => keep[i]));
+    r.trailSeq = seqs.concat(r.trailSeq.filter((_, i) => keep[i]));
+    r.dirty = true;
   }
 
   // ----- operator commands -------------------------------------------------------------------

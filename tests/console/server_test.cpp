@@ -545,7 +545,10 @@ TEST_F(ServerTest, ZRestartedServerResumesFromTheDatabase) {
   {
     WsClient robot(port(), "/ws/robot");
     robot.hello("r-restart");
-    for (int seq = 1; seq <= 5; ++seq) {
+    robot.send(Json{{"type", "plan"}, {"robot", "r-restart"}, {"seq", 1}, {"t", 0.0}, {"reason", "initial"},
+                    {"path", {{1, 0, 1}, {12, 0, 1}}}, {"labels", {"A"}}});
+    robot.recv();
+    for (int seq = 2; seq <= 5; ++seq) {
       robot.send(telemetry("r-restart", seq, seq));
       robot.recv();
     }
@@ -559,6 +562,7 @@ TEST_F(ServerTest, ZRestartedServerResumesFromTheDatabase) {
     if (r["robot"] == "r-restart") {
       found = true;
       EXPECT_EQ(r["telemetry"]["seq"], 5);
+      EXPECT_EQ(r["plan"]["seq"], 1);
     }
   EXPECT_TRUE(found);
   WsClient robot(port(), "/ws/robot");
