@@ -200,7 +200,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       : ws_(std::move(socket)), impl_(impl), robot_(robot) {}
 
   void run(Request req) {
-    ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+    // A viewer never sends: without pings its idle connection would time out after 5 minutes.
+    auto timeouts = websocket::stream_base::timeout::suggested(beast::role_type::server);
+    timeouts.keep_alive_pings = true;
+    ws_.set_option(timeouts);
     ws_.read_message_max(kMaxMessageBytes);
     ws_.text(true);
     ws_.async_accept(req, beast::bind_front_handler(&WsSession::onAccept, shared_from_this()));
@@ -354,7 +357,13 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
         return;
       }
     }
-    write(impl_.handle(req));
+    Response res = impl_.handle(req);
+    if (req.method() == http::verb::head) {  // the GET's headers, no body
+      const std::size_t length = res.body().size();
+      res.body().clear();
+      res.content_length(length);
+    }
+    write(std::move(res));
   }
 
   void write(Response res) {
