@@ -424,7 +424,26 @@
       } else {
         apply(m);
       }
+      if (m.type === 'snapshot') clickFromHash();
     };
+  }
+
+  // `#token=T&robot=R&goal-click=X,Y`: once a robot is known, clicks the top view at map point (X, Y)
+  // in goal mode, as an operator would (how the browser test sets a goal by a click).
+  let hashClicked = false;
+  function clickFromHash() {
+    const params = new URLSearchParams(location.hash.slice(1));
+    if (params.has('token')) token.value = params.get('token');
+    if (params.has('robot') && state.robots.has(params.get('robot'))) $('robot').value = params.get('robot');
+    const at = params.get('goal-click');
+    if (!at || hashClicked || !$('robot').value) return;
+    hashClicked = true;
+    const [x, y] = at.split(',').map(Number);
+    drawTop();
+    const c = $('top'), rect = c.getBoundingClientRect(), px = topPixel([x, y, 0]);
+    if (!state.goalMode) $('goalmode').click();
+    c.dispatchEvent(new MouseEvent('click', {
+      clientX: rect.left + px[0] * rect.width / c.width, clientY: rect.top + px[1] * rect.height / c.height, bubbles: true }));
   }
 
   // A page opened mid-run (or after it) draws the robot's recent past from the database: the
@@ -465,6 +484,7 @@
     const answer = await res.json();
     $('answer').textContent = res.ok ? `command #${answer.command_id} ${body.kind}: ${answer.status}`
                                      : `refused (${res.status}): ${answer.error}`;
+    root.dataset.lastCommand = res.ok ? String(answer.command_id) : 'refused ' + res.status;
     $('answer').className = res.ok ? 'ok' : 'bad';
   }
 

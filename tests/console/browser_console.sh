@@ -4,7 +4,9 @@
 # (adit_console_feed) walks a survey roadway through the protocol, then the page must show it
 # where its last pose says (the robot's row: data-pose = the feed's last pose, data-drawn = the
 # 3-D marker's position = data-pose), with no script error, WebGL on, and a screenshot showing the
-# robot's colour. Finally SIGTERM must stop the server cleanly (exit 0). Also how the README's
+# robot's colour. Then a click on the top view (the page's `#goal-click=X,Y`, a real click event
+# in goal mode) must reach a navigated robot (`adit simulate --live`), which accepts the goal and
+# replans toward it. Finally SIGTERM must stop the server cleanly (exit 0). Also how the README's
 # screenshot is made:
 #
 #   tests/console/browser_console.sh ADIT FEED MAP WORK [CHECK_PNG] [SCREENSHOT]
@@ -70,6 +72,38 @@ if [ -n "$CHECK_PNG" ]; then
   "$CHECK_PNG" check-png "$SHOT" 4fc3f7 20 || fail "the screenshot does not show the robot's colour"
 fi
 echo "screenshot: $SHOT"
+
+# 2. A goal set by a click on the top view: a navigated robot (adit simulate --live) gets it,
+#    accepts it and replans toward it (a `plan` with reason "goal").
+scenario=$(dirname "$MAP")/scenarios/district_inspection.yaml
+"$ADIT" simulate "$scenario" --live "ws://$hostport" --live-speed 1 -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
+sim_pid=$!
+api() { python3 -c 'import sys, urllib.request; print(urllib.request.urlopen("http://" + sys.argv[1] + sys.argv[2]).read().decode())' "$hostport" "$1"; }
+robot_known() { api /api/robots | python3 -c 'import json, sys; sys.exit(0 if any(r["robot"] == "district_inspection" and r["telemetry"] for r in json.load(sys.stdin)) else 1)'; }
+for _ in $(seq 300); do robot_known && break; sleep 0.2; done
+robot_known || fail "the simulated robot never reported: $(cat "$WORK/sim.log")"
+chromium click --dump-dom "http://$hostport/#token=0123456789abcdef0123&robot=district_inspection&goal-click=50,0" > "$WORK/click.html"
+click_root=$(grep -o '<html[^>]*>' "$WORK/click.html" | head -1)
+echo "after the click: $click_root"
+[[ "$click_root" == *'data-errors="0"'* ]] || fail "the page recorded errors: $(grep -o '<pre id="errors">[^<]*' "$WORK/click.html")"
+command_id=$(sed -n 's/.*data-last-command="\([0-9]*\)".*/\1/p' <<< "$click_root")
+[ -n "$command_id" ] || fail "the click sent no accepted command: $(grep -o 'id="answer"[^<]*' "$WORK/click.html")"
+replanned=""
+for _ in $(seq 100); do
+  replanned=$(api "/api/history?robot=district_inspection&limit=10000" | python3 -c '
+import json, sys
+cid = int(sys.argv[1]); msgs = json.load(sys.stdin)
+results = [m["result"] for m in msgs if m["type"] == "command_result" and m["command_id"] == cid]
+plans = [m for m in msgs if m["type"] == "plan" and m["reason"] == "goal"]
+if "accepted" in results and plans:
+    print("command %d %s, replanned toward %s" % (cid, "/".join(results), plans[-1]["path"][-1]))' "$command_id")
+  [ -n "$replanned" ] && break
+  sleep 0.2
+done
+kill -TERM "$sim_pid" 2>/dev/null || true
+wait "$sim_pid" 2>/dev/null || true
+[ -n "$replanned" ] || fail "the robot did not accept and replan toward the clicked goal (command $command_id)"
+echo "$replanned"
 
 kill -TERM "$server_pid"
 set +e
