@@ -30,6 +30,13 @@ if(EXISTS /usr/bin/chromium AND ADIT_BUILD_TOOLS)
                    ${CMAKE_CURRENT_BINARY_DIR}/console_browser $<TARGET_FILE:animation_page_demo>)
   set_tests_properties(console_browser PROPERTIES LABELS cli TIMEOUT 300)
 endif()
+# The whole loop with the centre SIGKILLed and restarted mid-run: every message stored once.
+if(ADIT_BUILD_TOOLS)
+  add_test(NAME console_fault_restart
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/console/fault_console.sh $<TARGET_FILE:adit>
+                   ${PROJECT_SOURCE_DIR}/maps/district.yaml ${CMAKE_CURRENT_BINARY_DIR}/console_fault)
+  set_tests_properties(console_fault_restart PROPERTIES LABELS cli TIMEOUT 300)
+endif()
 
 # `adit serve` refuses bad input with exit 2 and a message naming it, before serving anything.
 if(ADIT_BUILD_TOOLS)
