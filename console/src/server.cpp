@@ -678,8 +678,12 @@ void Server::Impl::finish(std::vector<PendingMessage> done, const Status& status
     if (m.type == "obstacles") c.tracks = stored.value("tracks", Json::array());
     broadcast(stored, m.type == "telemetry");
     if (p.command) {
+      // A robot answers a command it got again with its stored result: never step back
+      // (executed stays executed when an `accepted` repeat arrives).
       const protocol::CommandResult r = protocol::commandResultOf(stored);
-      setCommandStatus(*p.command, r.status, r.reason);
+      Command now = *p.command;  // its state when the result was queued; re-read, results may batch
+      if (auto current = store->command(now.command_id); current.ok() && *current) now = **current;
+      if (static_cast<int>(r.status) >= static_cast<int>(now.status)) setCommandStatus(now, r.status, r.reason);
     }
   }
 }
