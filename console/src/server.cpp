@@ -6,13 +6,16 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <deque>
 #include <fstream>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
+#include <thread>
 #include <utility>
 
 #include <boost/asio/ip/tcp.hpp>
@@ -109,6 +112,38 @@ class WsSession;
 struct RobotCache {
   Json telemetry, plan, tracks;
   std::string last_seen;
+  std::int64_t stored_seq = 0;  // highest seq known stored (from hello's lastSeq, then each batch)
+};
+
+// The Store behind a mutex, shared by the I/O thread and the writer thread: `store->call()`
+// holds the lock for that one call (the guard lives to the end of the full expression), so the
+// Store is used by one thread at a time as store.hpp requires.
+class LockedStore {
+ public:
+  LockedStore(Store& store, std::mutex& mutex) : store_(store), mutex_(mutex) {}
+  struct Guard {
+    std::unique_lock<std::mutex> lock;
+    Store* store;
+    Store* operator->() const { return store; }
+  };
+  Guard operator->() const { return Guard{std::unique_lock<std::mutex>(mutex_), &store_}; }
+
+ private:
+  Store& store_;
+  std::mutex& mutex_;
+};
+
+// A robot message on its way to the database. The writer thread stores the fresh ones of a
+// batch in one transaction (group commit: one disk flush for every message that arrived
+// meanwhile), then the I/O thread acknowledges and pushes them.
+struct PendingMessage {
+  enum class Mode { kBatch, kExact, kAckOnly };
+  Mode mode = Mode::kBatch;  // kExact: seq <= stored_seq, maybe a resend; kAckOnly: a copy of one in flight
+  std::weak_ptr<WsSession> session;
+  RobotMessage message;
+  Json json;
+  std::optional<Command> command;  // for command_result
+  bool fresh = false;              // set by the writer
 };
 
 struct Server::Impl {
@@ -117,7 +152,9 @@ struct Server::Impl {
   std::optional<net::signal_set> signals;
   const map::LoadedMap& loaded;
   const map::DistanceField& field;
-  Store& store;
+  std::mutex store_mutex;
+  Store& raw_store;
+  LockedStore store{raw_store, store_mutex};
   ServerOptions options;
   std::map<std::string, std::pair<std::string, std::string>> assets;  // path -> (content type, bytes)
   std::string map_json, mesh_json;
@@ -125,9 +162,22 @@ struct Server::Impl {
   std::map<std::string, RobotCache> cache;
   std::map<std::string, std::weak_ptr<WsSession>> robot_sessions;
   std::map<WsSession*, std::weak_ptr<WsSession>> viewers;
+  // The writer thread and its queue (guarded by queue_mutex).
+  std::thread writer;
+  std::mutex queue_mutex;
+  std::condition_variable queue_cv;
+  std::vector<PendingMessage> queue;
+  bool stopping = false;
+  std::set<std::pair<std::string, std::int64_t>> in_flight;  // I/O thread only
+
+  void startWriter();
+  void stopWriter();
+  void writeLoop();
+  void finish(std::vector<PendingMessage> done, const Status& status);
 
   Impl(const map::LoadedMap& l, const map::DistanceField& f, Store& s, ServerOptions o)
-      : loaded(l), field(f), store(s), options(std::move(o)) {}
+      : loaded(l), field(f), raw_store(s), options(std::move(o)) {}
+  ~Impl() { stopWriter(); }
 
   Status prepare();
   void accept();
@@ -150,7 +200,10 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       : ws_(std::move(socket)), impl_(impl), robot_(robot) {}
 
   void run(Request req) {
-    ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+    // A viewer never sends: without pings its idle connection would time out after 5 minutes.
+    auto timeouts = websocket::stream_base::timeout::suggested(beast::role_type::server);
+    timeouts.keep_alive_pings = true;
+    ws_.set_option(timeouts);
     ws_.read_message_max(kMaxMessageBytes);
     ws_.text(true);
     ws_.async_accept(req, beast::bind_front_handler(&WsSession::onAccept, shared_from_this()));
@@ -304,7 +357,13 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
         return;
       }
     }
-    write(impl_.handle(req));
+    Response res = impl_.handle(req);
+    if (req.method() == http::verb::head) {  // the GET's headers, no body
+      const std::size_t length = res.body().size();
+      res.body().clear();
+      res.content_length(length);
+    }
+    write(std::move(res));
   }
 
   void write(Response res) {
@@ -384,23 +443,29 @@ Status Server::Impl::prepare() {
   return Status::okStatus();
 }
 
-// A restarted centre shows what it had: the last telemetry, plan and tracks of every robot.
+// A restarted centre shows what it had: the last telemetry, plan and tracks of every robot,
+// read backwards page by page until each is found (a plan may be thousands of messages old).
 void Server::Impl::warmCache() {
-  auto robots = store.robots();
+  constexpr std::int64_t kPage = 5000;
+  auto robots = store->robots();
   if (!robots.ok()) return;
   for (const RobotRecord& r : *robots) {
-    const std::int64_t from = std::max<std::int64_t>(1, r.last_seq - 2000);
-    auto msgs = store.history(r.robot, from, 2001);
-    if (!msgs.ok()) continue;
     RobotCache& c = cache[r.robot];
     c.last_seen = r.last_seen;
-    for (const RobotMessage& m : *msgs) {
-      Json j = Json::parse(m.body, nullptr, false);
-      if (!j.is_object()) continue;
-      j["received_at"] = m.received_at;
-      if (m.type == "telemetry") c.telemetry = j;
-      if (m.type == "plan") c.plan = j;
-      if (m.type == "obstacles") c.tracks = j.value("tracks", Json::array());
+    c.stored_seq = r.last_seq;
+    for (std::int64_t to = r.last_seq; to >= 1 && (c.telemetry.is_null() || c.plan.is_null() || c.tracks.is_null());
+         to -= kPage) {
+      const std::int64_t from = std::max<std::int64_t>(1, to - kPage + 1);
+      auto msgs = store->history(r.robot, from, static_cast<std::size_t>(to - from + 1));
+      if (!msgs.ok()) break;
+      for (auto m = msgs->rbegin(); m != msgs->rend(); ++m) {  // newest first
+        Json& slot = m->type == "telemetry" ? c.telemetry : m->type == "plan" ? c.plan : c.tracks;
+        if (!slot.is_null() || (m->type != "telemetry" && m->type != "plan" && m->type != "obstacles")) continue;
+        Json j = Json::parse(m->body, nullptr, false);
+        if (!j.is_object()) continue;
+        j["received_at"] = m->received_at;
+        slot = m->type == "obstacles" ? j.value("tracks", Json::array()) : j;
+      }
     }
   }
 }
@@ -434,7 +499,7 @@ void Server::Impl::setCommandStatus(Command command, CommandStatus status, const
   command.status = status;
   command.reason = reason;
   command.updated_at = protocol::isoNow();
-  const Status s = store.updateCommand(command.command_id, status, reason, command.updated_at);
+  const Status s = store->updateCommand(command.command_id, status, reason, command.updated_at);
   if (!s.ok()) {
     logLine("database: " + s.message());
     return;
@@ -476,10 +541,10 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
       return;
     }
     const std::string now = protocol::isoNow();
-    Status s = store.upsertRobot({hello->robot, hello->map_hash, hello->radius, now, now, 0});
-    StatusOr<std::int64_t> acked = s.ok() ? store.lastSeq(hello->robot) : StatusOr<std::int64_t>(s);
+    Status s = store->upsertRobot({hello->robot, hello->map_hash, hello->radius, now, now, 0});
+    StatusOr<std::int64_t> acked = s.ok() ? store->lastSeq(hello->robot) : StatusOr<std::int64_t>(s);
     StatusOr<std::vector<Command>> unanswered =
-        acked.ok() ? store.unansweredCommands(hello->robot) : StatusOr<std::vector<Command>>(acked.status());
+        acked.ok() ? store->unansweredCommands(hello->robot) : StatusOr<std::vector<Command>>(acked.status());
     if (!unanswered.ok()) {
       logLine("database: " + unanswered.status().message());
       session.send(errorJson("database: " + unanswered.status().message()));
@@ -488,6 +553,7 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
     session.bind(hello->robot, hello->radius);
     robot_sessions[hello->robot] = session.shared_from_this();
     cache[hello->robot].last_seen = now;
+    cache[hello->robot].stored_seq = std::max(cache[hello->robot].stored_seq, *acked);
     session.send(Json{{"type", "welcome"}, {"robot", hello->robot}, {"acked_seq", *acked}});
     for (const Command& c : *unanswered) deliver(c);
     return;
@@ -508,7 +574,7 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
   std::optional<Command> command;
   if (message->type == "command_result") {
     const protocol::CommandResult r = protocol::commandResultOf(j);
-    StatusOr<std::optional<Command>> c = store.command(r.command_id);
+    StatusOr<std::optional<Command>> c = store->command(r.command_id);
     if (c.ok() && (!*c || (*c)->robot != message->robot)) {
       session.send(errorJson("unknown command_id " + std::to_string(r.command_id) + " for robot " + message->robot, seq));
       return;
@@ -517,31 +583,114 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
   }
   message->body = text;
   message->received_at = protocol::isoNow();
-  StatusOr<bool> fresh = store.appendMessage(*message);
-  if (!fresh.ok()) {  // not acknowledged: the robot keeps it and resends
-    logLine("database: " + fresh.status().message());
-    session.send(errorJson("database: " + fresh.status().message(), seq));
-    return;
+  RobotCache& rc = cache[message->robot];
+  rc.last_seen = message->received_at;
+  PendingMessage p;
+  const auto key = std::make_pair(message->robot, message->seq);
+  if (in_flight.count(key)) {
+    p.mode = PendingMessage::Mode::kAckOnly;
+  } else if (message->seq <= rc.stored_seq) {
+    p.mode = PendingMessage::Mode::kExact;
+  } else {
+    in_flight.insert(key);
   }
-  session.send(Json{{"type", "ack"}, {"seq", message->seq}});
-  RobotCache& c = cache[message->robot];
-  c.last_seen = message->received_at;
-  if (!*fresh) return;
-  Json stored = j;
-  stored["received_at"] = message->received_at;
-  if (message->type == "telemetry") c.telemetry = stored;
-  if (message->type == "plan") c.plan = stored;
-  if (message->type == "obstacles") c.tracks = stored.value("tracks", Json::array());
-  broadcast(stored, message->type == "telemetry");
-  if (command) {
-    const protocol::CommandResult r = protocol::commandResultOf(j);
-    setCommandStatus(*command, r.status, r.reason);
+  p.session = session.shared_from_this();
+  p.message = std::move(*message);
+  p.json = j;
+  p.command = std::move(command);
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex);
+    queue.push_back(std::move(p));
+  }
+  queue_cv.notify_one();
+}
+
+void Server::Impl::startWriter() {
+  writer = std::thread([this] { writeLoop(); });
+}
+
+void Server::Impl::stopWriter() {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex);
+    stopping = true;
+  }
+  queue_cv.notify_one();
+  if (writer.joinable()) writer.join();
+}
+
+// The writer thread: takes everything queued, stores the new messages in one transaction and
+// re-checks possible resends one by one, then hands the outcome to the I/O thread.
+void Server::Impl::writeLoop() {
+  for (;;) {
+    std::vector<PendingMessage> batch;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex);
+      queue_cv.wait(lock, [this] { return stopping || !queue.empty(); });
+      if (stopping) return;  // queued but unstored: never acknowledged, the robots resend
+      batch.swap(queue);
+    }
+    std::vector<RobotMessage> fresh;
+    for (const PendingMessage& p : batch)
+      if (p.mode == PendingMessage::Mode::kBatch) fresh.push_back(p.message);
+    Status status = Status::okStatus();
+    if (!fresh.empty()) {
+      StatusOr<std::size_t> n = store->appendMessages(fresh);
+      if (!n.ok()) {
+        status = n.status();
+      } else if (*n != fresh.size()) {  // another centre on the same database stored some
+        logLine("database: " + std::to_string(fresh.size() - *n) + " of a batch were stored already");
+      }
+    }
+    for (PendingMessage& p : batch) {
+      p.fresh = p.mode == PendingMessage::Mode::kBatch && status.ok();
+      if (p.mode != PendingMessage::Mode::kExact || !status.ok()) continue;
+      StatusOr<bool> one = store->appendMessage(p.message);
+      if (!one.ok()) {
+        status = one.status();
+        continue;
+      }
+      p.fresh = *one;
+    }
+    net::post(ioc, [this, done = std::move(batch), status]() mutable { finish(std::move(done), status); });
+  }
+}
+
+// On the I/O thread: ack what is stored (an error for what is not: the robot keeps it and
+// resends), push the new messages to the viewers, record command results.
+void Server::Impl::finish(std::vector<PendingMessage> done, const Status& status) {
+  if (!status.ok()) logLine("database: " + status.message());
+  for (PendingMessage& p : done) {
+    const RobotMessage& m = p.message;
+    if (p.mode == PendingMessage::Mode::kBatch) in_flight.erase({m.robot, m.seq});
+    auto session = p.session.lock();
+    if (!status.ok()) {
+      if (session) session->send(errorJson("database: " + status.message(), m.seq));
+      continue;
+    }
+    if (session) session->send(Json{{"type", "ack"}, {"seq", m.seq}});
+    if (!p.fresh) continue;
+    RobotCache& c = cache[m.robot];
+    c.stored_seq = std::max(c.stored_seq, m.seq);
+    Json& stored = p.json;
+    stored["received_at"] = m.received_at;
+    if (m.type == "telemetry") c.telemetry = stored;
+    if (m.type == "plan") c.plan = stored;
+    if (m.type == "obstacles") c.tracks = stored.value("tracks", Json::array());
+    broadcast(stored, m.type == "telemetry");
+    if (p.command) {
+      // A robot answers a command it got again with its stored result: never step back
+      // (executed stays executed when an `accepted` repeat arrives).
+      const protocol::CommandResult r = protocol::commandResultOf(stored);
+      Command now = *p.command;  // its state when the result was queued; re-read, results may batch
+      if (auto current = store->command(now.command_id); current.ok() && *current) now = **current;
+      if (static_cast<int>(r.status) >= static_cast<int>(now.status)) setCommandStatus(now, r.status, r.reason);
+    }
   }
 }
 
 Json Server::Impl::robotsJson() {
   Json out = Json::array();
-  auto robots = store.robots();
+  auto robots = store->robots();
   if (!robots.ok()) return out;
   for (const RobotRecord& r : *robots) {
     const RobotCache& c = cache[r.robot];
@@ -558,7 +707,7 @@ Json Server::Impl::robotsJson() {
 
 void Server::Impl::onViewerOpen(const std::shared_ptr<WsSession>& session) {
   Json commands = Json::array();
-  if (auto list = store.commands("", 100); list.ok())
+  if (auto list = store->commands("", 100); list.ok())
     for (const Command& c : *list) commands.push_back(protocol::commandState(c));
   session->send(Json{{"type", "snapshot"}, {"robots", robotsJson()}, {"commands", commands}});
   viewers[session.get()] = session;
@@ -575,7 +724,7 @@ Response Server::Impl::handleCommandPost(const Request& req) {
   if (!body.ok()) return refusal(req, http::status::bad_request, body.status().message());
   StatusOr<protocol::CommandRequest> cmd = protocol::parseCommandRequest(*body);
   if (!cmd.ok()) return refusal(req, http::status::bad_request, cmd.status().message());
-  StatusOr<std::optional<RobotRecord>> robot = store.robot(cmd->robot);
+  StatusOr<std::optional<RobotRecord>> robot = store->robot(cmd->robot);
   if (!robot.ok()) return refusal(req, http::status::internal_server_error, "database: " + robot.status().message());
   if (!*robot) return refusal(req, http::status::not_found, "unknown robot '" + cmd->robot + "'");
   const auto unprocessable = http::status::unprocessable_entity;
@@ -607,7 +756,7 @@ Response Server::Impl::handleCommandPost(const Request& req) {
     }
     args["velocity"] = pointJson(*cmd->velocity);
   }
-  StatusOr<std::vector<Command>> pending = store.unansweredCommands(cmd->robot);
+  StatusOr<std::vector<Command>> pending = store->unansweredCommands(cmd->robot);
   if (!pending.ok()) return refusal(req, http::status::internal_server_error, "database: " + pending.status().message());
   if (pending->size() >= kMaxPendingCommands)
     return refusal(req, http::status::too_many_requests,
@@ -618,7 +767,7 @@ Response Server::Impl::handleCommandPost(const Request& req) {
   c.issued_at = c.updated_at = protocol::isoNow();
   c.kind = cmd->kind;
   c.body = args.dump();
-  StatusOr<std::int64_t> id = store.addCommand(c);
+  StatusOr<std::int64_t> id = store->addCommand(c);
   if (!id.ok()) return refusal(req, http::status::internal_server_error, "database: " + id.status().message());
   c.command_id = *id;
   broadcast(protocol::commandState(c), false);
@@ -648,7 +797,7 @@ Response Server::Impl::handle(const Request& req) {
     return res;
   }
   if (path == "/api/health") {
-    StatusOr<int> version = store.schemaVersion();
+    StatusOr<int> version = store->schemaVersion();
     if (!version.ok()) return refusal(req, http::status::internal_server_error, "database: " + version.status().message());
     std::size_t robots = 0, viewing = 0;
     for (const auto& [id, s] : robot_sessions) {
@@ -660,7 +809,7 @@ Response Server::Impl::handle(const Request& req) {
       viewing += p && !p->dead();
     }
     return jsonResponse(req, http::status::ok,
-                        Json{{"ok", true}, {"schema_version", *version}, {"db", store.backend()}, {"robots", robots},
+                        Json{{"ok", true}, {"schema_version", *version}, {"db", store->backend()}, {"robots", robots},
                              {"viewers", viewing}}
                             .dump());
   }
@@ -671,7 +820,7 @@ Response Server::Impl::handle(const Request& req) {
     const std::string robot = query.count("robot") ? query.at("robot") : "";
     if (!robot.empty() && !protocol::validRobotId(robot))
       return refusal(req, http::status::bad_request, protocol::kBadRobotId);
-    auto list = store.commands(robot, 10000);
+    auto list = store->commands(robot, 10000);
     if (!list.ok()) return refusal(req, http::status::internal_server_error, "database: " + list.status().message());
     Json out = Json::array();
     for (const Command& c : *list) out.push_back(protocol::commandState(c));
@@ -687,10 +836,10 @@ Response Server::Impl::handle(const Request& req) {
     if (!from) return refusal(req, http::status::bad_request, "from_seq must be a non-negative integer");
     if (!limit || *limit < 1 || *limit > 10000)
       return refusal(req, http::status::bad_request, "limit must be an integer from 1 to 10000");
-    auto record = store.robot(robot);
+    auto record = store->robot(robot);
     if (!record.ok()) return refusal(req, http::status::internal_server_error, "database: " + record.status().message());
     if (!*record) return refusal(req, http::status::not_found, "unknown robot '" + robot + "'");
-    auto msgs = store.history(robot, *from, static_cast<std::size_t>(*limit));
+    auto msgs = store->history(robot, *from, static_cast<std::size_t>(*limit));
     if (!msgs.ok()) return refusal(req, http::status::internal_server_error, "database: " + msgs.status().message());
     Json out = Json::array();
     for (const RobotMessage& m : *msgs) {
@@ -761,8 +910,10 @@ Status Server::run() {
       if (!ec) stop();
     });
   }
+  d.startWriter();
   d.accept();
   d.ioc.run();
+  d.stopWriter();
   return Status::okStatus();
 }
 

@@ -53,7 +53,10 @@
     const span = Math.max(hi[0] - lo[0], hi[1] - lo[1], 10);
     const camera = new THREE.PerspectiveCamera(45, 1, 0.1, span * 20);
     camera.up.set(0, 0, 1);  // the map's frame: z up
-    camera.position.set(centre.x - 0.15 * span, centre.y - 0.8 * span, centre.z + 0.7 * span);
+    // Far enough to see the whole map: its half diagonal fills the field of view.
+    const half = 0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+    const dist = half / Math.sin((camera.fov / 2) * Math.PI / 180);
+    camera.position.set(centre.x, centre.y - 0.55 * dist, centre.z + 0.83 * dist);
     const controls = new THREE.OrbitControls(camera, renderer.domElement);
     controls.target.copy(centre);
     controls.update();
@@ -129,13 +132,18 @@
     return r.view;
   }
 
+  // A robot is its radius when close, and never smaller than ~1 % of the view when far.
+  function markerScale(r, position) {
+    return Math.max(r.radius, 0.012 * three.camera.position.distanceTo(position));
+  }
+
   function points3(list) { return list.map((p) => new THREE.Vector3(p[0], p[1], p[2])); }
 
   // ----- robots' state -------------------------------------------------------------------------
   function robot(id) {
     let r = state.robots.get(id);
     if (!r) {
-      r = { id, telemetry: null, plan: null, tracks: [], rock: [], trail: [], radius: 0.4,
+      r = { id, telemetry: null, plan: null, tracks: [], rock: [], trail: [], trailSeq: [], radius: 0.4,
             colour: COLOURS[state.robots.size % COLOURS.length], view: null, dirty: true };
       state.robots.set(id, r);
       const option = document.createElement('option');
@@ -151,7 +159,11 @@
       const r = robot(m.robot);
       r.telemetry = m;
       r.trail.push(m.pose);
-      if (r.trail.length > TRAIL_MAX) r.trail.splice(0, r.trail.length - TRAIL_MAX);
+      r.trailSeq.push(m.seq);
+      if (r.trail.length > TRAIL_MAX) {
+        r.trail.splice(0, r.trail.length - TRAIL_MAX);
+        r.trailSeq.splice(0, r.trailSeq.length - TRAIL_MAX);
+      }
       r.dirty = true;
     } else if (m.type === 'plan') {
       robot(m.robot).plan = m;
@@ -206,7 +218,7 @@
     const t = shown(r);
     if (!v || !t) return;
     v.marker.position.set(t.pose[0], t.pose[1], t.pose[2]);
-    v.marker.scale.setScalar(r.radius);
+    v.marker.scale.setScalar(markerScale(r, v.marker.position));
     v.name.position.set(t.pose[0], t.pose[1], t.pose[2] + r.radius + 0.5);
     const trail = state.replay && state.replay.robot === r.id ? state.replay.trail : r.trail;
     v.trail.geometry.setFromPoints(points3(trail));
@@ -371,6 +383,14 @@
     drawProfile();
     renderTable();
     if (three.renderer) {
+      const followed = $('follow').checked && state.robots.get($('robot').value);
+      if (followed && followed.view && shown(followed)) {
+        const p = followed.view.marker.position;
+        three.camera.position.add(p.clone().sub(three.controls.target));
+        three.controls.target.copy(p);
+      }
+      for (const r of state.robots.values())
+        if (r.view) r.view.marker.scale.setScalar(markerScale(r, r.view.marker.position));
       three.controls.update();
       placeLabels();
       three.renderer.render(three.scene, three.camera);
@@ -395,6 +415,7 @@
         for (const r of m.robots) {
           const x = robot(r.robot);
           if (r.radius) x.radius = r.radius;
+          if (!x.backfilled) backfill(x, r.last_seq);
           if (r.telemetry) apply(r.telemetry);
           if (r.plan) apply(r.plan);
           x.tracks = r.tracks || [];
@@ -403,7 +424,48 @@
       } else {
         apply(m);
       }
+      if (m.type === 'snapshot') clickFromHash();
     };
+  }
+
+  // `#token=T&robot=R&goal-click=X,Y`: once a robot is known, clicks the top view at map point (X, Y)
+  // in goal mode, as an operator would (how the browser test sets a goal by a click).
+  let hashClicked = false;
+  function clickFromHash() {
+    const params = new URLSearchParams(location.hash.slice(1));
+    if (params.has('token')) token.value = params.get('token');
+    if (params.has('robot') && state.robots.has(params.get('robot'))) $('robot').value = params.get('robot');
+    const at = params.get('goal-click');
+    if (!at || hashClicked || !$('robot').value) return;
+    hashClicked = true;
+    const [x, y] = at.split(',').map(Number);
+    drawTop();
+    const c = $('top'), rect = c.getBoundingClientRect(), px = topPixel([x, y, 0]);
+    if (!state.goalMode) $('goalmode').click();
+    c.dispatchEvent(new MouseEvent('click', {
+      clientX: rect.left + px[0] * rect.width / c.width, clientY: rect.top + px[1] * rect.height / c.height, bubbles: true }));
+  }
+
+  // A page opened mid-run (or after it) draws the robot's recent past from the database: the
+  // trail, sensed rock and events of its last TRAIL_MAX stored messages.
+  async function backfill(r, lastSeq) {
+    r.backfilled = true;
+    const from = Math.max(1, lastSeq - TRAIL_MAX + 1);
+    const res = await fetch(`/api/history?robot=${encodeURIComponent(r.id)}&from_seq=${from}&limit=${TRAIL_MAX}`);
+    if (!res.ok) return;
+    const past = await res.json();
+    const trail = [], seqs = [];
+    for (const m of past) {
+      if (m.type === 'telemetry') { trail.push(m.pose); seqs.push(m.seq); }
+      else if (m.type === 'obstacles') for (const p of m.rock || []) r.rock.push(p);
+      else if (m.type === 'event') apply(m);
+    }
+    // Live telemetry that arrived meanwhile continues the trail.
+    const newest = past.length ? past[past.length - 1].seq : 0;
+    const keep = r.trailSeq.map((seq) => seq > newest);
+    r.trail = trail.concat(r.trail.filter((_, i) => keep[i]));
+    r.trailSeq = seqs.concat(r.trailSeq.filter((_, i) => keep[i]));
+    r.dirty = true;
   }
 
   // ----- operator commands -------------------------------------------------------------------
@@ -422,6 +484,7 @@
     const answer = await res.json();
     $('answer').textContent = res.ok ? `command #${answer.command_id} ${body.kind}: ${answer.status}`
                                      : `refused (${res.status}): ${answer.error}`;
+    root.dataset.lastCommand = res.ok ? String(answer.command_id) : 'refused ' + res.status;
     $('answer').className = res.ok ? 'ok' : 'bad';
   }
 

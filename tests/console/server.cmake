@@ -8,3 +8,57 @@ add_executable(adit_console_server_tests console/server_test.cpp)
 target_link_libraries(adit_console_server_tests PRIVATE adit::console adit_test_support Boost::headers Threads::Threads
                       nlohmann_json::nlohmann_json GTest::gtest_main adit_warnings)
 gtest_discover_tests(adit_console_server_tests PROPERTIES LABELS unit TIMEOUT 120 DISCOVERY_TIMEOUT 60)
+# The same API tests against PostgreSQL, on the store's throw-away server (tests/console/store.cmake).
+if(ADIT_PG_INITDB AND ADIT_PG_CTL AND DEFINED _pg_state)
+  gtest_discover_tests(adit_console_server_tests TEST_PREFIX "postgresql/" TEST_FILTER "ServerTest.*"
+                       DISCOVERY_TIMEOUT 60
+                       PROPERTIES LABELS unit TIMEOUT 120 FIXTURES_REQUIRED console_postgres
+                                  ENVIRONMENT ADIT_TEST_POSTGRES_STATE=${_pg_state})
+endif()
+
+# A robot (or ten) speaking the protocol to a running `adit serve`: the browser test's robot and
+# the console's latency / throughput figures.
+add_executable(adit_console_feed console/console_feed.cpp)
+target_include_directories(adit_console_feed PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+target_link_libraries(adit_console_feed PRIVATE Boost::headers Threads::Threads nlohmann_json::nlohmann_json adit_warnings)
+
+# The page in headless Chromium against a real `adit serve` on the bundled district map.
+if(EXISTS /usr/bin/chromium AND ADIT_BUILD_TOOLS)
+  add_test(NAME console_browser
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/console/browser_console.sh $<TARGET_FILE:adit>
+                   $<TARGET_FILE:adit_console_feed> ${PROJECT_SOURCE_DIR}/maps/district.yaml
+                   ${CMAKE_CURRENT_BINARY_DIR}/console_browser $<TARGET_FILE:animation_page_demo>)
+  set_tests_properties(console_browser PROPERTIES LABELS cli TIMEOUT 300)
+endif()
+# The whole loop with the centre SIGKILLed and restarted mid-run: every message stored once.
+if(ADIT_BUILD_TOOLS)
+  add_test(NAME console_fault_restart
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/console/fault_console.sh $<TARGET_FILE:adit>
+                   ${PROJECT_SOURCE_DIR}/maps/district.yaml ${CMAKE_CURRENT_BINARY_DIR}/console_fault)
+  set_tests_properties(console_fault_restart PROPERTIES LABELS cli TIMEOUT 300)
+endif()
+
+# `adit serve` refuses bad input with exit 2 and a message naming it, before serving anything.
+if(ADIT_BUILD_TOOLS)
+  set(_serve_cli ${PROJECT_SOURCE_DIR}/tests/tools/run_cli.cmake)
+  set(_small ${PROJECT_SOURCE_DIR}/tests/tools/data/small.yaml)
+  set(_serve_out ${CMAKE_CURRENT_BINARY_DIR}/console_cli)
+  file(MAKE_DIRECTORY ${_serve_out})
+  function(adit_serve_cli_test name code stderr)
+    add_test(NAME cli_serve_${name}
+             COMMAND ${CMAKE_COMMAND} "-DCMD=$<TARGET_FILE:adit>;serve;${ARGN}" -DEXPECT_CODE=${code}
+                     "-DEXPECT_STDERR=${stderr}" -P ${_serve_cli}
+             WORKING_DIRECTORY ${_serve_out})
+    set_tests_properties(cli_serve_${name} PROPERTIES LABELS cli)
+  endfunction()
+  adit_serve_cli_test(help 0 "" --help)
+  adit_serve_cli_test(no_map 2 "--map is required")
+  adit_serve_cli_test(missing_map 2 "nope.yaml: no such file" --map ${_serve_out}/nope.yaml)
+  adit_serve_cli_test(bad_listen 2 "'localhost' is not an IP address" --map ${_small} --listen localhost:8080)
+  adit_serve_cli_test(bad_port 2 "the port must be 0-65535" --map ${_small} --listen 127.0.0.1:70000)
+  adit_serve_cli_test(short_token 2 "short_token.txt:1: the token is shorter than 16 characters"
+                      --map ${_small} --token-file ${CMAKE_CURRENT_SOURCE_DIR}/console/data/short_token.txt)
+  adit_serve_cli_test(empty_token 2 "empty_token.txt: no token in the file"
+                      --map ${_small} --token-file ${CMAKE_CURRENT_SOURCE_DIR}/console/data/empty_token.txt)
+  adit_serve_cli_test(bad_db 2 "mysql" --map ${_small} --db mysql://centre/adit --listen 127.0.0.1:0)
+endif()

@@ -7,28 +7,19 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <thread>
-
-#include <boost/asio/ip/tcp.hpp>
-#include <boost/beast/core.hpp>
-#include <boost/beast/http.hpp>
-#include <boost/beast/websocket.hpp>
-#include <nlohmann/json.hpp>
 
 #include "adit/console/server.hpp"
 #include "adit/console/store.hpp"
 #include "adit/map/distance_field.hpp"
+#include "console/beast_client.hpp"
 #include "support/synthetic_roadway.hpp"
 
 namespace adit::console {
 namespace {
 
-namespace beast = boost::beast;
-namespace http = beast::http;
-namespace websocket = beast::websocket;
-namespace net = boost::asio;
-using tcp = net::ip::tcp;
-using Json = nlohmann::json;
+using namespace adit::console::testing;  // NOLINT: Beast's names and the client helpers
 
 constexpr const char* kHash = "fnv1a64:00000000c0ffee00";
 constexpr const char* kToken = "0123456789abcdef0123456789abcdef";
@@ -107,18 +98,11 @@ struct Reply {
 
 class WsClient {
  public:
-  WsClient(unsigned short port, const std::string& path) : ws_(ioc_) {
-    beast::get_lowest_layer(ws_).connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
-    ws_.handshake("127.0.0.1", path);
-    ws_.read_message_max(64 << 20);
-  }
+  WsClient(unsigned short port, const std::string& path)
+      : ws_(openWebSocket(ioc_, "127.0.0.1", std::to_string(port), path)) {}
   void send(const std::string& text) { ws_.write(net::buffer(text)); }
   void send(const Json& j) { send(j.dump()); }
-  Json recv() {
-    beast::flat_buffer b;
-    ws_.read(b);
-    return Json::parse(beast::buffers_to_string(b.data()));
-  }
+  Json recv() { return readJson(ws_); }
   /// Reads until the server closes; the close code (-1: the connection broke otherwise).
   int closeCode() {
     beast::error_code ec;
@@ -169,7 +153,7 @@ class ServerTest : public ::testing::Test {
     delete dir_;
   }
   static void startServer() {
-    StatusOr<std::unique_ptr<Store>> store = Store::open("sqlite:" + (*dir_ / "centre.db").string());
+    StatusOr<std::unique_ptr<Store>> store = Store::open(databaseUrl());
     ASSERT_TRUE(store.ok()) << store.status().toString();
     store_ = store->release();
     ServerOptions o;
@@ -193,6 +177,19 @@ class ServerTest : public ::testing::Test {
     server_ = nullptr;
   }
   static unsigned short port() { return server_->port(); }
+  // SQLite in the temp dir; PostgreSQL when CTest's fixture started a throw-away server
+  // (tests/console/postgres_fixture.sh writes its URL into ADIT_TEST_POSTGRES_STATE/url). Every
+  // test uses its own robot ids, so the tests share that one fresh database.
+  static std::string databaseUrl() {
+    if (const char* state = std::getenv("ADIT_TEST_POSTGRES_STATE")) {
+      std::ifstream in(std::filesystem::path(state) / "url");
+      std::string url;
+      std::getline(in, url);
+      return url;
+    }
+    return "sqlite:" + (*dir_ / "centre.db").string();
+  }
+  static std::string backend() { return std::getenv("ADIT_TEST_POSTGRES_STATE") ? "postgresql" : "sqlite"; }
 
   static Reply request(http::verb verb, const std::string& target, const std::string& body = "",
                        const std::string& token = "") {
@@ -208,6 +205,7 @@ class ServerTest : public ::testing::Test {
     beast::flat_buffer b;
     http::response_parser<http::string_body> p;
     p.body_limit(64 << 20);
+    p.skip(verb == http::verb::head);  // a HEAD answer announces a length but has no body
     http::read(s, b, p);
     return {static_cast<int>(p.get().result_int()), p.get().body()};
   }
@@ -223,7 +221,7 @@ class ServerTest : public ::testing::Test {
     const Reply h = get("/api/health");
     ASSERT_EQ(h.status, 200);
     EXPECT_EQ(h.json()["ok"], true);
-    EXPECT_EQ(h.json()["db"], "sqlite");
+    EXPECT_EQ(h.json()["db"], backend());
     EXPECT_EQ(h.json()["schema_version"], kSchemaVersion);
   }
 
@@ -259,6 +257,9 @@ TEST_F(ServerTest, ServesThePageItsAssetsAndTheMap) {
   const Json mesh = get("/api/map/mesh").json();
   EXPECT_GT(mesh["indices"].size(), 0u);
   EXPECT_EQ(mesh["positions"].size(), mesh["normals"].size());
+  const Reply head = request(http::verb::head, "/api/map");
+  EXPECT_EQ(head.status, 200);
+  EXPECT_TRUE(head.body.empty());
   EXPECT_EQ(get("/nope").status, 404);
   EXPECT_EQ(get("/api/nope").status, 404);
   EXPECT_EQ(request(http::verb::delete_, "/api/map").status, 405);
@@ -450,9 +451,15 @@ TEST_F(ServerTest, OperatorCommandsAreCheckedStoredDeliveredAndTracked) {
     seen.push_back(v["type"].get<std::string>() + (v.contains("status") && v["type"] == "command" ? ":" + v["status"].get<std::string>() : ""));
   }
   EXPECT_EQ(seen, (std::vector<std::string>{"command:pending", "command:sent", "command_result", "command:accepted"}));
+  robot.send(Json{{"type", "command_result"}, {"robot", "r-cmd"}, {"seq", 2}, {"t", 3.0}, {"command_id", id},
+                  {"result", "executed"}});
+  EXPECT_EQ(robot.recv(), (Json{{"type", "ack"}, {"seq", 2}}));
+  robot.send(Json{{"type", "command_result"}, {"robot", "r-cmd"}, {"seq", 3}, {"t", 4.0}, {"command_id", id},
+                  {"result", "accepted"}});  // a repeat of an earlier answer does not step back
+  EXPECT_EQ(robot.recv(), (Json{{"type", "ack"}, {"seq", 3}}));
   const Json log = get("/api/commands?robot=r-cmd").json();
   ASSERT_EQ(log.size(), 1u);
-  EXPECT_EQ(log[0]["status"], "accepted");
+  EXPECT_EQ(log[0]["status"], "executed");
   EXPECT_EQ(log[0]["operator"], "alice");
   EXPECT_EQ(post({{"robot", "r-cmd"}, {"kind", "block"}, {"roadway", "crosscut"}}).status, 202);
   EXPECT_EQ(robot.recv()["roadway"], "crosscut");
@@ -504,13 +511,54 @@ TEST_F(ServerTest, ViewersGetASnapshotThenEveryStoredMessage) {
   EXPECT_EQ(viewer.recv()["type"], "error");
 }
 
+TEST_F(ServerTest, ASlowViewersQueueIsBoundedAndReportsWhatItDropped) {
+  // A viewer with a tiny receive window that reads nothing while a robot sends a burst.
+  net::io_context ioc;
+  websocket::stream<tcp::socket> viewer(ioc);
+  viewer.next_layer().open(tcp::v4());
+  viewer.next_layer().set_option(net::socket_base::receive_buffer_size(4096));
+  viewer.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port()));
+  viewer.handshake("127.0.0.1", "/ws/view");
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-lag");
+  // 4 KiB each: 16 MiB in all, more than the loopback socket buffers can hide.
+  const int n = 4000, chunk = 500;
+  const std::string padding(4096, 'p');
+  for (int seq = 1; seq <= n; seq += chunk) {  // a robot reads its acks as it goes
+    for (int k = seq; k < seq + chunk; ++k) {
+      Json t = telemetry("r-lag", k, 1.0 + 1e-3 * k);
+      t["padding"] = padding;
+      robot.send(t);
+    }
+    for (int k = seq; k < seq + chunk; ++k) ASSERT_EQ(robot.recv()["type"], "ack");
+  }
+  // Every telemetry message is either delivered or counted in a `lag`; the newest always arrives.
+  std::int64_t delivered = 0, dropped = 0, last = 0;
+  while (last < n) {
+    const Json m = readJson(viewer);
+    if (m["type"] == "lag") dropped += m["dropped"].get<std::int64_t>();
+    if (m["type"] == "telemetry" && m["robot"] == "r-lag") {
+      ++delivered;
+      EXPECT_GT(m["seq"].get<std::int64_t>(), last);
+      last = m["seq"];
+    }
+  }
+  EXPECT_GT(dropped, 0);
+  EXPECT_EQ(delivered + dropped, n);
+  EXPECT_EQ(stored("r-lag"), 1000u);  // the history's default page: everything was stored
+  EXPECT_EQ(get("/api/history?robot=r-lag&from_seq=3001&limit=10000").json().size(), 1000u);
+}
+
 // Runs last in the suite (gtest keeps the file's order): a restarted centre resumes from the
 // database (acked seq, last telemetry in the snapshot).
 TEST_F(ServerTest, ZRestartedServerResumesFromTheDatabase) {
   {
     WsClient robot(port(), "/ws/robot");
     robot.hello("r-restart");
-    for (int seq = 1; seq <= 5; ++seq) {
+    robot.send(Json{{"type", "plan"}, {"robot", "r-restart"}, {"seq", 1}, {"t", 0.0}, {"reason", "initial"},
+                    {"path", {{1, 0, 1}, {12, 0, 1}}}, {"labels", {"A"}}});
+    robot.recv();
+    for (int seq = 2; seq <= 5; ++seq) {
       robot.send(telemetry("r-restart", seq, seq));
       robot.recv();
     }
@@ -524,6 +572,7 @@ TEST_F(ServerTest, ZRestartedServerResumesFromTheDatabase) {
     if (r["robot"] == "r-restart") {
       found = true;
       EXPECT_EQ(r["telemetry"]["seq"], 5);
+      EXPECT_EQ(r["plan"]["seq"], 1);
     }
   EXPECT_TRUE(found);
   WsClient robot(port(), "/ws/robot");

@@ -1,0 +1,116 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
+# The console's page in headless Chromium, offline, against a real `adit serve`: a robot
+# (adit_console_feed) walks a survey roadway through the protocol, then the page must show it
+# where its last pose says (the robot's row: data-pose = the feed's last pose, data-drawn = the
+# 3-D marker's position = data-pose), with no script error, WebGL on, and a screenshot showing the
+# robot's colour. Then a click on the top view (the page's `#goal-click=X,Y`, a real click event
+# in goal mode) must reach a navigated robot (`adit simulate --live`), which accepts the goal and
+# replans toward it. Finally SIGTERM must stop the server cleanly (exit 0). Also how the README's
+# screenshot is made:
+#
+#   tests/console/browser_console.sh ADIT FEED MAP WORK [CHECK_PNG] [SCREENSHOT]
+set -euo pipefail
+ADIT=$1 FEED=$2 MAP=$3 WORK=$4 CHECK_PNG=${5:-} SHOT=${6:-$4/console.png}
+CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
+rm -rf "$WORK" && mkdir -p "$WORK"
+server_pid=""
+cleanup() { if [ -n "$server_pid" ] && kill -0 "$server_pid" 2>/dev/null; then kill -TERM "$server_pid"; wait "$server_pid" || true; fi; }
+trap cleanup EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+echo "console-test:0123456789abcdef0123" > "$WORK/token"
+"$ADIT" serve --map "$MAP" --listen 127.0.0.1:0 --db "sqlite:$WORK/centre.db" --token-file "$WORK/token" -q \
+  2> "$WORK/serve.log" &
+server_pid=$!
+for _ in $(seq 600); do
+  grep -q 'http://' "$WORK/serve.log" 2>/dev/null && break
+  kill -0 "$server_pid" 2>/dev/null || fail "adit serve exited: $(cat "$WORK/serve.log")"
+  sleep 0.2
+done
+hostport=$(grep -o 'http://[0-9.]*:[0-9]*' "$WORK/serve.log" | head -1 | sed 's#http://##')
+[ -n "$hostport" ] || fail "adit serve printed no URL"
+grep -q "operator token (console-test): 0123456789abcdef0123" "$WORK/serve.log" || fail "the token file's label and token are not printed"
+echo "serving on $hostport"
+
+"$FEED" "$hostport" --robots 1 --hz 20 --seconds 4 > "$WORK/feed.txt"
+last=$(awk '$1 == "last" && $2 == "r1" {print $3}' "$WORK/feed.txt")
+[ -n "$last" ] || fail "the feed reported no last pose"
+echo "robot r1 last pose $last"
+
+flags=(--headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader --use-angle=swiftshader --no-first-run
+       --no-default-browser-check --disable-background-networking --disable-component-update --disable-sync
+       --disable-default-apps --disable-extensions --mute-audio --hide-scrollbars --window-size=1400,900
+       --virtual-time-budget=5000)
+chromium() {
+  local profile="$WORK/chromium-$1"; shift
+  rm -rf "$profile"; mkdir -p "$profile"
+  timeout 180 "$CHROMIUM" "${flags[@]}" --user-data-dir="$profile" "$@" 2>> "$WORK/chromium.log"
+  rm -rf "$profile"
+}
+chromium dom --dump-dom "http://$hostport/" > "$WORK/dom.html"
+root=$(grep -o '<html[^>]*>' "$WORK/dom.html" | head -1)
+row=$(grep -o '<tr data-robot="r1"[^>]*>' "$WORK/dom.html" | head -1)
+echo "root: $root"
+echo "row:  $row"
+[[ "$root" == *'data-ready="1"'* ]] || fail "the page did not start"
+[[ "$root" == *'data-errors="0"'* ]] || fail "the page recorded errors: $(grep -o '<pre id="errors">[^<]*' "$WORK/dom.html")"
+[[ "$root" == *'data-webgl="1"'* ]] || fail "no WebGL: the 3-D view is off"
+[[ "$root" == *'data-robots="1"'* ]] || fail "the page shows no robot"
+pose=$(sed -n 's/.*data-pose="\([^"]*\)".*/\1/p' <<< "$row")
+drawn=$(sed -n 's/.*data-drawn="\([^"]*\)".*/\1/p' <<< "$row")
+python3 - "$last" "$pose" "$drawn" <<'PY' || fail "the robot is not drawn where its pose says"
+import sys
+last, pose, drawn = ([float(v) for v in a.split(',')] for a in sys.argv[1:4])
+ok = all(abs(a - b) < 1e-3 for a, b in zip(last, pose)) and all(abs(a - b) < 1e-6 for a, b in zip(pose, drawn))
+print(f"feed {last}, page pose {pose}, marker {drawn}")
+sys.exit(0 if ok and len(pose) == 3 and len(drawn) == 3 else 1)
+PY
+chromium shot --screenshot="$SHOT" "http://$hostport/"
+[ -s "$SHOT" ] || fail "chromium wrote no screenshot"
+if [ -n "$CHECK_PNG" ]; then
+  "$CHECK_PNG" check-png "$SHOT" 4fc3f7 20 || fail "the screenshot does not show the robot's colour"
+fi
+echo "screenshot: $SHOT"
+
+# 2. A goal set by a click on the top view: a navigated robot (adit simulate --live) gets it,
+#    accepts it and replans toward it (a `plan` with reason "goal").
+scenario=$(dirname "$MAP")/scenarios/district_inspection.yaml
+"$ADIT" simulate "$scenario" --live "ws://$hostport" --live-speed 1 -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
+sim_pid=$!
+api() { python3 -c 'import sys, urllib.request; print(urllib.request.urlopen("http://" + sys.argv[1] + sys.argv[2]).read().decode())' "$hostport" "$1"; }
+robot_known() { api /api/robots | python3 -c 'import json, sys; sys.exit(0 if any(r["robot"] == "district_inspection" and r["telemetry"] for r in json.load(sys.stdin)) else 1)'; }
+for _ in $(seq 300); do robot_known && break; sleep 0.2; done
+robot_known || fail "the simulated robot never reported: $(cat "$WORK/sim.log")"
+chromium click --dump-dom "http://$hostport/#token=0123456789abcdef0123&robot=district_inspection&goal-click=50,0" > "$WORK/click.html"
+click_root=$(grep -o '<html[^>]*>' "$WORK/click.html" | head -1)
+echo "after the click: $click_root"
+[[ "$click_root" == *'data-errors="0"'* ]] || fail "the page recorded errors: $(grep -o '<pre id="errors">[^<]*' "$WORK/click.html")"
+command_id=$(sed -n 's/.*data-last-command="\([0-9]*\)".*/\1/p' <<< "$click_root")
+[ -n "$command_id" ] || fail "the click sent no accepted command: $(grep -o 'id="answer"[^<]*' "$WORK/click.html")"
+replanned=""
+for _ in $(seq 100); do
+  replanned=$(api "/api/history?robot=district_inspection&limit=10000" | python3 -c '
+import json, sys
+cid = int(sys.argv[1]); msgs = json.load(sys.stdin)
+results = [m["result"] for m in msgs if m["type"] == "command_result" and m["command_id"] == cid]
+plans = [m for m in msgs if m["type"] == "plan" and m["reason"] == "goal"]
+if "accepted" in results and plans:
+    print("command %d %s, replanned toward %s" % (cid, "/".join(results), plans[-1]["path"][-1]))' "$command_id")
+  [ -n "$replanned" ] && break
+  sleep 0.2
+done
+kill -TERM "$sim_pid" 2>/dev/null || true
+wait "$sim_pid" 2>/dev/null || true
+[ -n "$replanned" ] || fail "the robot did not accept and replan toward the clicked goal (command $command_id)"
+echo "$replanned"
+
+kill -TERM "$server_pid"
+set +e
+wait "$server_pid"
+code=$?
+set -e
+server_pid=""
+[ "$code" -eq 0 ] || fail "adit serve exited with $code on SIGTERM"
+grep -q "stopped" "$WORK/serve.log" || fail "adit serve did not report a clean stop"
+echo "PASS"

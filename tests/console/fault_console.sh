@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-3-Clause
+# Fault test of the whole loop: `adit simulate --live` drives a robot into a real `adit serve`,
+# the server is killed (SIGKILL) mid-run and restarted on the same port and database; the robot
+# reconnects and resends what was not acknowledged. Afterwards the database must hold every
+# message of the run exactly once: seqs 1..N without a gap (a lost row) or a repeat (the
+# primary key), and the simulation must finish normally.
+#
+#   tests/console/fault_console.sh ADIT MAP WORK
+set -euo pipefail
+ADIT=$1 MAP=$2 WORK=$3
+rm -rf "$WORK" && mkdir -p "$WORK"
+server_pid="" sim_pid=""
+cleanup() {
+  for p in $sim_pid $server_pid; do kill -TERM "$p" 2>/dev/null && wait "$p" 2>/dev/null; done
+  true
+}
+trap cleanup EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+
+start_server() {
+  : > "$WORK/serve.log"
+  "$ADIT" serve --map "$MAP" --listen "127.0.0.1:$port" --db "sqlite:$WORK/centre.db" -q 2>> "$WORK/serve.log" &
+  server_pid=$!
+  for _ in $(seq 600); do
+    grep -q 'http://' "$WORK/serve.log" && return 0
+    kill -0 "$server_pid" 2>/dev/null || fail "adit serve exited: $(cat "$WORK/serve.log")"
+    sleep 0.1
+  done
+  fail "adit serve did not start"
+}
+stored() { python3 -c 'import sqlite3, sys; print(sqlite3.connect(sys.argv[1]).execute("select count(*) from messages").fetchone()[0])' "$WORK/centre.db"; }
+
+start_server
+scenario=$(dirname "$MAP")/scenarios/district_rescue.yaml
+"$ADIT" simulate "$scenario" --live "ws://127.0.0.1:$port" --live-speed 0 --robot-id faulty -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
+sim_pid=$!
+# Kill the centre once the robot has stored a few hundred messages, while it is still running.
+for _ in $(seq 600); do [ "$(stored)" -ge 300 ] && break; sleep 0.05; done
+before=$(stored)
+kill -KILL "$server_pid"
+wait "$server_pid" 2>/dev/null || true
+echo "killed the centre after $before stored messages"
+sleep 1
+start_server
+echo "restarted on port $port"
+set +e
+wait "$sim_pid"
+code=$?
+set -e
+sim_pid=""
+[ "$code" -eq 0 ] || fail "adit simulate --live exited with $code: $(tail -5 "$WORK/sim.log")"
+python3 - "$WORK/centre.db" "$before" <<'PY' || fail "messages lost or repeated"
+import sqlite3, sys
+db = sqlite3.connect(sys.argv[1])
+seqs = [s for (s,) in db.execute("select seq from messages where robot = 'faulty' order by seq")]
+tele = db.execute("select count(*), count(distinct seq) from telemetry where robot = 'faulty'").fetchone()
+print(f"{len(seqs)} messages, seq {seqs[0]}..{seqs[-1]}, {tele[0]} telemetry rows ({tele[1]} distinct); {sys.argv[2]} before the kill")
+ok = seqs == list(range(1, len(seqs) + 1)) and tele[0] == tele[1] and len(seqs) > int(sys.argv[2])
+sys.exit(0 if ok else 1)
+PY
+echo PASS
