@@ -29,8 +29,9 @@ PKGS=(cmake g++ make pkg-config
 # What only the test suite needs: headless Chromium for the pages' browser tests; slurm-wlm and
 # munge for the campaign test's throw-away one-node Slurm cluster (tests/tools/campaign_slurm.sh
 # starts its own daemons, never the system's); PostgreSQL's server for the console store's
-# throw-away database (started by the test in a temp dir, never the system's cluster).
-TEST_PKGS=(chromium slurm-wlm munge postgresql)
+# throw-away database (started by the test in a temp dir, never the system's cluster); python3 for
+# the test scripts that read JSON and drive the console over HTTP.
+TEST_PKGS=(chromium slurm-wlm munge postgresql python3)
 if [ "$mode" = test ]; then PKGS+=("${TEST_PKGS[@]}"); fi
 
 missing=()
