@@ -220,6 +220,10 @@ struct RobotLink::Impl {
     const std::uint64_t acked = j["acked_seq"].get<std::uint64_t>();
     {
       std::lock_guard lock(mu);
+      // A robot id the centre knows from an earlier run: this run's seq goes on after what the
+      // centre holds (else its first messages would count as stored already). Nothing is queued
+      // before the first welcome: connect() returns after it.
+      if (stats.connections == 0 && acked >= next_seq) next_seq = acked + 1;
       while (!outbox.empty() && outbox.front().seq <= acked) outbox.pop_front();
       stats.acked_seq = std::max(stats.acked_seq, acked);
       ++stats.connections;

@@ -229,6 +229,20 @@ TEST(RobotLink, CentreKilledAndRestartedResumesFromItsLedger) {
   for (const auto& [seq, n] : ledger.received) EXPECT_EQ(n, 1) << "seq " << seq << " sent " << n << " times";
 }
 
+// A second run of the same robot (a new process: its counter starts afresh) goes on after the
+// centre's acked_seq instead of sending seqs the centre takes for stored.
+TEST(RobotLink, ASecondRunOfTheSameRobotContinuesTheSeq) {
+  Ledger ledger;
+  Centre centre(ledger, {});
+  for (int run = 0; run < 2; ++run) {
+    StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
+    ASSERT_TRUE(link.ok()) << link.status().message();
+    for (int i = 1; i <= 10; ++i) ASSERT_EQ((*link)->send(telemetry(i)).value(), std::uint64_t(10 * run + i));
+    ASSERT_TRUE((*link)->flush(5.0));
+  }
+  expectComplete(ledger, 20);
+}
+
 TEST(RobotLink, ARepeatedCommandIsAnsweredFromTheStoredResultNotExecutedAgain) {
   Ledger ledger;
   CentreOptions opt;
