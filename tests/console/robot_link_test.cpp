@@ -348,6 +348,38 @@ TEST(RobotLink, AFullOutboxDropsTheOldestTelemetryNeverPlans) {
   EXPECT_FALSE((*link)->flush(0.2));
 }
 
+// Plans and command results are never dropped: with the outbox full of them send() waits until
+// the centre acknowledges (here: a restarted centre whose welcome covers what it holds).
+TEST(RobotLink, AFullOutboxOfPlansBlocksTheSenderUntilAcknowledged) {
+  Ledger ledger;
+  CentreOptions mute;
+  mute.ack = false;
+  auto centre = std::make_unique<Centre>(ledger, mute);
+  const unsigned short port = centre->port();
+  LinkOptions o;
+  o.outbox_limit = 3;
+  StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre->url(), hello(), o);
+  ASSERT_TRUE(link.ok());
+  const std::string plan =
+      json{{"type", "plan"}, {"t", 0}, {"reason", "replan"}, {"path", json::array()}, {"labels", json::array()}}.dump();
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE((*link)->send(plan).ok());
+  std::atomic<bool> returned{false};
+  std::thread sender([&] {
+    EXPECT_EQ((*link)->send(plan).value(), 4u);
+    returned = true;
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_FALSE(returned) << "a plan must wait, not be dropped";
+  EXPECT_EQ((*link)->stats().dropped_telemetry, 0u);
+  for (int k = 0; k < 100 && ledger.maxSeq() < 3; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  centre.reset();  // killed; the restarted one answers welcome.acked_seq = 3
+  centre = std::make_unique<Centre>(ledger, CentreOptions{}, port);
+  sender.join();
+  EXPECT_TRUE(returned);
+  ASSERT_TRUE((*link)->flush(5.0));
+  expectComplete(ledger, 4);
+}
+
 TEST(RobotLink, ParseCommandNamesTheField) {
   EXPECT_FALSE(parseCommand("not json").ok());
   EXPECT_FALSE(parseCommand(R"({"type":"command","kind":"pause"})").ok());
