@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
@@ -500,6 +501,57 @@ TEST_F(LiveSimulation, OperatorBlocksPausesResumesAndTheRunArrives) {
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(a["pose"][i].get<double>(), b["pose"][i].get<double>(), 1e-6);
   EXPECT_EQ(last_telemetry["status"], "arrived");
   EXPECT_NEAR(last_telemetry["pose"][0].get<double>(), 21.0, 0.5);
+}
+
+// A goal clicked by the operator, manual driving, release: the robot replans from where it was
+// driven to and arrives at the new goal; the goal command is executed on arrival.
+TEST_F(LiveSimulation, NewGoalManualDriveAndReleaseArriveAtTheOperatorsGoal) {
+  Ledger ledger;
+  CentreOptions opt;
+  int stage = 0;
+  opt.react = [&](const json& m) -> std::vector<json> {
+    if (m["type"] != "telemetry") return {};
+    const double t = m["t"].get<double>();
+    if (stage == 0 && t >= 1.0) {
+      ++stage;
+      json g = command(1, "goal");
+      g["goal"] = {0, 12, 1.6};
+      return {g};
+    }
+    if (stage == 1 && t >= 2.0) {
+      ++stage;
+      json v = command(2, "manual");
+      v["velocity"] = {0.5, 0.3, 0};
+      return {v};
+    }
+    if (stage == 2 && t >= 6.0) return ++stage, std::vector<json>{command(3, "release")};
+    return {};
+  };
+  Centre centre(ledger, opt);
+  ASSERT_EQ(simulate(centre.url(), "--live-speed 40"), 0) << std::ifstream(dir_ + "/stderr.txt").rdbuf();
+  json run;
+  std::ifstream(dir_ + "/run.json") >> run;
+  EXPECT_EQ(run["outcome"], "arrived");
+  EXPECT_LT(run["final_goal_distance"].get<double>(), 0.5);
+  std::lock_guard lock(ledger.mu);
+  std::vector<std::string> plans, results, statuses;
+  json last;
+  for (const auto& [seq, m] : ledger.stored) {
+    if (m["type"] == "plan") plans.push_back(m["reason"]);
+    if (m["type"] == "command_result")
+      results.push_back(std::to_string(m["command_id"].get<int>()) + ":" + m["result"].get<std::string>());
+    if (m["type"] == "telemetry") {
+      last = m;
+      if (statuses.empty() || statuses.back() != m["status"]) statuses.push_back(m["status"]);
+    }
+  }
+  EXPECT_EQ(plans, (std::vector<std::string>{"initial", "goal", "replan"}));
+  EXPECT_EQ(results, (std::vector<std::string>{"1:accepted", "2:accepted", "2:executed", "3:accepted", "3:executed",
+                                               "1:executed"}));
+  EXPECT_NE(std::find(statuses.begin(), statuses.end(), "manual"), statuses.end());
+  EXPECT_NE(std::find(statuses.begin(), statuses.end(), "replanning"), statuses.end());
+  EXPECT_EQ(last["status"], "arrived");
+  EXPECT_EQ(last["goal"], json({0, 12, 1.6}));
 }
 
 TEST_F(LiveSimulation, NoConsoleIsExitTwoAndAGoalInRockIsRefused) {
