@@ -444,114 +444,100 @@ seed: 1
   std::string dir_;
 };
 
-json command(int id, const std::string& kind) {
-  return json{{"type", "command"}, {"command_id", id}, {"kind", kind}, {"operator", "alice"}};
+json command(int id, const std::string& kind, const char* field = nullptr, const json& value = nullptr) {
+  json c{{"type", "command"}, {"command_id", id}, {"kind", kind}, {"operator", "alice"}};
+  if (field) c[field] = value;
+  return c;
+}
+
+// The operator's script: each command is sent once the robot's telemetry reaches its time.
+CentreOptions scripted(std::vector<std::pair<double, json>> script) {
+  CentreOptions opt;
+  auto next = std::make_shared<std::size_t>(0);
+  opt.react = [script = std::move(script), next](const json& m) -> std::vector<json> {
+    if (m["type"] != "telemetry" || *next >= script.size() || m["t"].get<double>() < script[*next].first) return {};
+    return {script[(*next)++].second};
+  };
+  return opt;
+}
+
+// What the centre stored, in seq order: plan reasons, "id:result" of the command results, the
+// telemetry and its status changes.
+struct Transcript {
+  std::vector<std::string> plans, results, statuses;
+  std::vector<json> telemetry;
+};
+
+Transcript transcript(Ledger& l) {
+  std::lock_guard lock(l.mu);
+  Transcript tr;
+  for (const auto& [seq, m] : l.stored) {
+    if (m["type"] == "plan") tr.plans.push_back(m["reason"]);
+    if (m["type"] == "command_result")
+      tr.results.push_back(std::to_string(m["command_id"].get<int>()) + ":" + m["result"].get<std::string>());
+    if (m["type"] == "telemetry") {
+      tr.telemetry.push_back(m);
+      if (tr.statuses.empty() || tr.statuses.back() != m["status"]) tr.statuses.push_back(m["status"]);
+    }
+  }
+  return tr;
 }
 
 TEST_F(LiveSimulation, OperatorBlocksPausesResumesAndTheRunArrives) {
   Ledger ledger;
-  CentreOptions opt;
-  int stage = 0;
-  opt.react = [&](const json& m) -> std::vector<json> {
-    if (m["type"] != "telemetry") return {};
-    const double t = m["t"].get<double>();
-    if (stage == 0 && t >= 1.0) {
-      ++stage;
-      json b = command(1, "block");
-      b["roadway"] = "south";
-      return {b};
-    }
-    if (stage == 1 && t >= 4.0) return ++stage, std::vector<json>{command(2, "pause")};
-    if (stage == 2 && t >= 8.0) return ++stage, std::vector<json>{command(3, "resume")};
-    return {};
-  };
-  Centre centre(ledger, opt);
+  Centre centre(ledger, scripted({{1.0, command(1, "block", "roadway", "south")},
+                                  {4.0, command(2, "pause")},
+                                  {8.0, command(3, "resume")}}));
   ASSERT_EQ(simulate(centre.url(), "--robot-id r1 --live-speed 40"), 0) << std::ifstream(dir_ + "/stderr.txt").rdbuf();
   json run;
   std::ifstream(dir_ + "/run.json") >> run;
   EXPECT_EQ(run["outcome"], "arrived");
-
-  std::lock_guard lock(ledger.mu);
-  ASSERT_FALSE(ledger.stored.empty());
-  EXPECT_EQ(ledger.stored.rbegin()->first, ledger.stored.size()) << "seq 1..N, none lost";
-  for (const auto& [seq, n] : ledger.received) EXPECT_EQ(n, 1) << seq;
-  const json& first = ledger.stored.begin()->second;
-  EXPECT_EQ(first["type"], "plan");
-  EXPECT_EQ(first["reason"], "initial");
-  EXPECT_EQ(first["robot"], "r1");
-  std::vector<std::string> plans, results;
-  std::vector<json> paused;
-  json last_telemetry;
-  for (const auto& [seq, m] : ledger.stored) {
-    if (m["type"] == "plan") plans.push_back(m["reason"]);
-    if (m["type"] == "command_result")
-      results.push_back(std::to_string(m["command_id"].get<int>()) + ":" + m["result"].get<std::string>());
-    if (m["type"] == "telemetry") {
-      last_telemetry = m;
-      if (m["status"] == "paused") paused.push_back(m);
-    }
+  {
+    std::lock_guard lock(ledger.mu);
+    ASSERT_FALSE(ledger.stored.empty());
+    EXPECT_EQ(ledger.stored.rbegin()->first, ledger.stored.size()) << "seq 1..N, none lost";
+    for (const auto& [seq, n] : ledger.received) EXPECT_EQ(n, 1) << seq;
+    const json& first = ledger.stored.begin()->second;
+    EXPECT_EQ(first["type"], "plan");
+    EXPECT_EQ(first["reason"], "initial");
+    EXPECT_EQ(first["robot"], "r1");
   }
-  EXPECT_EQ(plans.at(1), "blocked");
-  EXPECT_EQ(results, (std::vector<std::string>{"1:accepted", "1:executed", "2:accepted", "2:executed", "3:accepted",
-                                               "3:executed"}));
+  const Transcript tr = transcript(ledger);
+  EXPECT_EQ(tr.plans.at(1), "blocked");
+  EXPECT_EQ(tr.results, (std::vector<std::string>{"1:accepted", "1:executed", "2:accepted", "2:executed", "3:accepted",
+                                                  "3:executed"}));
+  std::vector<json> paused;
+  for (const json& m : tr.telemetry)
+    if (m["status"] == "paused") paused.push_back(m);
   ASSERT_GT(paused.size(), 10u);  // 4 s of pause at 0.1 s
   // Held: once braked, the paused robot does not move.
   const json& a = paused[paused.size() / 2];
   const json& b = paused.back();
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(a["pose"][i].get<double>(), b["pose"][i].get<double>(), 1e-6);
-  EXPECT_EQ(last_telemetry["status"], "arrived");
-  EXPECT_NEAR(last_telemetry["pose"][0].get<double>(), 21.0, 0.5);
+  EXPECT_EQ(tr.telemetry.back()["status"], "arrived");
+  EXPECT_NEAR(tr.telemetry.back()["pose"][0].get<double>(), 21.0, 0.5);
 }
 
 // A goal clicked by the operator, manual driving, release: the robot replans from where it was
 // driven to and arrives at the new goal; the goal command is executed on arrival.
 TEST_F(LiveSimulation, NewGoalManualDriveAndReleaseArriveAtTheOperatorsGoal) {
   Ledger ledger;
-  CentreOptions opt;
-  int stage = 0;
-  opt.react = [&](const json& m) -> std::vector<json> {
-    if (m["type"] != "telemetry") return {};
-    const double t = m["t"].get<double>();
-    if (stage == 0 && t >= 1.0) {
-      ++stage;
-      json g = command(1, "goal");
-      g["goal"] = {0, 12, 1.6};
-      return {g};
-    }
-    if (stage == 1 && t >= 2.0) {
-      ++stage;
-      json v = command(2, "manual");
-      v["velocity"] = {0.5, 0.3, 0};
-      return {v};
-    }
-    if (stage == 2 && t >= 6.0) return ++stage, std::vector<json>{command(3, "release")};
-    return {};
-  };
-  Centre centre(ledger, opt);
+  Centre centre(ledger, scripted({{1.0, command(1, "goal", "goal", {0, 12, 1.6})},
+                                  {2.0, command(2, "manual", "velocity", {0.5, 0.3, 0})},
+                                  {6.0, command(3, "release")}}));
   ASSERT_EQ(simulate(centre.url(), "--live-speed 40"), 0) << std::ifstream(dir_ + "/stderr.txt").rdbuf();
   json run;
   std::ifstream(dir_ + "/run.json") >> run;
   EXPECT_EQ(run["outcome"], "arrived");
   EXPECT_LT(run["final_goal_distance"].get<double>(), 0.5);
-  std::lock_guard lock(ledger.mu);
-  std::vector<std::string> plans, results, statuses;
-  json last;
-  for (const auto& [seq, m] : ledger.stored) {
-    if (m["type"] == "plan") plans.push_back(m["reason"]);
-    if (m["type"] == "command_result")
-      results.push_back(std::to_string(m["command_id"].get<int>()) + ":" + m["result"].get<std::string>());
-    if (m["type"] == "telemetry") {
-      last = m;
-      if (statuses.empty() || statuses.back() != m["status"]) statuses.push_back(m["status"]);
-    }
-  }
-  EXPECT_EQ(plans, (std::vector<std::string>{"initial", "goal", "replan"}));
-  EXPECT_EQ(results, (std::vector<std::string>{"1:accepted", "2:accepted", "2:executed", "3:accepted", "3:executed",
-                                               "1:executed"}));
-  EXPECT_NE(std::find(statuses.begin(), statuses.end(), "manual"), statuses.end());
-  EXPECT_NE(std::find(statuses.begin(), statuses.end(), "replanning"), statuses.end());
-  EXPECT_EQ(last["status"], "arrived");
-  EXPECT_EQ(last["goal"], json({0, 12, 1.6}));
+  const Transcript tr = transcript(ledger);
+  EXPECT_EQ(tr.plans, (std::vector<std::string>{"initial", "goal", "replan"}));
+  EXPECT_EQ(tr.results, (std::vector<std::string>{"1:accepted", "2:accepted", "2:executed", "3:accepted", "3:executed",
+                                                  "1:executed"}));
+  EXPECT_NE(std::find(tr.statuses.begin(), tr.statuses.end(), "manual"), tr.statuses.end());
+  EXPECT_NE(std::find(tr.statuses.begin(), tr.statuses.end(), "replanning"), tr.statuses.end());
+  EXPECT_EQ(tr.telemetry.back()["status"], "arrived");
+  EXPECT_EQ(tr.telemetry.back()["goal"], json({0, 12, 1.6}));
 }
 
 TEST_F(LiveSimulation, NoConsoleIsExitTwoAndAGoalInRockIsRefused) {
@@ -565,9 +551,7 @@ TEST_F(LiveSimulation, NoConsoleIsExitTwoAndAGoalInRockIsRefused) {
   EXPECT_EQ(simulate("http://127.0.0.1:1"), 2);
 
   CentreOptions opt;
-  json g = command(5, "goal");
-  g["goal"] = {12, 8, 1.6};  // inside the loop: rock
-  opt.commands = {g};
+  opt.commands = {command(5, "goal", "goal", {12, 8, 1.6})};  // inside the loop: rock
   Centre centre(ledger, opt);
   ASSERT_EQ(simulate(centre.url()), 0);
   std::lock_guard lock(ledger.mu);
