@@ -381,9 +381,11 @@ StatusOr<std::unique_ptr<RobotLink>> RobotLink::connect(const std::string& url, 
   net::post(m.ioc, [&m] { m.startConnect(); });
   std::unique_lock lock(m.mu);
   const bool done = m.cv.wait_for(lock, std::chrono::duration<double>(options.connect_timeout_s), [&] { return m.first_done; });
-  if (!done)
-    return failedPrecondition("no console at " + url + " (" + m.stats.last_error + ") within " +
-                              std::to_string(options.connect_timeout_s) + " s");
+  if (!done) {
+    char within[32];
+    std::snprintf(within, sizeof within, "%.1f s", options.connect_timeout_s);
+    return failedPrecondition("no console at " + url + " (" + m.stats.last_error + ") within " + within);
+  }
   if (!m.first_status.ok()) return m.first_status;
   lock.unlock();
   return link;
