@@ -21,6 +21,7 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <thread>
 
 #include "adit/console/robot_link.hpp"
@@ -538,6 +539,51 @@ TEST_F(LiveSimulation, NewGoalManualDriveAndReleaseArriveAtTheOperatorsGoal) {
   EXPECT_NE(std::find(tr.statuses.begin(), tr.statuses.end(), "replanning"), tr.statuses.end());
   EXPECT_EQ(tr.telemetry.back()["status"], "arrived");
   EXPECT_EQ(tr.telemetry.back()["goal"], json({0, 12, 1.6}));
+}
+
+// A roof fall on the south roadway: the console gets the event, the rock the robot senses of it
+// (voxel centres, each once) and the replanned path round the loop.
+TEST_F(LiveSimulation, ARoofFallReachesTheConsoleAsEventRockAndReplan) {
+  std::ofstream(dir_ + "/loop_run.yaml", std::ios::app) << "events:\n  - {t: 3, type: roof_fall, center: [14, 0, 1.6], radius: 3}\n";
+  Ledger ledger;
+  Centre centre(ledger, {});
+  ASSERT_EQ(simulate(centre.url(), "--live-speed 0 --live-period 0.5"), 0) << std::ifstream(dir_ + "/stderr.txt").rdbuf();
+  std::lock_guard lock(ledger.mu);
+  std::vector<std::string> types;
+  std::set<std::vector<double>> rock;
+  double last_t = -1.0;
+  int telemetry = 0;
+  for (const auto& [seq, m] : ledger.stored) {
+    if (types.empty() || types.back() != m["type"]) types.push_back(m["type"]);
+    if (m["type"] == "event") {
+      EXPECT_EQ(m["kind"], "roof_fall");
+      EXPECT_EQ(m["center"], json({14, 0, 1.6}));
+      EXPECT_EQ(m["radius"], 3.0);
+    }
+    if (m["type"] == "obstacles")
+      for (const json& p : m["rock"]) {
+        const std::vector<double> v = p.get<std::vector<double>>();
+        EXPECT_TRUE(rock.insert(v).second) << "rock voxel sent twice";
+        EXPECT_NEAR((map::Vec3(v[0], v[1], v[2]) - map::Vec3(14, 0, 1.6)).norm(), 3.0, 0.5) << "on the fall's surface";
+      }
+    if (m["type"] == "telemetry") {
+      ++telemetry;
+      EXPECT_GE(m["t"].get<double>(), last_t);
+      last_t = m["t"].get<double>();
+    }
+  }
+  EXPECT_EQ(types.at(0), "plan");
+  const auto event = std::find(types.begin(), types.end(), "event");
+  ASSERT_NE(event, types.end());
+  EXPECT_LT(event - types.begin(), std::find(types.begin(), types.end(), "obstacles") - types.begin())
+      << "the fall is announced before its rock";
+  EXPECT_GT(rock.size(), 20u);
+  bool replanned = false;
+  for (const auto& [seq, m] : ledger.stored) replanned = replanned || (m["type"] == "plan" && m["reason"] == "replan");
+  EXPECT_TRUE(replanned);
+  // Every 0.5 s of mission time, plus a message on each status change (at most one a period).
+  EXPECT_GT(telemetry, int(last_t / 0.5));
+  EXPECT_LE(telemetry, int(last_t / 0.1) + 2);
 }
 
 TEST_F(LiveSimulation, NoConsoleIsExitTwoAndAGoalInRockIsRefused) {
