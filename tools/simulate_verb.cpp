@@ -253,9 +253,6 @@ class LiveConsole final : public fusion::NavigatedObserver {
 
 // Connects the live link before the run; a console that is not there is bad input (exit 2).
 StatusOr<std::unique_ptr<console::RobotLink>> connectLive(const SimulateArgs& a, const Scenario& sc) {
-  if (!(a.live_speed >= 0.0) || !std::isfinite(a.live_speed))
-    return invalidArgument("--live-speed must be >= 0 (1 real time, 0 as fast as possible)");
-  if (!(a.live_period > 0.0) || !std::isfinite(a.live_period)) return invalidArgument("--live-period must be > 0 s");
   if (!sc.map_path) return invalidArgument(sc.file + ": --live needs a scenario with a map (the console shows it)");
   console::RobotHello hello;
   hello.robot = a.robot_id;
@@ -509,6 +506,10 @@ int run(const SimulateArgs& a) {
   }
   if (!a.html.empty() && (a.html.size() < 5 || a.html.substr(a.html.size() - 5) != ".html"))
     return report(invalidArgument(a.html + ": --html must end in .html"));
+  if (!(a.live_speed >= 0.0) || !std::isfinite(a.live_speed))
+    return report(invalidArgument("--live-speed must be >= 0 (1 real time, 0 as fast as possible)"));
+  if (!(a.live_period > 0.0) || !std::isfinite(a.live_period))
+    return report(invalidArgument("--live-period must be > 0 s"));
   StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
   if (!sc.ok()) return report(sc.status());
   if (!a.quiet)

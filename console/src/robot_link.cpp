@@ -220,6 +220,10 @@ struct RobotLink::Impl {
     const std::uint64_t acked = j["acked_seq"].get<std::uint64_t>();
     {
       std::lock_guard lock(mu);
+      // A robot id the centre knows from an earlier run: this run's seq goes on after what the
+      // centre holds (else its first messages would count as stored already). Nothing is queued
+      // before the first welcome: connect() returns after it.
+      if (stats.connections == 0 && acked >= next_seq) next_seq = acked + 1;
       while (!outbox.empty() && outbox.front().seq <= acked) outbox.pop_front();
       stats.acked_seq = std::max(stats.acked_seq, acked);
       ++stats.connections;
@@ -377,9 +381,11 @@ StatusOr<std::unique_ptr<RobotLink>> RobotLink::connect(const std::string& url, 
   net::post(m.ioc, [&m] { m.startConnect(); });
   std::unique_lock lock(m.mu);
   const bool done = m.cv.wait_for(lock, std::chrono::duration<double>(options.connect_timeout_s), [&] { return m.first_done; });
-  if (!done)
-    return failedPrecondition("no console at " + url + " (" + m.stats.last_error + ") within " +
-                              std::to_string(options.connect_timeout_s) + " s");
+  if (!done) {
+    char within[32];
+    std::snprintf(within, sizeof within, "%.1f s", options.connect_timeout_s);
+    return failedPrecondition("no console at " + url + " (" + m.stats.last_error + ") within " + within);
+  }
   if (!m.first_status.ok()) return m.first_status;
   lock.unlock();
   return link;

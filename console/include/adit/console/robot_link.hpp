@@ -6,7 +6,9 @@
 ///
 /// - says `hello` (robot id, map name, map hash, radius) on every connection and reads `welcome`;
 /// - numbers every message it sends with the robot's `seq` (1, 2, 3, ... for the link's life,
-///   never reused) and keeps it in an outbox until the centre's `ack`; after a reconnect it
+///   never reused; a robot id the centre already holds messages of, from an earlier run, goes on
+///   after the first welcome's acked_seq) and keeps it in an outbox until the centre's `ack`;
+///   after a reconnect it
 ///   drops what `welcome.acked_seq` covers and resends the rest in order, so nothing is lost and
 ///   the centre, which stores each (robot, seq) once, duplicates nothing;
 /// - reconnects with a backoff (0.1 s doubling to 2 s) whenever the connection drops;
