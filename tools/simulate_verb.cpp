@@ -64,6 +64,7 @@ struct SimulateArgs {
   std::string live;
   double live_speed = 1.0;
   double live_period = 0.1;
+  double live_flush = 30.0;
   std::string robot_id;
 };
 
@@ -510,6 +511,8 @@ int run(const SimulateArgs& a) {
     return report(invalidArgument("--live-speed must be >= 0 (1 real time, 0 as fast as possible)"));
   if (!(a.live_period > 0.0) || !std::isfinite(a.live_period))
     return report(invalidArgument("--live-period must be > 0 s"));
+  if (!(a.live_flush >= 0.0) || !std::isfinite(a.live_flush))
+    return report(invalidArgument("--live-flush must be >= 0 s"));
   StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
   if (!sc.ok()) return report(sc.status());
   if (!a.quiet)
@@ -521,6 +524,7 @@ int run(const SimulateArgs& a) {
   StatusOr<SimulationResult> r = internalError("not run");
   std::unique_ptr<console::RobotLink> link;
   std::optional<LiveConsole> live;
+  bool live_lost = false;
   if (!a.live.empty()) {
     StatusOr<std::unique_ptr<console::RobotLink>> l = connectLive(a, *sc);
     if (!l.ok()) return report(l.status());
@@ -535,10 +539,12 @@ int run(const SimulateArgs& a) {
     if (live) options.observer = &*live;
     StatusOr<fusion::NavigatedRun> n = fusion::simulateNavigated(*sc, *env, options);
     if (link) {
-      // Bounded wait for the centre to acknowledge everything (the run's end included).
-      if (!link->flush(5.0) && !a.quiet)
-        std::fprintf(stderr, "adit: live: %zu messages not acknowledged after 5 s (%s)\n", link->stats().outbox,
-                     link->stats().last_error.c_str());
+      // Bounded wait for the centre to acknowledge everything (the run's end included). What is
+      // not acknowledged then is lost with this process: the run fails (exit 1), saying so.
+      live_lost = !link->flush(a.live_flush);
+      if (live_lost)
+        std::fprintf(stderr, "adit: live: %zu messages not acknowledged after %.0f s, lost (%s)\n", link->stats().outbox,
+                     a.live_flush, link->stats().last_error.c_str());
       else if (!a.quiet)
         std::fprintf(stderr, "adit: live: %llu messages acknowledged, %llu reconnections\n",
                      static_cast<unsigned long long>(link->stats().acked_seq),
@@ -581,7 +587,7 @@ int run(const SimulateArgs& a) {
       std::fprintf(stderr, ", %d sub-goal periods (mean %.0f us)", r->subgoals.periods, r->subgoals.time_mean_us);
     std::fputc('\n', stderr);
   }
-  return r->arrived() ? kExitOk : kExitFailure;
+  return r->arrived() && !live_lost ? kExitOk : kExitFailure;
 }
 
 // --- `adit simulate --batch N`: randomized navigated runs on one map (issue 8) ---------------
@@ -712,6 +718,9 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
                   "events; the operator's commands steer the run. No console reachable: exit 2");
   cmd->add_option("--live-speed", args->live_speed, "With --live: times real time (1 default, 0 as fast as possible)");
   cmd->add_option("--live-period", args->live_period, "With --live: telemetry period of mission time [s] (default 0.1)");
+  cmd->add_option("--live-flush", args->live_flush,
+                  "With --live: how long the run waits at its end for the console to acknowledge every message "
+                  "(default 30 s); unacknowledged messages are lost: exit 1");
   cmd->add_option("--robot-id", args->robot_id, "With --live: the robot's id (default: the scenario file's stem)");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   cmd->callback([args, rc, cmd] {

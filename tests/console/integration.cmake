@@ -3,7 +3,8 @@
 # `adit simulate --live` as child processes on maps/scenarios/district_rescue.yaml, checked
 # through the HTTP API by tests/console/integration_e2e.py (python3 stdlib): the run undisturbed,
 # the server killed (SIGKILL) and restarted mid-run, the robot's connection cut by a TCP proxy,
-# operator commands (a goal in rock refused, a block that makes the robot replan), and the kill
+# operator commands (a goal in rock refused, a block that makes the robot replan), the server
+# killed for good (the run says what it lost and exits 1), and the kill
 # with PostgreSQL (a throw-away server, only where initdb/pg_ctl exist). Telemetry every 0.5 s of
 # mission time: about 700 messages per test.
 find_package(Python3 COMPONENTS Interpreter)
@@ -13,10 +14,10 @@ if(TARGET adit AND Python3_Interpreter_FOUND)
            --scenario ${PROJECT_SOURCE_DIR}/maps/scenarios/district_rescue.yaml --live-period 0.5)
   set(_e2e_dir ${CMAKE_CURRENT_BINARY_DIR}/console_e2e)
   # fault;database;live speed (0: as fast as it goes). A kill needs the run to outlast the
-  # restart (about 3 s to load the map) plus the robot's 5 s flush at the end: 30x gives 10 s
+  # restart (about 3 s to load the map): 30x gives 10 s
   # of driving. The block must reach the robot before it is in crosscut-90 (t < 30 s of mission
   # time).
-  foreach(spec "none;sqlite;0" "kill;sqlite;30" "drop;sqlite;40" "commands;sqlite;20")
+  foreach(spec "none;sqlite;0" "kill;sqlite;30" "drop;sqlite;40" "commands;sqlite;20" "gone;sqlite;30")
     list(GET spec 0 fault)
     list(GET spec 1 db)
     list(GET spec 2 speed)

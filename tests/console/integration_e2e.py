@@ -252,7 +252,8 @@ def run(args):
     t0 = time.monotonic()
     sim = subprocess.Popen(
         [args.adit, "simulate", args.scenario, "--live", "ws://127.0.0.1:%d" % live_port,
-         "--live-speed", str(args.live_speed), "--live-period", str(args.live_period), "--robot-id", robot, "--out", run_json],
+         "--live-speed", str(args.live_speed), "--live-period", str(args.live_period), "--robot-id", robot, "--out", run_json]
+        + (["--live-flush", "1"] if args.fault == "gone" else []),
         stdout=subprocess.DEVNULL, stderr=sim_log)
     sim_log.close()
     try:
@@ -270,6 +271,22 @@ def run(args):
             checks.append("fault after seq %d" % before)
         if args.fault == "commands":
             checks += operator_commands(server, robot)
+        if args.fault == "gone":
+            # The centre dies for good mid-run: what it never acknowledged is lost with the robot's
+            # process, and the run must say so and fail (exit 1), not end as a success.
+            wait_for(lambda: last_seq(server, robot)[0] >= 40, 60, "the first 40 messages")
+            server.stop(signal.SIGKILL)
+            rc = sim.wait(timeout=args.timeout)
+            with open(sim_log_path, encoding="utf-8", errors="replace") as f:
+                sim_text = f.read()
+            check(rc == 1, "adit simulate exited with %d after losing its console:\n%s" % (rc, sim_text[-2000:]))
+            check(re.search(r"live: \d+ messages not acknowledged after 1 s, lost", sim_text),
+                  "adit simulate did not say what it lost:\n" + sim_text[-2000:])
+            server.start()  # what was stored before the kill is a gapless prefix
+            n = seqs_gapless(history(server, robot), robot)
+            server.stop(signal.SIGTERM)
+            print("gone: exit 1, %d messages stored before the kill, the rest reported lost" % n)
+            return
         rc = sim.wait(timeout=args.timeout)
     finally:
         if sim.poll() is None:
@@ -369,7 +386,7 @@ def main():
     p.add_argument("--adit", required=True)
     p.add_argument("--map", required=True)
     p.add_argument("--scenario", required=True)
-    p.add_argument("--fault", choices=["none", "kill", "restart", "drop", "commands"], default="none")
+    p.add_argument("--fault", choices=["none", "kill", "restart", "drop", "commands", "gone"], default="none")
     p.add_argument("--db", choices=["sqlite", "sqlite-normal", "postgresql"], default="sqlite")
     p.add_argument("--pg-state", help="the postgres_fixture.sh state dir (with --db postgresql)")
     p.add_argument("--live-speed", type=float, default=0.0)
