@@ -101,15 +101,6 @@ class PostgresStore final : public Store, private MigrationTarget {
     });
   }
 
-  StatusOr<bool> appendMessage(const RobotMessage& m) override {
-    ADIT_ASSIGN_OR_RETURN(std::size_t fresh, appendBatch(&m, 1));
-    return fresh > 0;
-  }
-
-  StatusOr<std::size_t> appendMessages(const std::vector<RobotMessage>& messages) override {
-    return appendBatch(messages.data(), messages.size());
-  }
-
   StatusOr<std::int64_t> lastSeq(const std::string& robot) override {
     return guard("cannot read the last seq of robot '" + robot + "'", [&]() -> StatusOr<std::int64_t> {
       pqxx::read_transaction txn(*conn_);
@@ -237,7 +228,7 @@ class PostgresStore final : public Store, private MigrationTarget {
   }
   bool isPostgres() const override { return true; }
 
-  StatusOr<std::size_t> appendBatch(const RobotMessage* messages, std::size_t count) {
+  StatusOr<std::size_t> appendBatch(const RobotMessage* messages, std::size_t count) override {
     for (std::size_t i = 0; i < count; ++i) ADIT_RETURN_IF_ERROR(checkMessage(messages[i], where_));
     if (count == 0) return std::size_t{0};
     return guard("cannot store " + batchName(messages, count), [&]() -> StatusOr<std::size_t> {

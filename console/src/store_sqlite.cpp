@@ -128,15 +128,6 @@ class SqliteStore final : public Store, private MigrationTarget {
     return std::optional<RobotRecord>(std::move(out.front()));
   }
 
-  StatusOr<bool> appendMessage(const RobotMessage& m) override {
-    ADIT_ASSIGN_OR_RETURN(std::size_t fresh, appendBatch(&m, 1));
-    return fresh > 0;
-  }
-
-  StatusOr<std::size_t> appendMessages(const std::vector<RobotMessage>& messages) override {
-    return appendBatch(messages.data(), messages.size());
-  }
-
   StatusOr<std::int64_t> lastSeq(const std::string& robot) override {
     Use u(last_seq_);
     u.bind(1, robot);
@@ -241,7 +232,7 @@ class SqliteStore final : public Store, private MigrationTarget {
   }
   bool isPostgres() const override { return false; }
 
-  StatusOr<std::size_t> appendBatch(const RobotMessage* messages, std::size_t count) {
+  StatusOr<std::size_t> appendBatch(const RobotMessage* messages, std::size_t count) override {
     for (std::size_t i = 0; i < count; ++i) ADIT_RETURN_IF_ERROR(checkMessage(messages[i], where_));
     if (count == 0) return std::size_t{0};
     const std::string what = "cannot store " + batchName(messages, count);

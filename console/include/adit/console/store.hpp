@@ -88,14 +88,19 @@ class Store {
   /// nothing, when (robot, seq) is stored already. (PostgreSQL: a call that lost its connection
   /// during COMMIT retries on a new one, and may then answer false for the message its first
   /// attempt stored; either way the message is stored, so the server acknowledges it.)
-  virtual StatusOr<bool> appendMessage(const RobotMessage& message) = 0;
+  StatusOr<bool> appendMessage(const RobotMessage& message) {
+    ADIT_ASSIGN_OR_RETURN(std::size_t fresh, appendBatch(&message, 1));
+    return fresh > 0;
+  }
   /// Stores several messages in ONE transaction (one disk flush instead of one per message),
   /// each at most once per (robot, seq); returns how many were new. All or nothing: a message
   /// that fails its checks refuses the whole batch, and nothing of it is stored.
   /// Durability, both backends: once appendMessage/appendMessages returned, the messages
   /// survive a killed process and a power cut (SQLite: WAL + synchronous=FULL; PostgreSQL:
   /// synchronous_commit=on), so the server may acknowledge them.
-  virtual StatusOr<std::size_t> appendMessages(const std::vector<RobotMessage>& messages) = 0;
+  StatusOr<std::size_t> appendMessages(const std::vector<RobotMessage>& messages) {
+    return appendBatch(messages.data(), messages.size());
+  }
   /// Highest stored seq of the robot, 0 when none.
   virtual StatusOr<std::int64_t> lastSeq(const std::string& robot) = 0;
   /// Messages of `robot` with seq >= from_seq, in seq order, at most `limit`.
@@ -116,6 +121,10 @@ class Store {
   virtual StatusOr<std::vector<Command>> commands(const std::string& robot, std::size_t limit) = 0;
   /// Commands of the robot still pending or sent (to resend after its hello), oldest first.
   virtual StatusOr<std::vector<Command>> unansweredCommands(const std::string& robot) = 0;
+
+ protected:
+  /// The backends' one way to store: `count` messages in one transaction (see appendMessages).
+  virtual StatusOr<std::size_t> appendBatch(const RobotMessage* messages, std::size_t count) = 0;
 };
 
 }  // namespace adit::console
