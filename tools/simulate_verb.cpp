@@ -65,6 +65,8 @@ struct SimulateArgs {
   double live_speed = 1.0;
   double live_period = 0.1;
   double live_flush = 30.0;
+  bool live_hold = false;
+  bool live_lockstep = false;
   std::string robot_id;
 };
 
@@ -77,10 +79,28 @@ Json vecJson(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 // newly sensed rock and the tracks, roof falls; the operator's commands are executed between
 // periods through the Navigator's operator API and answered with command_result. Paced to
 // --live-speed times real time (0: as fast as it goes).
+//
+// --live-hold: the robot waits at its start, paused, until the operator resumes it (a robot set
+// down at a portal waits for the go); what the operator sends meanwhile (a goal, a block) acts
+// before its first step. --live-lockstep: after each period's messages the run waits until the
+// console has acknowledged them, so it never gets ahead of the console, and a command the
+// console sends before its acknowledgement acts in the very next period whatever the machine's
+// load (scripted operators, tests); the wait is bounded by --live-flush, after which the run goes
+// on unlocked, saying so.
+struct LiveOptions {
+  double speed = 1.0;
+  double period_s = 0.1;
+  bool hold = false;
+  bool lockstep = false;
+  double lockstep_timeout_s = 30.0;
+  bool quiet = false;
+};
+
 class LiveConsole final : public fusion::NavigatedObserver {
  public:
-  LiveConsole(console::RobotLink& link, double dt_s, double speed, double period_s, bool quiet)
-      : link_(link), dt_(dt_s), speed_(speed), period_(period_s), quiet_(quiet) {}
+  LiveConsole(console::RobotLink& link, double dt_s, const LiveOptions& o)
+      : link_(link), dt_(dt_s), speed_(o.speed), period_(o.period_s), quiet_(o.quiet), hold_(o.hold),
+        lockstep_(o.lockstep), lockstep_timeout_s_(o.lockstep_timeout_s) {}
 
   void started(const fusion::Navigator& nav, const map::Polyline& path) override {
     nav.read([&](const map::OccupancyMap& m, const map::DistanceField&) { resolution_ = m.resolution(); });
@@ -88,7 +108,11 @@ class LiveConsole final : public fusion::NavigatedObserver {
     sendPlan(0.0, path, "initial");
   }
 
-  void beforeCycle(double t_s, fusion::Navigator& nav, const local::RobotState&) override {
+  void beforeCycle(double t_s, fusion::Navigator& nav, const local::RobotState& state) override {
+    if (hold_) {
+      hold_ = false;
+      holdUntilResumed(t_s, nav, state);
+    }
     for (const console::ReceivedCommand& c : link_.pollCommands()) execute(t_s, nav, c);
   }
 
@@ -118,6 +142,7 @@ class LiveConsole final : public fusion::NavigatedObserver {
       while (next_telemetry_ <= t + 1e-9) next_telemetry_ += period_;
     }
     last_status_ = status;
+    if (lockstep_) awaitAcknowledgement(t);
     pace(t);
   }
 
@@ -233,6 +258,28 @@ class LiveConsole final : public fusion::NavigatedObserver {
     }
   }
 
+  // --live-hold: paused at the start, the operator's commands executed as they come, until one
+  // of them is a resume. Waits for a person, so it polls without a deadline (Ctrl-C ends it).
+  void holdUntilResumed(double t, fusion::Navigator& nav, const local::RobotState& state) {
+    nav.pause();
+    sendTelemetry(t, nav, state, "paused", std::nullopt, std::numeric_limits<double>::infinity());
+    if (!quiet_) std::fprintf(stderr, "adit: live: holding at the start until the operator resumes\n");
+    while (nav.paused()) {
+      for (const console::ReceivedCommand& c : link_.pollCommands()) execute(t, nav, c);
+      if (nav.paused()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    wall0_ = std::chrono::steady_clock::now() - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                     std::chrono::duration<double>(speed_ > 0.0 ? t / speed_ : 0.0));
+  }
+
+  void awaitAcknowledgement(double t) {
+    if (link_.flush(lockstep_timeout_s_)) return;
+    lockstep_ = false;
+    if (!quiet_)
+      std::fprintf(stderr, "adit: live: t = %.1f s: the console acknowledged nothing for %.0f s; lockstep off\n", t,
+                   lockstep_timeout_s_);
+  }
+
   void pace(double t) {
     if (speed_ <= 0.0) return;
     std::this_thread::sleep_until(wall0_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -241,7 +288,8 @@ class LiveConsole final : public fusion::NavigatedObserver {
 
   console::RobotLink& link_;
   double dt_, speed_, period_;
-  bool quiet_;
+  bool quiet_, hold_, lockstep_;
+  double lockstep_timeout_s_;
   double resolution_ = 0.2;
   std::chrono::steady_clock::time_point wall0_ = std::chrono::steady_clock::now();
   double next_telemetry_ = 0.0;
@@ -513,6 +561,8 @@ int run(const SimulateArgs& a) {
     return report(invalidArgument("--live-period must be > 0 s"));
   if (!(a.live_flush >= 0.0) || !std::isfinite(a.live_flush))
     return report(invalidArgument("--live-flush must be >= 0 s"));
+  if ((a.live_hold || a.live_lockstep) && a.live.empty())
+    return report(invalidArgument(std::string(a.live_hold ? "--live-hold" : "--live-lockstep") + " needs --live URL"));
   StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
   if (!sc.ok()) return report(sc.status());
   if (!a.quiet)
@@ -529,7 +579,8 @@ int run(const SimulateArgs& a) {
     StatusOr<std::unique_ptr<console::RobotLink>> l = connectLive(a, *sc);
     if (!l.ok()) return report(l.status());
     link = std::move(l).value();
-    live.emplace(*link, sc->dt_s, a.live_speed, a.live_period, a.quiet);
+    live.emplace(*link, sc->dt_s,
+                 LiveOptions{a.live_speed, a.live_period, a.live_hold, a.live_lockstep, a.live_flush, a.quiet});
     if (!a.quiet) std::fprintf(stderr, "adit: live: connected to %s\n", a.live.c_str());
   }
   if (sc->needsNavigator() || live) {
@@ -721,6 +772,12 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   cmd->add_option("--live-flush", args->live_flush,
                   "With --live: how long the run waits at its end for the console to acknowledge every message "
                   "(default 30 s); unacknowledged messages are lost: exit 1");
+  cmd->add_flag("--live-hold", args->live_hold,
+                "With --live: wait at the start, paused, until the operator resumes the robot; commands sent "
+                "meanwhile act before the first step");
+  cmd->add_flag("--live-lockstep", args->live_lockstep,
+                "With --live: after each period wait for the console's acknowledgement (at most --live-flush), so "
+                "a command answering a message acts in the next period");
   cmd->add_option("--robot-id", args->robot_id, "With --live: the robot's id (default: the scenario file's stem)");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   cmd->callback([args, rc, cmd] {
