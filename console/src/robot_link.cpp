@@ -136,10 +136,15 @@ struct RobotLink::Impl {
   std::thread thread;
 
   // I/O thread only. Each connection has a generation; handlers of an older one do nothing.
+  // Each connection also has its own read buffer: a read of the old connection that completed
+  // with a whole frame (an ack just before the peer's reset) but found its generation gone would
+  // otherwise leave that frame in front of the next connection's welcome, which then fails to
+  // parse and costs a spurious reconnect (a hello the centre counts, a connection the link does
+  // not).
   std::shared_ptr<Stream> ws;
+  std::shared_ptr<beast::flat_buffer> rbuf;
   tcp::resolver resolver{ioc};
   net::steady_timer retry{ioc};
-  beast::flat_buffer rbuf;
   std::uint64_t generation = 0;
   bool online = false, writing = false;
   std::uint64_t written_upto = 0;      // highest seq written on this connection (or acked at welcome)
@@ -182,6 +187,7 @@ struct RobotLink::Impl {
   void startConnect() {
     const std::uint64_t g = ++generation;
     ws = std::make_shared<Stream>(ioc);
+    rbuf = std::make_shared<beast::flat_buffer>();
     resolver.async_resolve(url.host, url.port, [this, g](beast::error_code ec, tcp::resolver::results_type results) {
       if (g != generation) return;
       if (ec) return fail(g, "resolving " + url.host + ": " + ec.message(), false);
@@ -200,18 +206,19 @@ struct RobotLink::Impl {
           s->async_write(net::buffer(*text), [this, g, s, text](beast::error_code ec4, std::size_t) {
             if (g != generation) return;
             if (ec4) return fail(g, "sending hello: " + ec4.message(), false);
-            s->async_read(rbuf, [this, g](beast::error_code ec5, std::size_t) { onWelcome(g, ec5); });
+            auto b = rbuf;
+            s->async_read(*b, [this, g, s, b](beast::error_code ec5, std::size_t) { onWelcome(g, ec5, *b); });
           });
         });
       });
     });
   }
 
-  void onWelcome(std::uint64_t g, beast::error_code ec) {
+  void onWelcome(std::uint64_t g, beast::error_code ec, beast::flat_buffer& buf) {
     if (g != generation) return;
     if (ec) return fail(g, "waiting for welcome: " + ec.message(), false);
-    const json j = json::parse(beast::buffers_to_string(rbuf.data()), nullptr, false);
-    rbuf.consume(rbuf.size());
+    const json j = json::parse(beast::buffers_to_string(buf.data()), nullptr, false);
+    buf.consume(buf.size());
     if (j.is_object() && j.value("type", "") == "error")
       return fail(g, "the centre refused the robot: " + j.value("reason", std::string("(no reason)")), true);
     if (!j.is_object() || j.value("type", "") != "welcome" || !j.contains("acked_seq") ||
@@ -242,11 +249,12 @@ struct RobotLink::Impl {
 
   void startRead(std::uint64_t g) {
     auto s = ws;
-    s->async_read(rbuf, [this, g, s](beast::error_code ec, std::size_t) {
+    auto b = rbuf;
+    s->async_read(*b, [this, g, s, b](beast::error_code ec, std::size_t) {
       if (g != generation) return;
       if (ec) return fail(g, "connection lost: " + ec.message(), false);
-      const std::string text = beast::buffers_to_string(rbuf.data());
-      rbuf.consume(rbuf.size());
+      const std::string text = beast::buffers_to_string(b->data());
+      b->consume(b->size());
       onMessage(text);
       startRead(g);
       pump(g);

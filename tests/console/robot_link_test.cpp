@@ -5,6 +5,7 @@
 // on the same port. Proves protocol.md's promises: nothing lost, nothing duplicated, a command
 // answered again from the stored result and never executed twice.
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -36,11 +37,46 @@ using tcp = net::ip::tcp;
 using json = nlohmann::json;
 
 // What the centre holds across restarts: the stored messages by seq, and how often a seq came.
+// Polls `done` until it holds or `timeout_s` passes (generous: a loaded machine delays the link's
+// thread, never the condition itself). The test then asserts on the condition, not on time.
+template <class Pred>
+bool waitFor(Pred done, double timeout_s = 30.0) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
+}
+
+// A port nobody listens on for as long as it lives: bound (so no other process of a parallel test
+// can take it) but not listening, so a connection to it is refused at once.
+struct ClosedPort {
+  ClosedPort() {
+    fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&a), len) != 0 ||
+        ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0)
+      ADD_FAILURE() << "cannot bind a loopback port";
+    port = ntohs(a.sin_port);
+  }
+  ~ClosedPort() { ::close(fd); }
+  int fd = -1;
+  unsigned short port = 0;
+};
+
 struct Ledger {
   std::mutex mu;
   std::map<std::uint64_t, json> stored;
   std::map<std::uint64_t, int> received;
   int hellos = 0;
+  int helloCount() {
+    std::lock_guard lock(mu);
+    return hellos;
+  }
   std::uint64_t maxSeq() {
     std::lock_guard lock(mu);
     return stored.empty() ? 0 : stored.rbegin()->first;
@@ -56,6 +92,7 @@ struct Ledger {
 
 struct CentreOptions {
   int drop_after = 0;                 // close the connection after storing this many (once)
+  int drop_every = 0;                 // close every connection after storing this many on it
   std::vector<json> commands;         // sent after every welcome, as the centre resends pending ones
   std::string refuse;                 // answer hello with this error and close
   bool ack = true;
@@ -99,7 +136,10 @@ class Centre {
       acceptor_.accept(sock, ec);
       if (ec || stop_) return;
       {
+        // kill() may have run between the accept and here: it shut down no connection then, so
+        // look at stop_ again under the lock it takes.
         std::lock_guard lock(conn_mu_);
+        if (stop_) return;
         conn_fd_ = sock.native_handle();
       }
       session(std::move(sock));
@@ -145,10 +185,13 @@ class Centre {
         fresh = ledger_.stored.emplace(seq, m).second;  // at most once per seq
       }
       ++stored_here;
-      if (opt_.ack) ws.write(net::buffer(json{{"type", "ack"}, {"seq", seq}}.dump()), ec);
+      // What the centre answers goes out before the ack, so a robot that waits for its acks
+      // (simulate --live-lockstep) holds the answer by the time the ack arrives.
       if (fresh && opt_.react)
         for (const json& out : opt_.react(m)) ws.write(net::buffer(out.dump()), ec);
-      if (opt_.drop_after > 0 && stored_here == opt_.drop_after) {
+      if (opt_.ack) ws.write(net::buffer(json{{"type", "ack"}, {"seq", seq}}.dump()), ec);
+      if ((opt_.drop_after > 0 && stored_here == opt_.drop_after) ||
+          (opt_.drop_every > 0 && stored_here % opt_.drop_every == 0)) {
         opt_.drop_after = 0;
         ::shutdown(ws.next_layer().native_handle(), SHUT_RDWR);  // no close frame: a lost link
         return;
@@ -203,9 +246,29 @@ TEST(RobotLink, ResendsAfterADroppedConnectionWithoutLossOrDuplicate) {
   for (int i = 1; i <= 100; ++i) EXPECT_DOUBLE_EQ(ledger.stored[std::uint64_t(i)]["t"].get<double>(), 0.1 * i);
   const LinkStats s = (*link)->stats();
   EXPECT_GE(s.connections, 2u);
-  EXPECT_EQ(ledger.hellos, int(s.connections));
+  EXPECT_EQ(ledger.helloCount(), int(s.connections)) << "a reconnection that did not take: " << s.last_error;
   EXPECT_EQ(s.acked_seq, 100u);
   EXPECT_EQ(s.outbox, 0u);
+}
+
+// The link used to keep one read buffer for all its connections: an ack read off a connection
+// just as the centre reset it stayed in the buffer, in front of the next connection's welcome,
+// which then failed to parse and cost a spurious reconnection (about one drop in fifteen). Forty
+// drops make that nearly certain to show, so each connection must take on the first try.
+TEST(RobotLink, EveryReconnectionTakesAtTheFirstHelloAcrossManyDrops) {
+  Ledger ledger;
+  CentreOptions opt;
+  opt.drop_every = 5;
+  Centre centre(ledger, opt);
+  StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
+  ASSERT_TRUE(link.ok()) << link.status().message();
+  for (int i = 1; i <= 200; ++i) ASSERT_TRUE((*link)->send(telemetry(i)).ok());
+  ASSERT_TRUE((*link)->flush(60.0)) << (*link)->stats().last_error;
+  expectComplete(ledger, 200);
+  const LinkStats s = (*link)->stats();
+  EXPECT_GE(s.connections, 40u);
+  EXPECT_EQ(ledger.helloCount(), int(s.connections)) << "a reconnection that did not take: " << s.last_error;
+  EXPECT_EQ(s.last_error.find("expected welcome"), std::string::npos) << s.last_error;
 }
 
 TEST(RobotLink, CentreKilledAndRestartedResumesFromItsLedger) {
@@ -220,8 +283,7 @@ TEST(RobotLink, CentreKilledAndRestartedResumesFromItsLedger) {
   centre.reset();
   // The robot goes on while the centre is down: its messages wait in the outbox.
   for (int i = 41; i <= 80; ++i) ASSERT_TRUE((*link)->send(telemetry(i)).ok());
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  EXPECT_FALSE((*link)->stats().connected);
+  EXPECT_TRUE(waitFor([&] { return !(*link)->stats().connected; })) << "the link never noticed the dead centre";
   EXPECT_EQ((*link)->stats().outbox, 40u);
   centre = std::make_unique<Centre>(ledger, CentreOptions{}, port);
   for (int i = 81; i <= 100; ++i) ASSERT_TRUE((*link)->send(telemetry(i)).ok());
@@ -255,10 +317,10 @@ TEST(RobotLink, ARepeatedCommandIsAnsweredFromTheStoredResultNotExecutedAgain) {
   StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
   ASSERT_TRUE(link.ok()) << link.status().message();
   std::vector<ReceivedCommand> got;
-  for (int k = 0; k < 100 && got.size() < 2; ++k) {
+  waitFor([&] {
     for (ReceivedCommand& c : (*link)->pollCommands()) got.push_back(std::move(c));
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+    return got.size() >= 2;
+  });
   ASSERT_EQ(got.size(), 2u);
   EXPECT_EQ(got[0].id, 7);
   EXPECT_EQ(got[0].kind, "pause");
@@ -269,8 +331,7 @@ TEST(RobotLink, ARepeatedCommandIsAnsweredFromTheStoredResultNotExecutedAgain) {
   ASSERT_TRUE((*link)->answer(7, "executed", "", 1.0).ok());
   ASSERT_TRUE((*link)->answer(8, "refused", "goal (1.0, 2.0, 3.0) is in rock", 1.0).ok());
   // The third stored message drops the link; on reconnect both commands come again.
-  for (int k = 0; k < 300 && (*link)->stats().duplicate_commands < 2; ++k)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  waitFor([&] { return (*link)->stats().duplicate_commands >= 2; });
   EXPECT_EQ((*link)->stats().duplicate_commands, 2u);
   EXPECT_TRUE((*link)->pollCommands().empty()) << "a command must never be executed twice";
   ASSERT_TRUE((*link)->flush(5.0));
@@ -291,8 +352,7 @@ TEST(RobotLink, AMalformedCommandIsRefusedWithTheReason) {
   Centre centre(ledger, opt);
   StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
   ASSERT_TRUE(link.ok());
-  for (int k = 0; k < 300 && ledger.ofType("command_result").size() < 2; ++k)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  waitFor([&] { return ledger.ofType("command_result").size() >= 2; });
   EXPECT_TRUE((*link)->pollCommands().empty());
   const std::vector<json> results = ledger.ofType("command_result");
   ASSERT_EQ(results.size(), 2u);
@@ -311,19 +371,16 @@ TEST(RobotLink, ARefusingCentreOrNoCentreIsAClearError) {
     ASSERT_FALSE(link.ok());
     EXPECT_NE(link.status().message().find("not the served map"), std::string::npos) << link.status().message();
   }
-  unsigned short free_port = 0;
-  {
-    Centre gone(ledger, {});
-    free_port = gone.port();
-  }
+  const ClosedPort closed;
   LinkOptions o;
   o.connect_timeout_s = 0.5;
-  const auto t0 = std::chrono::steady_clock::now();
   StatusOr<std::unique_ptr<RobotLink>> none =
-      RobotLink::connect("ws://127.0.0.1:" + std::to_string(free_port), hello(), o);
+      RobotLink::connect("ws://127.0.0.1:" + std::to_string(closed.port), hello(), o);
   ASSERT_FALSE(none.ok());
+  // Within connect_timeout_s: the message quotes it (connect() returns on the timeout, by its
+  // condition variable, not after some retries' worth of wall time).
   EXPECT_NE(none.status().message().find("no console at"), std::string::npos) << none.status().message();
-  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+  EXPECT_NE(none.status().message().find("within 0.5 s"), std::string::npos) << none.status().message();
   for (const char* bad : {"http://127.0.0.1:8080", "ws://:8080", "ws://127.0.0.1:99999", "ws://127.0.0.1:x"})
     EXPECT_EQ(RobotLink::connect(bad, hello(), o).status().code(), StatusCode::kInvalidArgument) << bad;
   RobotHello h = hello();
@@ -373,7 +430,7 @@ TEST(RobotLink, AFullOutboxOfPlansBlocksTheSenderUntilAcknowledged) {
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   EXPECT_FALSE(returned) << "a plan must wait, not be dropped";
   EXPECT_EQ((*link)->stats().dropped_telemetry, 0u);
-  for (int k = 0; k < 100 && ledger.maxSeq() < 3; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(waitFor([&] { return ledger.maxSeq() >= 3; }));
   centre.reset();  // killed; the restarted one answers welcome.acked_seq = 3
   centre = std::make_unique<Centre>(ledger, CentreOptions{}, port);
   sender.join();
@@ -452,8 +509,9 @@ json command(int id, const std::string& kind, const char* field = nullptr, const
 }
 
 // The operator's script: each command is sent, in order, on the first telemetry at or after its
-// time (and, if given, in its status since `for_s` seconds: the robot's clock, not the wall's,
-// so that a loaded machine delivering a command late does not change what the test sees).
+// time (and, if given, in its status since `for_s` seconds), on the robot's clock, not the
+// wall's. The runs use --live-lockstep and the centre answers before it acknowledges, so every
+// command acts in the period after the telemetry that cued it, however loaded the machine.
 struct Cue {
   double t;
   json command;
@@ -515,9 +573,9 @@ TEST_F(LiveSimulation, OperatorBlocksPausesResumesAndTheRunArrives) {
   Centre centre(ledger, scripted({{1.0, command(1, "block", "roadway", "south")},
                                   {4.0, command(2, "pause")},
                                   {0.0, command(3, "resume"), "paused", 3.0}}));
-  // How the run ends depends on where the robot was when the block arrived (a loaded machine
-  // delivers it later): a valid run either way, whose end the console is told.
-  const int rc = simulate(centre.url(), "--robot-id r1 --live-speed 40");
+  // How the run ends depends on where the robot was when the block came (the cue's period): a
+  // valid run either way, whose end the console is told.
+  const int rc = simulate(centre.url(), "--robot-id r1 --live-speed 0 --live-lockstep");
   ASSERT_TRUE(rc == 0 || rc == 1) << std::ifstream(dir_ + "/stderr.txt").rdbuf();
   json run;
   std::ifstream(dir_ + "/run.json") >> run;
@@ -558,7 +616,7 @@ TEST_F(LiveSimulation, NewGoalManualDriveAndReleaseArriveAtTheOperatorsGoal) {
   Centre centre(ledger, scripted({{1.0, command(1, "goal", "goal", {0, 12, 1.6})},
                                   {2.0, command(2, "manual", "velocity", {0.5, 0.3, 0})},
                                   {0.0, command(3, "release"), "manual", 3.0}}));
-  const int rc = simulate(centre.url(), "--live-speed 40");
+  const int rc = simulate(centre.url(), "--live-speed 0 --live-lockstep");
   ASSERT_TRUE(rc == 0 || rc == 1) << std::ifstream(dir_ + "/stderr.txt").rdbuf();
   json run;
   std::ifstream(dir_ + "/run.json") >> run;
@@ -624,13 +682,11 @@ TEST_F(LiveSimulation, ARoofFallReachesTheConsoleAsEventRockAndReplan) {
 }
 
 TEST_F(LiveSimulation, NoConsoleIsExitTwoAndAGoalInRockIsRefused) {
-  unsigned short free_port = 0;
   Ledger ledger;
   {
-    Centre gone(ledger, {});
-    free_port = gone.port();
+    const ClosedPort closed;
+    EXPECT_EQ(simulate("ws://127.0.0.1:" + std::to_string(closed.port)), 2);
   }
-  EXPECT_EQ(simulate("ws://127.0.0.1:" + std::to_string(free_port)), 2);
   EXPECT_EQ(simulate("http://127.0.0.1:1"), 2);
 
   CentreOptions opt;
