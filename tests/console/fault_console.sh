@@ -17,14 +17,19 @@ cleanup() {
 }
 trap cleanup EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
-port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+# The first start takes any free port (0) and reads the one announced (a port probed here could be
+# taken while the server loads its map); the restart keeps it.
+port=0
 
 start_server() {
   : > "$WORK/serve.log"
   "$ADIT" serve --map "$MAP" --listen "127.0.0.1:$port" --db "sqlite:$WORK/centre.db" -q 2>> "$WORK/serve.log" &
   server_pid=$!
   for _ in $(seq 600); do
-    grep -q 'http://' "$WORK/serve.log" && return 0
+    if grep -q 'http://' "$WORK/serve.log"; then
+      port=$(grep -o 'http://127.0.0.1:[0-9]*' "$WORK/serve.log" | head -1 | sed 's#.*:##')
+      return 0
+    fi
     kill -0 "$server_pid" 2>/dev/null || fail "adit serve exited: $(cat "$WORK/serve.log")"
     sleep 0.1
   done
@@ -34,11 +39,20 @@ stored() { python3 -c 'import sqlite3, sys; print(sqlite3.connect(sys.argv[1]).e
 
 start_server
 scenario=$(dirname "$MAP")/scenarios/district_rescue.yaml
-"$ADIT" simulate "$scenario" --live "ws://127.0.0.1:$port" --live-speed 0 --robot-id faulty -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
+# Paced at 20x (about 15 s of wall time for the run) so that the kill below, at about 1.5 s,
+# finds it mid-run even when this script's polls are slow on a loaded machine.
+"$ADIT" simulate "$scenario" --live "ws://127.0.0.1:$port" --live-speed 20 --robot-id faulty -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
 sim_pid=$!
-# Kill the centre once the robot has stored a few hundred messages, while it is still running.
+# Kill the centre once the robot has stored a few hundred messages, while it is still running:
+# the robot is frozen (SIGSTOP) to read the count and to check that it has not finished, then
+# thawed and the centre killed at once, with the robot's messages in flight.
 for _ in $(seq 600); do [ "$(stored)" -ge 300 ] && break; sleep 0.05; done
+kill -STOP "$sim_pid" 2>/dev/null || fail "the run ended before the fault: $(tail -5 "$WORK/sim.log")"
+# (a run that exited is a zombie until waited for, and SIGSTOP to a zombie succeeds)
+[ "$(awk '{print $3}' "/proc/$sim_pid/stat")" != Z ] || fail "the run ended before the fault: $(tail -5 "$WORK/sim.log")"
 before=$(stored)
+[ "$before" -ge 300 ] || fail "only $before messages stored after 30 s"
+kill -CONT "$sim_pid"
 kill -KILL "$server_pid"
 wait "$server_pid" 2>/dev/null || true
 echo "killed the centre after $before stored messages"

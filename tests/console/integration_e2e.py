@@ -46,12 +46,6 @@ def check(cond, what):
         raise Failure(what)
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 class Server:
     """`adit serve` as a child process; the URL and the token come from its stderr."""
 
@@ -62,12 +56,16 @@ class Server:
         self.starts = 0
 
     def start(self, timeout=120.0):
+        # The first start asks for any free port (port 0) and takes the one announced: a port
+        # probed here and bound by the server only after its map loaded could be taken in between.
+        # Restarts keep it, as a real centre would.
         log = open(self.log_path, "ab")
         self.proc = subprocess.Popen(
             [self.args.adit, "serve", "--map", self.args.map, "--db", self.db,
              "--listen", "127.0.0.1:%d" % self.port, "--quiet"],
             stdout=subprocess.DEVNULL, stderr=log)
         log.close()
+        timeout *= SLOWDOWN
         deadline = time.monotonic() + timeout
         url_re = re.compile(r"adit serve: http://127\.0\.0\.1:(\d+)/")
         token_re = re.compile(r"operator token \([^)]*\): (\S+)")
@@ -79,6 +77,8 @@ class Server:
             if self.proc.poll() is not None:
                 raise Failure("adit serve exited with %d:\n%s" % (self.proc.returncode, text[-2000:]))
             if len(ports) >= self.starts + 1 and len(tokens) >= self.starts + 1:
+                if self.port == 0:
+                    self.port = int(ports[-1])
                 check(int(ports[-1]) == self.port, "adit serve announced port %s, asked %d" % (ports[-1], self.port))
                 self.token = tokens[-1]
                 self.starts += 1
@@ -90,11 +90,11 @@ class Server:
         if self.proc and self.proc.poll() is None:
             self.proc.send_signal(sig)
             try:
-                self.proc.wait(timeout=30)
+                self.proc.wait(timeout=30 * SLOWDOWN)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
-                raise Failure("adit serve did not stop within 30 s of signal %d" % sig)
+                raise Failure("adit serve did not stop within %.0f s of signal %d" % (30 * SLOWDOWN, sig))
 
     def http(self, method, path, body=None, token=None):
         """(status, parsed JSON) of one request."""
@@ -106,7 +106,7 @@ class Server:
         if token:
             req.add_header("Authorization", "Bearer " + token)
         try:
-            with urllib.request.urlopen(req, data=data, timeout=30) as r:
+            with urllib.request.urlopen(req, data=data, timeout=30 * SLOWDOWN) as r:
                 return r.status, json.loads(r.read().decode())
         except urllib.error.HTTPError as e:
             return e.code, json.loads(e.read().decode() or "null")
@@ -206,7 +206,13 @@ def last_seq(server, robot):
     return 0, None
 
 
+# Every deadline here is multiplied by this (--slowdown): a sanitizer or Debug build loads the map
+# and plans ten times slower, and its deadlines must not be what fails.
+SLOWDOWN = 1.0
+
+
 def wait_for(pred, timeout, what):
+    timeout *= SLOWDOWN
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if pred():
@@ -242,7 +248,7 @@ def run(args):
     serve_log = os.path.join(work, "serve.log")
     if os.path.exists(serve_log):  # a previous run's: the announcements are counted per start
         os.remove(serve_log)
-    server = Server(args, db, free_port(), serve_log)
+    server = Server(args, db, 0, serve_log)
     server.start()
     proxy = Proxy(server.port) if args.fault == "drop" else None
     live_port = proxy.port if proxy else server.port
@@ -253,7 +259,10 @@ def run(args):
     sim = subprocess.Popen(
         [args.adit, "simulate", args.scenario, "--live", "ws://127.0.0.1:%d" % live_port,
          "--live-speed", str(args.live_speed), "--live-period", str(args.live_period), "--robot-id", robot, "--out", run_json]
-        + (["--live-flush", "1"] if args.fault == "gone" else []),
+        + (["--live-flush", "1"] if args.fault == "gone" else ["--live-flush", "%g" % (30 * SLOWDOWN)])
+        # The operator's block must act before the robot reaches crosscut-90: the robot waits at
+        # its start until the operator resumes it, instead of the test racing the wall clock.
+        + (["--live-hold"] if args.fault == "commands" else []),
         stdout=subprocess.DEVNULL, stderr=sim_log)
     sim_log.close()
     try:
@@ -276,7 +285,7 @@ def run(args):
             # process, and the run must say so and fail (exit 1), not end as a success.
             wait_for(lambda: last_seq(server, robot)[0] >= 40, 60, "the first 40 messages")
             server.stop(signal.SIGKILL)
-            rc = sim.wait(timeout=args.timeout)
+            rc = sim.wait(timeout=args.timeout * SLOWDOWN)
             with open(sim_log_path, encoding="utf-8", errors="replace") as f:
                 sim_text = f.read()
             check(rc == 1, "adit simulate exited with %d after losing its console:\n%s" % (rc, sim_text[-2000:]))
@@ -287,7 +296,7 @@ def run(args):
             server.stop(signal.SIGTERM)
             print("gone: exit 1, %d messages stored before the kill, the rest reported lost" % n)
             return
-        rc = sim.wait(timeout=args.timeout)
+        rc = sim.wait(timeout=args.timeout * SLOWDOWN)
     finally:
         if sim.poll() is None:
             sim.kill()
@@ -340,7 +349,8 @@ def run(args):
 
 
 def operator_commands(server, robot):
-    """While the robot drives: refusals first (nothing stored), then a block on its path."""
+    """While the robot holds at its start (--live-hold): refusals first (nothing stored), then a
+    block on its path, executed; then the resume that lets it go."""
     wait_for(lambda: last_seq(server, robot)[1] is not None and last_seq(server, robot)[1].get("plan"),
              60, "the robot's first plan")
     out = []
@@ -360,15 +370,25 @@ def operator_commands(server, robot):
     status, body = server.http("POST", "/api/commands", {"robot": robot, "kind": "block", "roadway": "crosscut-90"},
                                server.token)
     check(status == 202 and body.get("status") == "pending", "block crosscut-90: %d %s" % (status, body))
-    out.append("block crosscut-90: command %s" % body["command_id"])
+    block_id = body["command_id"]
+    out.append("block crosscut-90: command %s" % block_id)
+
+    def block_status():
+        status, cmds = server.http("GET", "/api/commands?robot=" + robot)
+        check(status == 200, "/api/commands answered %d" % status)
+        return [c["status"] for c in cmds if c["command_id"] == block_id]
+
+    wait_for(lambda: block_status() == ["executed"], 60, "the held robot to execute the block")
+    status, body = server.http("POST", "/api/commands", {"robot": robot, "kind": "resume"}, server.token)
+    check(status == 202, "resume: %d %s" % (status, body))
     return out
 
 
 def check_commands_after(server, robot, msgs):
     status, cmds = server.http("GET", "/api/commands?robot=" + robot)
-    check(status == 200 and len(cmds) == 1, "the command log: %d %s" % (status, cmds))
-    c = cmds[0]
-    check(c["kind"] == "block" and c["status"] == "executed", "the block command ended %s" % c)
+    check(status == 200 and sorted(c["kind"] for c in cmds) == ["block", "resume"], "the command log: %d %s" % (status, cmds))
+    check(all(c["status"] == "executed" for c in cmds), "the commands ended %s" % cmds)
+    c = [c for c in cmds if c["kind"] == "block"][0]
     check(c.get("operator"), "the command log does not say who issued the block: %s" % c)
     blocked = [m for m in msgs if m["type"] == "plan" and m["reason"] == "blocked"]
     check(blocked, "no plan with reason 'blocked' after the block (plans: %s)" %
@@ -393,8 +413,12 @@ def main():
     p.add_argument("--live-period", type=float, default=0.1)
     p.add_argument("--pose-tolerance", type=float, default=0.01)
     p.add_argument("--timeout", type=float, default=240.0)
+    p.add_argument("--slowdown", type=float, default=1.0,
+                   help="multiply every deadline (10 for sanitizer and Debug builds)")
     p.add_argument("--workdir")
     args = p.parse_args()
+    global SLOWDOWN
+    SLOWDOWN = args.slowdown
     if args.db == "postgresql" and not args.pg_state:
         p.error("--db postgresql needs --pg-state")
     try:

@@ -69,10 +69,12 @@ case "$action" in
       --no-sync -E UTF8 --locale=C >"$tmp/initdb.log" 2>&1 ||
       { cat "$tmp/initdb.log" >&2; exit 1; }
     rm -f "$tmp/pwfile"
-    # A free port: try random high ports until the server starts (no race with a probe).
+    # A free port: try random ports until the server starts (no race with a probe). Below Linux's
+    # ephemeral range (32768-60999), so that `restart` finds its port free again: no client
+    # socket of a parallel test is ever given one of these in the gap.
     tries=0
     while :; do
-      port=$((20000 + $(od -An -N2 -tu2 /dev/urandom | tr -d ' ') % 30000))
+      port=$((20000 + $(od -An -N2 -tu2 /dev/urandom | tr -d ' ') % 12000))
       if start_postmaster "$tmp" "$port"; then break; fi
       tries=$((tries + 1))
       if [ $tries -ge 10 ]; then cat "$tmp/server.log" >&2; exit 1; fi
@@ -86,7 +88,12 @@ case "$action" in
     tmp=$(cat "$state/pgdata")
     port=$(sed -n 's|.*@127.0.0.1:\([0-9]*\)/.*|\1|p' "$state/url")
     stop_postmaster "$tmp"
-    start_postmaster "$tmp" "$port" || { cat "$tmp/server.log" >&2; exit 1; }
+    # The port was just released: a few tries in case a listener of a parallel test took it.
+    for try in 1 2 3 4 5; do
+      start_postmaster "$tmp" "$port" && break
+      [ $try -lt 5 ] || { cat "$tmp/server.log" >&2; exit 1; }
+      sleep 1
+    done
     ;;
   stop)
     if [ -f "$state/pgdata" ]; then

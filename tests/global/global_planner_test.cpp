@@ -31,7 +31,15 @@ struct World {
   explicit World(map::SurveyNetwork n)
       : net(std::move(n)), map(test::voxelizeOrFail(net)), field(std::move(map::DistanceField::build(map)).value()) {}
 
+  // The searches here end on iteration caps, so that what a test sees does not depend on how
+  // loaded the machine is: the default 2 s wall-clock budget becomes a hang guard far beyond
+  // them, and a search with no solution gives up after a fixed number of iterations. (A test
+  // that sets its own budget keeps it.)
   GlobalPlanner planner(GlobalPlannerParams p = {}, bool with_survey = true) const {
+    if (p.time_budget_s == GlobalPlannerParams{}.time_budget_s) {
+      p.time_budget_s = 120.0;
+      if (p.max_unsolved_iterations == 0) p.max_unsolved_iterations = 20000;
+    }
     StatusOr<GlobalPlanner> g = GlobalPlanner::create(map, field, p, with_survey ? &net : nullptr);
     EXPECT_TRUE(g.ok()) << g.status().toString();
     return std::move(g).value();
@@ -167,7 +175,7 @@ TEST(GlobalPlanner, BlockedRoadwayTakesTheOtherAndAllBlockedIsNoPathAtOnce) {
   EXPECT_EQ(r3.outcome, GlobalPlanOutcome::kNoPath);
   EXPECT_NE(r3.message.find("disconnected"), std::string::npos) << r3.message;
   EXPECT_NE(r3.message.find("west"), std::string::npos) << r3.message;
-  EXPECT_LT(r3.planning_time_s, 0.1) << "no time may be spent sampling";
+  EXPECT_EQ(r3.iterations, 0) << "no time may be spent sampling";
   EXPECT_TRUE(r3.path.empty());
 }
 

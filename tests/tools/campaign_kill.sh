@@ -27,7 +27,9 @@ for _ in $(seq 600); do
   [ -n "$(pgrep -P "$pid" || true)" ] && break
   sleep 0.05
 done
-sleep 0.3
+# Frozen first, so that it can neither finish nor start more workers however late this script
+# runs on a loaded machine; its workers go on computing until it is killed.
+kill -STOP "$pid"
 workers=$(pgrep -P "$pid" | tr '\n' ' ' || true)
 [ -n "$workers" ] || { echo "shard 0 started no workers" >&2; exit 1; }
 kill -KILL "$pid"
