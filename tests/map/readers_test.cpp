@@ -17,6 +17,12 @@
 #include "adit/map/readers/xyz.hpp"
 #include "support/synthetic_scan.hpp"
 
+// Debian 12's Assimp 5.2 leaks what an importer had built when it gives up on a corrupt mesh
+// (about 2.5 KB in two objects per refused file, allocated and dropped inside libassimp; seen
+// in Import.RandomCorruptionIsHandled under ADIT_SANITIZE). Only allocations made inside
+// libassimp are exempt: a mesh adit leaks is still reported.
+extern "C" const char* __lsan_default_suppressions() { return "leak:libassimp.so\n"; }
+
 namespace adit::map {
 namespace {
 
