@@ -2,6 +2,7 @@
 // Regressions from the robustness pass of issue 10: inclined roadways keep their clearance,
 // voxel faces sit exactly on the grid, and size estimates refuse huge builds before allocating.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -224,7 +225,7 @@ TEST(MemoryBudgetOfReaders, EveryReaderRefusesBeforeBuilding) {
   // Survey parse: the YAML's token count.
   const std::string yaml = test::shortIssueSurveyExample();
   EXPECT_GT(estimateSurveyParseBytes(yaml), double(yaml.size()));
-  const std::string path = ::testing::TempDir() + "/budget_short.yaml";
+  const std::string path = ::testing::TempDir() + "/budget_short_" + std::to_string(::getpid()) + ".yaml";
   {
     FILE* f = std::fopen(path.c_str(), "wb");
     ASSERT_NE(f, nullptr);

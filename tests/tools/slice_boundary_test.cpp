@@ -3,6 +3,7 @@
 // "unknown" over the whole roadway, because the map handed the renderer float voxel centres
 // (0.55f - 0.05 > 0.5 excluded the layer above, and the layer below ends at 0.5).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <string>
@@ -21,7 +22,7 @@ std::uint64_t freePixelsAt(const OccupancyMap& map, double z) {
   o.slice_z_m = z;
   o.pixels_per_m = 20;
   TopViewInfo info;
-  const std::string path = ::testing::TempDir() + "/slice_boundary.png";
+  const std::string path = ::testing::TempDir() + "/slice_boundary_" + std::to_string(::getpid()) + ".png";
   const Status s = renderTopView(map, o, path, &info);
   std::remove(path.c_str());
   EXPECT_TRUE(s.ok()) << s.toString();
