@@ -404,7 +404,7 @@ TEST(MapIoMalformed, SizeDisagreeingWithTheTree) {
       writeBytes(path, withHeaderField(good, "size", std::to_string(claimed)));
       const auto t0 = Clock::now();
       EXPECT_TRUE(failsWith(loadMap(path), StatusCode::kDataLoss, path));
-      EXPECT_LT(secondsSince(t0), 1.0 * kSlowdown);
+      EXPECT_LT(secondsSince(t0), 5.0 * kSlowdown);  // a hang guard, not a speed test
     }
     // A huge size with a tiny body must not allocate for the claimed size.
     const std::string tiny = f.ext == std::string(".bt") ? btHeader(999999999999) + btRecord(kBtFree)
@@ -1054,7 +1054,7 @@ TEST(MapIoSurvey, HugeNetworksAreRefusedBeforeAllocating) {
     EXPECT_EQ(m.status().code(), StatusCode::kOutOfRange) << c.what << ": " << m.status().message();
     EXPECT_EQ(m.status().message().rfind(path, 0), 0u) << c.what << ": " << m.status().message();
     EXPECT_NE(m.status().message().find(c.expect), std::string::npos) << c.what << ": " << m.status().message();
-    EXPECT_LT(seconds, 0.5 * kSlowdown) << c.what;
+    EXPECT_LT(seconds, 5.0 * kSlowdown) << c.what;  // a hang guard (refusal is milliseconds), not a speed test
   }
 }
 
