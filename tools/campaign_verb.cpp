@@ -41,7 +41,8 @@ struct CampaignArgs {
   std::string map, generator, shard = "0/1", out;
   int scenarios = 0, jobs = 1;
   std::uint64_t seed = 1;
-  double t_max = -1.0, max_separation = -1.0;  // < 0: the generator's
+  double t_max = 0.0, max_separation = 0.0;  // the generator's unless given
+  bool t_max_given = false, max_separation_given = false;
   bool quiet = false;
   // merge
   std::vector<std::string> inputs;
@@ -202,8 +203,10 @@ int runShard(const CampaignArgs& a) {
     bp = *p;
   }
   bp.seed = a.seed;
-  if (a.t_max >= 0.0) bp.t_max_s = a.t_max;
-  if (a.max_separation >= 0.0) bp.max_separation_m = a.max_separation;
+  // Given means checked: NaN or a negative value is refused (by validate()), never taken for
+  // "not given".
+  if (a.t_max_given) bp.t_max_s = a.t_max;
+  if (a.max_separation_given) bp.max_separation_m = a.max_separation;
   if (Status s = bp.validate(); !s.ok()) return report(s);
   const auto wall0 = std::chrono::steady_clock::now();
   CampaignIdentity id;
@@ -228,6 +231,8 @@ int runShard(const CampaignArgs& a) {
   std::filesystem::create_directories(a.out, ec);
   if (!std::filesystem::is_directory(a.out))
     return report(invalidArgument(a.out + ": --out: cannot create the directory" + (ec ? ": " + ec.message() : "")));
+  // The shard's files are written at its end: an unwritable directory is said now, not after the run.
+  if (Status s = checkOutputPath(a.out + "/" + shardName(k, m, ".json"), "--out"); !s.ok()) return report(s);
   std::vector<int> indices;
   for (int i = k; i < a.scenarios; i += m) indices.push_back(i);
   if (!a.quiet)
@@ -533,7 +538,11 @@ void registerCampaignVerb(CLI::App& app, int* rc) {
   run->add_option("--max-separation", args->max_separation,
                   "Largest start-goal distance [m] (overrides the generator's separation maximum)");
   run->add_flag("-q,--quiet", args->quiet, "No log on stderr");
-  run->callback([args, rc] { *rc = runShard(*args); });
+  run->callback([args, rc, run] {
+    args->t_max_given = run->count("--t-max") > 0;
+    args->max_separation_given = run->count("--max-separation") > 0;
+    *rc = runShard(*args);
+  });
   CLI::App* mg = cmd->add_subcommand(
       "merge",
       "Merge every shard of a campaign into one report (JSON on stdout or --out); exit 2 on missing, "

@@ -100,6 +100,9 @@ int runPlan(const PlanArgs& a) {
     if (ext != ".png" && ext != ".svg" && ext != ".PNG" && ext != ".SVG")
       return report(invalidArgument("--picture " + a.picture + ": expected a .png or .svg file"));
   }
+  // Both outputs writable before anything is written: a bad --picture must not leave --out behind.
+  if (Status s = checkOutputPath(a.out, "--out"); !s.ok()) return report(s);
+  if (Status s = checkOutputPath(a.picture, "--picture"); !s.ok()) return report(s);
 
   StatusOr<PlanWorld> world = loadPlanWorld(a.map_path, *policy, a.quiet);
   if (!world.ok()) return report(world.status());

@@ -555,6 +555,10 @@ int run(const SimulateArgs& a) {
   }
   if (!a.html.empty() && (a.html.size() < 5 || a.html.substr(a.html.size() - 5) != ".html"))
     return report(invalidArgument(a.html + ": --html must end in .html"));
+  // Every output writable before the run, so that none is written when another would fail.
+  if (Status s = checkOutputPath(a.out, "--out"); !s.ok()) return report(s);
+  if (Status s = checkOutputPath(a.picture, "--picture"); !s.ok()) return report(s);
+  if (Status s = checkOutputPath(a.html, "--html"); !s.ok()) return report(s);
   if (!(a.live_speed >= 0.0) || !std::isfinite(a.live_speed))
     return report(invalidArgument("--live-speed must be >= 0 (1 real time, 0 as fast as possible)"));
   if (!(a.live_period > 0.0) || !std::isfinite(a.live_period))

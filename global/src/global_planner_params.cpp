@@ -60,6 +60,14 @@ bool isAnytime(PlannerType p) { return p != PlannerType::kRrtConnect; }
 Status GlobalPlannerParams::validate() const {
   if (Status s = robot.validate(); !s.ok()) return invalidArgument("GlobalPlannerParams::robot: " + s.message());
   ADIT_RETURN_IF_ERROR(positiveFinite("time_budget_s", time_budget_s));
+  // The deadline is a steady_clock time point in nanoseconds: beyond about 290 years it overflows
+  // and the search would stop at once ("no path" after a millisecond). A week is far beyond any
+  // plan's need and far from that limit.
+  if (time_budget_s > kMaxTimeBudgetS) {
+    std::ostringstream os;
+    os << "GlobalPlannerParams::time_budget_s = " << time_budget_s << " must be <= " << kMaxTimeBudgetS << " s (a week)";
+    return invalidArgument(os.str());
+  }
   if (max_iterations < 1) return invalidArgument("GlobalPlannerParams::max_iterations = " + std::to_string(max_iterations) + " must be >= 1");
   if (max_unsolved_iterations < 0)
     return invalidArgument("GlobalPlannerParams::max_unsolved_iterations = " + std::to_string(max_unsolved_iterations) +

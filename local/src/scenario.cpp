@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <initializer_list>
 #include <sstream>
@@ -48,11 +49,24 @@ class Reader {
 
   void onlyKeys(const YAML::Node& map, const std::string& field, std::initializer_list<const char*> keys) const {
     if (!map.IsMap()) fail(map, field, "must be a mapping");
+    noDuplicateKeys(map, field);
     for (const auto& kv : map) {
       const std::string k = kv.first.as<std::string>();
       bool known = false;
       for (const char* allowed : keys) known = known || k == allowed;
       if (!known) fail(kv.first, field.empty() ? k : field + "." + k, "unknown field");
+    }
+  }
+
+  // yaml-cpp keeps a repeated key and answers lookups with the first: a second `goal:` further
+  // down would be silently ignored. A mapping says each thing once.
+  void noDuplicateKeys(const YAML::Node& map, const std::string& field) const {
+    std::vector<std::string> seen;
+    for (const auto& kv : map) {
+      const std::string k = kv.first.as<std::string>();
+      if (std::find(seen.begin(), seen.end(), k) != seen.end())
+        fail(kv.first, field.empty() ? k : field + "." + k, "given twice (a mapping names each field once)");
+      seen.push_back(k);
     }
   }
 
@@ -68,6 +82,36 @@ class Reader {
       fail(n, field, "'" + s + "' is not a number");
     }
     if (!std::isfinite(v)) fail(n, field, "'" + s + "' is not finite");
+    // Finite is not enough: 1e308 squared is infinite, and would surface as an internal error deep
+    // in a force computation instead of here, naming the field.
+    if (std::abs(v) > kMaxMagnitude) fail(n, field, "'" + s + "' is out of range (|value| <= 1e12)");
+    return v;
+  }
+
+  // A number in [lo, hi], the range a physical quantity can have.
+  double within(const YAML::Node& n, const std::string& field, double lo, double hi, const char* unit) const {
+    const double v = number(n, field);
+    if (!(v >= lo && v <= hi)) {
+      std::ostringstream os;
+      os << "must be in [" << lo << ", " << hi << "] " << unit << " (got " << n.Scalar() << ")";
+      fail(n, field, os.str());
+    }
+    return v;
+  }
+
+  // A seed: every unsigned 64-bit value, written as digits, taken exactly (a double would round
+  // seeds above 2^53 and wrap those above 2^64).
+  std::uint64_t seed(const YAML::Node& n, const std::string& field) const {
+    if (!n.IsScalar()) fail(n, field, "must be an integer");
+    const std::string s = n.Scalar();
+    if (s.empty() || s.size() > 20 || !std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      fail(n, field, "must be an integer 0..18446744073709551615 written in digits (got '" + s + "')");
+    std::uint64_t v = 0;
+    for (char c : s) {
+      const std::uint64_t d = std::uint64_t(c - '0');
+      if (v > (UINT64_MAX - d) / 10) fail(n, field, "'" + s + "' is larger than 18446744073709551615");
+      v = v * 10 + d;
+    }
     return v;
   }
 
@@ -83,10 +127,14 @@ class Reader {
     return v;
   }
 
-  Vec3 vec3(const YAML::Node& n, const std::string& field) const {
+  // A point or a vector; no mine, and no survey grid, is 10,000 km from its origin.
+  Vec3 vec3(const YAML::Node& n, const std::string& field, double max_abs = kMaxCoordinate) const {
     if (!n.IsSequence() || (n.size() != 3 && n.size() != 2)) fail(n, field, "must be [x, y, z] (or [x, y])");
     Vec3 v = Vec3::Zero();
-    for (std::size_t i = 0; i < n.size(); ++i) v[int(i)] = number(n[i], field + "[" + std::to_string(i) + "]");
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const std::string fi = field + "[" + std::to_string(i) + "]";
+      v[int(i)] = within(n[i], fi, -max_abs, max_abs, "m");
+    }
     return v;
   }
 
@@ -105,6 +153,9 @@ class Reader {
   }
 
   const std::string& file() const { return file_; }
+
+  static constexpr double kMaxMagnitude = 1e12;
+  static constexpr double kMaxCoordinate = 1e7;
 
  private:
   std::string file_;
@@ -167,10 +218,15 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
 
   if (const YAML::Node rb = root["robot"]) {
     r.onlyKeys(rb, "robot", {"radius", "v_max", "a_max", "sensor_range"});
+    // Ranges a robot in a mine can have (a sensor to the horizon, a vehicle at highway speed, 10 g).
     if (rb["sensor_range"]) s.sensor_range_m = r.positive(rb["sensor_range"], "robot.sensor_range");
+    if (rb["sensor_range"]) r.within(rb["sensor_range"], "robot.sensor_range", 0.0, 1e4, "m");
     if (rb["radius"]) s.params.robot.radius_m = r.positive(rb["radius"], "robot.radius");
+    if (rb["radius"]) r.within(rb["radius"], "robot.radius", 0.0, 100.0, "m");
     if (rb["v_max"]) s.params.robot.v_max_mps = r.positive(rb["v_max"], "robot.v_max");
+    if (rb["v_max"]) r.within(rb["v_max"], "robot.v_max", 0.0, 100.0, "m/s");
     if (rb["a_max"]) s.params.robot.a_max_mps2 = r.positive(rb["a_max"], "robot.a_max");
+    if (rb["a_max"]) r.within(rb["a_max"], "robot.a_max", 0.0, 100.0, "m/s^2");
   }
   if (const YAML::Node list = root["static_obstacles"]) {
     if (!list.IsSequence()) r.fail(list, "static_obstacles", "must be a list");
@@ -216,6 +272,7 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
   }
   if (const YAML::Node p = root["params"]) {
     if (!p.IsMap()) r.fail(p, "params", "must be a mapping");
+    r.noDuplicateKeys(p, "params");
     for (const auto& kv : p) {
       const std::string key = kv.first.as<std::string>();
       FieldSetter set{r, key, kv.second};
@@ -263,11 +320,7 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
     if (Status st = subgoalPeriodStatus(s.subgoal_period_s, s.dt_s); !st.ok()) r.fail(n, "subgoal_period", st.message());
   }
   if (root["t_max"]) s.t_max_s = r.positive(root["t_max"], "t_max");
-  if (root["seed"]) {
-    const double seed = r.nonNegative(root["seed"], "seed");
-    if (seed != std::floor(seed)) r.fail(root["seed"], "seed", "must be an integer");
-    s.seed = std::uint64_t(seed);
-  }
+  if (root["seed"]) s.seed = r.seed(root["seed"], "seed");
   if (Status st = s.validate(); !st.ok()) r.fail(root, "(scenario)", st.message());
   return s;
 }

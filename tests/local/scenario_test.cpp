@@ -60,6 +60,31 @@ TEST(Scenario, ErrorsNameTheField) {
   expectError(std::string(kGood) + "map: /nonexistent.bt\n", "map: no such file");
 }
 
+// Numbers a simulation cannot hold are refused here, naming the field (they used to surface as
+// "internal: non-finite force", exit 1); a key given twice is refused (yaml-cpp keeps the first and
+// would silently ignore the second); a seed is taken exactly, all 64 bits, never wrapped.
+TEST(Scenario, OutOfRangeNumbersDuplicateKeysAndSeedsAreRefusedByName) {
+  expectError(replace(kGood, "start: [0, 0, 0]", "start: [1e308, 0, 0]"), "start[0]: '1e308' is out of range");
+  expectError(replace(kGood, "start: [0, 0, 0]", "start: [0, -2e7, 0]"), "start[1]: must be in [-1e+07, 1e+07] m");
+  expectError(replace(kGood, "v_max: 1.0", "v_max: 1e308"), "robot.v_max: '1e308' is out of range");
+  expectError(replace(kGood, "v_max: 1.0", "v_max: 500"), "robot.v_max: must be in [0, 100] m/s");
+  expectError(replace(kGood, "[4.9,5,0]", "[4.9,1e308,0]"), "expected_path[1][1]: '1e308' is out of range");
+  expectError(replace(kGood, "k_l: 0.2", "k_l: 1e300"), "params.k_l: '1e300' is out of range");
+  expectError(std::string(kGood) + "goal: [1, 1, 0]\n", "goal: given twice");
+  expectError(std::string(kGood) + "method: classic\n", "method: given twice");
+  expectError(replace(kGood, "radius: 0.3, v_max", "radius: 0.3, radius: 0.4, v_max"), "robot.radius: given twice");
+  expectError(replace(kGood, "k_l: 0.2", "k_l: 0.2, k_l: 0.3"), "params.k_l: given twice");
+  expectError(replace(kGood, "seed: 1", "seed: 18446744073709551616"), "seed: '18446744073709551616' is larger than");
+  expectError(replace(kGood, "seed: 1", "seed: -1"), "seed: must be an integer 0..18446744073709551615");
+  expectError(replace(kGood, "seed: 1", "seed: 1.5"), "seed: must be an integer");
+  StatusOr<Scenario> big = parseScenario(replace(kGood, "seed: 1", "seed: 18446744073709551615"), "big.yaml");
+  ASSERT_TRUE(big.ok()) << big.status().message();
+  EXPECT_EQ(big->seed, std::numeric_limits<std::uint64_t>::max());
+  big = parseScenario(replace(kGood, "seed: 1", "seed: 9007199254740993"), "big.yaml");  // 2^53 + 1: no double holds it
+  ASSERT_TRUE(big.ok()) << big.status().message();
+  EXPECT_EQ(big->seed, 9007199254740993ull);
+}
+
 TEST(Scenario, SubgoalsKeyDefaultsToNoneAndParsesTheModes) {
   StatusOr<Scenario> s = parseScenario(kGood, "good.yaml");
   ASSERT_TRUE(s.ok()) << s.status().message();

@@ -11,6 +11,8 @@
 #include <cstring>
 #include <string>
 
+#include <unistd.h>
+
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
 
@@ -34,6 +36,27 @@ inline int exitCodeFor(const adit::Status& s) {
 inline int report(const adit::Status& s) {
   std::fprintf(stderr, "adit: error: %s\n", s.message().c_str());
   return exitCodeFor(s);
+}
+
+/// Checks, before any work, that `path` (given with `flag`) can be written: an existing file,
+/// device or FIFO that is writable, or a new name in an existing, writable directory. A verb
+/// checks every output this way before it loads anything, so that a bad second output cannot
+/// leave the first one written (or a long run end in an unwritable place).
+inline adit::Status checkOutputPath(const std::string& path, const std::string& flag) {
+  if (path.empty()) return {};
+  if (path == "-") return {};
+  if (::access(path.c_str(), F_OK) == 0) {
+    if (::access(path.c_str(), W_OK) != 0)
+      return adit::invalidArgument(flag + " " + path + ": cannot write it: " + std::strerror(errno));
+    return {};
+  }
+  const std::string::size_type slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+  if (::access(dir.c_str(), F_OK) != 0)
+    return adit::invalidArgument(flag + " " + path + ": no such directory '" + dir + "'");
+  if (::access(dir.c_str(), W_OK | X_OK) != 0)
+    return adit::invalidArgument(flag + " " + path + ": cannot write in '" + dir + "': " + std::strerror(errno));
+  return {};
 }
 
 /// Flushes stdout and checks that everything printed on it arrived: results on a full disk,

@@ -37,7 +37,8 @@ struct GlobalPlannerParams {
   map::RobotShape robot = map::RobotShape::sphere(0.4);  ///< shape of the robot (see GlobalPlanner)
   PlanMode mode = PlanMode::kFly;
   PlannerType planner = PlannerType::kBitStar;
-  double time_budget_s = 2.0;       ///< wall-clock cap on the OMPL search [s]
+  double time_budget_s = 2.0;       ///< wall-clock cap on the OMPL search [s], at most kMaxTimeBudgetS
+  static constexpr double kMaxTimeBudgetS = 7 * 24 * 3600.0;
   std::uint32_t seed = 1;           ///< all randomness (OMPL and adit's corridor sampler)
   /// Anytime planners stop after this many iterations once they hold an exact solution, so that
   /// the result does not depend on the machine's speed (determinism); the time budget only cuts
