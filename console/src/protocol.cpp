@@ -199,7 +199,8 @@ StatusOr<RobotMessage> parseRobotMessage(const Json& j) {
   ADIT_ASSIGN_OR_RETURN(m.robot, robotField(j));
   auto seq = j.find("seq");
   if (seq == j.end()) return refuse("missing field 'seq'");
-  if (!seq->is_number_integer() || seq->get<std::int64_t>() < 1) return refuse("field 'seq' must be a positive integer");
+  if (!seq->is_number_integer() || seq->get<std::int64_t>() < 1 || seq->get<std::int64_t>() > kMaxSeq)
+    return refuse("field 'seq' must be an integer in 1..9007199254740991 (2^53 - 1)");
   m.seq = seq->get<std::int64_t>();
   ADIT_ASSIGN_OR_RETURN(m.t, numberField(j, "t"));
   if (m.type == "telemetry") {

@@ -17,6 +17,7 @@
 #include <set>
 #include <thread>
 
+#include "adit/console/protocol_limits.hpp"
 #include "adit/map/map_io.hpp"
 
 namespace adit::console {
@@ -36,17 +37,19 @@ bool validRobotId(const std::string& id) {
   });
 }
 
-// [x, y, z] of finite numbers, or nothing.
-std::optional<map::Vec3> vec3(const json& j) {
+// [x, y, z] of finite numbers within +-max_abs, or nothing. The centre is trusted no more than any
+// other input: a velocity of 1e308 is not a command a robot executes.
+std::optional<map::Vec3> vec3(const json& j, double max_abs) {
   if (!j.is_array() || j.size() != 3) return std::nullopt;
   map::Vec3 v;
   for (int i = 0; i < 3; ++i) {
     if (!j[std::size_t(i)].is_number()) return std::nullopt;
     v[i] = j[std::size_t(i)].get<double>();
-    if (!std::isfinite(v[i])) return std::nullopt;
+    if (!std::isfinite(v[i]) || std::abs(v[i]) > max_abs) return std::nullopt;
   }
   return v;
 }
+
 
 struct Url {
   std::string host, port, path;
@@ -103,11 +106,12 @@ StatusOr<ReceivedCommand> parseCommand(const std::string& text) {
   if (j.contains("operator") && j["operator"].is_string()) c.operator_name = j["operator"].get<std::string>();
   const std::string where = "command " + std::to_string(c.id) + " (" + c.kind + "): ";
   if (c.kind == "goal") {
-    c.goal = j.contains("goal") ? vec3(j["goal"]) : std::nullopt;
-    if (!c.goal) return invalidArgument(where + "goal must be [x, y, z] of finite numbers");
+    c.goal = j.contains("goal") ? vec3(j["goal"], kMaxCoordinate) : std::nullopt;
+    if (!c.goal) return invalidArgument(where + "goal must be [x, y, z] of finite numbers within +-1e7 m");
   } else if (c.kind == "manual") {
-    c.velocity = j.contains("velocity") ? vec3(j["velocity"]) : std::nullopt;
-    if (!c.velocity) return invalidArgument(where + "velocity must be [vx, vy, vz] of finite numbers");
+    c.velocity = j.contains("velocity") ? vec3(j["velocity"], kMaxManualSpeed) : std::nullopt;
+    if (!c.velocity || c.velocity->norm() > kMaxManualSpeed)
+      return invalidArgument(where + "velocity must be [vx, vy, vz] of finite numbers, at most 2 m/s");
   } else if (c.kind == "block" || c.kind == "reopen") {
     if (!j.contains("roadway") || !j["roadway"].is_string() || j["roadway"].get<std::string>().empty())
       return invalidArgument(where + "roadway must be a non-empty string");
@@ -225,8 +229,19 @@ struct RobotLink::Impl {
         !j["acked_seq"].is_number_unsigned())
       return fail(g, "expected welcome with acked_seq, got: " + j.dump().substr(0, 200), true);
     const std::uint64_t acked = j["acked_seq"].get<std::uint64_t>();
+    if (acked >= std::uint64_t(kMaxSeq))
+      return fail(g, "welcome.acked_seq " + std::to_string(acked) + " leaves no seq to send (the protocol's seqs end at " +
+                         std::to_string(kMaxSeq) + "): give the robot another id", true);
     {
-      std::lock_guard lock(mu);
+      // After the first welcome the centre can only hold what this link sent: a larger acked_seq
+      // is the centre's error (or a forgery), and taking it would drop unsent messages as stored.
+      std::unique_lock lock(mu);
+      if (stats.connections > 0 && acked >= next_seq) {
+        const std::string why = "welcome.acked_seq " + std::to_string(acked) + " is beyond the last seq sent (" +
+                                std::to_string(next_seq - 1) + ")";
+        lock.unlock();
+        return fail(g, why, true);
+      }
       // A robot id the centre knows from an earlier run: this run's seq goes on after what the
       // centre holds (else its first messages would count as stored already). Nothing is queued
       // before the first welcome: connect() returns after it.
@@ -267,6 +282,11 @@ struct RobotLink::Impl {
     std::lock_guard lock(mu);
     if (type == "ack" && j.contains("seq") && j["seq"].is_number_unsigned()) {
       const std::uint64_t seq = j["seq"].get<std::uint64_t>();
+      if (seq >= next_seq) {  // never sent: not an acknowledgement of anything
+        stats.last_error = "ack for seq " + std::to_string(seq) + ", beyond the last seq sent (" +
+                           std::to_string(next_seq - 1) + "); ignored";
+        return;
+      }
       auto it = std::lower_bound(outbox.begin(), outbox.end(), seq,
                                  [](const Outgoing& o, std::uint64_t s) { return o.seq < s; });
       if (it != outbox.end() && it->seq == seq) outbox.erase(it);
@@ -416,6 +436,8 @@ StatusOr<std::uint64_t> RobotLink::send(const std::string& json_object) {
     m.cv.wait(lock);  // only messages that must not be lost: wait for acks
   }
   if (m.stopping) return failedPrecondition("link: stopped");
+  if (m.next_seq > std::uint64_t(kMaxSeq))
+    return failedPrecondition("link: the robot's seqs are used up (the protocol's end at " + std::to_string(kMaxSeq) + ")");
   const std::uint64_t seq = m.enqueueLocked(std::move(j), droppable);
   m.stats.outbox = m.outbox.size();
   lock.unlock();

@@ -21,6 +21,8 @@
 #include <functional>
 #include <map>
 #include <mutex>
+#include <limits>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <thread>
@@ -96,6 +98,7 @@ struct CentreOptions {
   std::vector<json> commands;         // sent after every welcome, as the centre resends pending ones
   std::string refuse;                 // answer hello with this error and close
   bool ack = true;
+  std::optional<std::uint64_t> welcome_acked;  // what welcome says instead of the ledger's
   // Called with every newly stored message: what the centre sends back besides the ack (e.g. an
   // operator's command once the robot reached a place).
   std::function<std::vector<json>(const json&)> react;
@@ -169,7 +172,9 @@ class Centre {
       ws.close(websocket::close_code::policy_error, ec);
       return;
     }
-    ws.write(net::buffer(json{{"type", "welcome"}, {"robot", hello["robot"]}, {"acked_seq", ledger_.maxSeq()}}.dump()), ec);
+    ws.write(net::buffer(json{{"type", "welcome"}, {"robot", hello["robot"]},
+                              {"acked_seq", opt_.welcome_acked.value_or(ledger_.maxSeq())}}.dump()),
+             ec);
     for (const json& c : opt_.commands) ws.write(net::buffer(c.dump()), ec);
     int stored_here = 0;
     for (;;) {
@@ -359,6 +364,45 @@ TEST(RobotLink, AMalformedCommandIsRefusedWithTheReason) {
   EXPECT_EQ(results[0]["result"], "refused");
   EXPECT_NE(results[0]["reason"].get<std::string>().find("velocity"), std::string::npos);
   EXPECT_NE(results[1]["reason"].get<std::string>().find("unknown kind"), std::string::npos);
+}
+
+// The centre's numbers are checked like any input: a manual velocity beyond the protocol's
+// limit is refused, not executed; an ack for a seq never sent acknowledges nothing; a welcome
+// that leaves no seq to send (2^64 - 1 used to wrap the robot's counter to 0) fails the
+// connection with what to do.
+TEST(RobotLink, TheCentresNumbersAreCheckedToo) {
+  {
+    Ledger ledger;
+    CentreOptions opt;
+    opt.commands = {json{{"type", "command"}, {"command_id", 11}, {"kind", "manual"}, {"velocity", {1e308, 0, 0}}},
+                    json{{"type", "command"}, {"command_id", 12}, {"kind", "manual"}, {"velocity", {3, 0, 0}}},
+                    json{{"type", "command"}, {"command_id", 13}, {"kind", "goal"}, {"goal", {1e300, 0, 0}}},
+                    json{{"type", "ack"}, {"seq", 99999999999ull}}};
+    opt.ack = false;  // only the forged ack arrives
+    Centre centre(ledger, opt);
+    StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
+    ASSERT_TRUE(link.ok()) << link.status().message();
+    ASSERT_TRUE(waitFor([&] { return ledger.ofType("command_result").size() >= 3; }));
+    EXPECT_TRUE((*link)->pollCommands().empty()) << "an out-of-range command reached the robot";
+    for (const json& r : ledger.ofType("command_result")) {
+      EXPECT_EQ(r["result"], "refused") << r.dump();
+      EXPECT_TRUE(r["reason"].get<std::string>().find("at most 2 m/s") != std::string::npos ||
+                  r["reason"].get<std::string>().find("within +-1e7 m") != std::string::npos)
+          << r.dump();
+    }
+    const LinkStats s = (*link)->stats();
+    EXPECT_EQ(s.acked_seq, 0u) << "a forged ack counted";
+    EXPECT_EQ(s.outbox, 3u) << "the results must wait for their real acks";
+  }
+  {
+    Ledger ledger;
+    CentreOptions opt;
+    opt.welcome_acked = std::numeric_limits<std::uint64_t>::max();
+    Centre centre(ledger, opt);
+    StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect(centre.url(), hello());
+    ASSERT_FALSE(link.ok());
+    EXPECT_NE(link.status().message().find("give the robot another id"), std::string::npos) << link.status().message();
+  }
 }
 
 TEST(RobotLink, ARefusingCentreOrNoCentreIsAClearError) {

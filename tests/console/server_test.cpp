@@ -3,6 +3,8 @@
 // loopback port; Beast clients act as robots, viewers and operators (protocol.md).
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
@@ -329,6 +331,10 @@ TEST_F(ServerTest, RefusesEveryBadRobotMessageAndStoresNothing) {
       {"unknown type", with(t, "type", "gossip").dump()},
       {"missing seq", without(t, "seq").dump()},
       {"seq 0", with(t, "seq", 0).dump()},
+      // Beyond 2^53 - 1 (the protocol's range: what every JSON reader, the page's included, holds
+      // exactly); 2^63 - 1 used to be stored and then broke the robot id for good.
+      {"seq 2^53", with(t, "seq", std::int64_t{1} << 53).dump()},
+      {"seq 2^63 - 1", with(t, "seq", std::numeric_limits<std::int64_t>::max()).dump()},
       {"seq as string", with(t, "seq", "1").dump()},
       {"missing t", without(t, "t").dump()},
       {"missing pose", without(t, "pose").dump()},

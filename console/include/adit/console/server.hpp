@@ -25,23 +25,13 @@
 #include <string>
 #include <vector>
 
+#include "adit/console/protocol_limits.hpp"
 #include "adit/console/store.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/status.hpp"
 
 namespace adit::console {
-
-/// Maximum size of one message (WebSocket frame or HTTP body), protocol.md "Limits".
-inline constexpr std::size_t kMaxMessageBytes = 256 * 1024;
-/// Points in one path or obstacle list.
-inline constexpr std::size_t kMaxPoints = 10000;
-/// Messages a viewer may have waiting before the oldest telemetry is dropped.
-inline constexpr std::size_t kMaxViewerQueue = 1024;
-/// Commands of one robot still pending or sent before POST /api/commands answers 429.
-inline constexpr std::size_t kMaxPendingCommands = 64;
-/// Fastest manual velocity set-point an operator may send [m/s].
-inline constexpr double kMaxManualSpeed = 2.0;
 
 struct ServerOptions {
   std::string address = "127.0.0.1";  ///< loopback unless told otherwise
