@@ -443,29 +443,25 @@ Status Server::Impl::prepare() {
   return Status::okStatus();
 }
 
-// A restarted centre shows what it had: the last telemetry, plan and tracks of every robot,
-// read backwards page by page until each is found (a plan may be thousands of messages old).
+// A restarted centre shows what it had: the last telemetry, plan and tracks of every robot, each
+// its newest stored message of that type. (It used to page backwards through the seqs 5,000 at a
+// time: a robot that had sent seq 2^63 - 1 kept a restart busy for ever.)
 void Server::Impl::warmCache() {
-  constexpr std::int64_t kPage = 5000;
   auto robots = store->robots();
   if (!robots.ok()) return;
   for (const RobotRecord& r : *robots) {
     RobotCache& c = cache[r.robot];
     c.last_seen = r.last_seen;
     c.stored_seq = r.last_seq;
-    for (std::int64_t to = r.last_seq; to >= 1 && (c.telemetry.is_null() || c.plan.is_null() || c.tracks.is_null());
-         to -= kPage) {
-      const std::int64_t from = std::max<std::int64_t>(1, to - kPage + 1);
-      auto msgs = store->history(r.robot, from, static_cast<std::size_t>(to - from + 1));
-      if (!msgs.ok()) break;
-      for (auto m = msgs->rbegin(); m != msgs->rend(); ++m) {  // newest first
-        Json& slot = m->type == "telemetry" ? c.telemetry : m->type == "plan" ? c.plan : c.tracks;
-        if (!slot.is_null() || (m->type != "telemetry" && m->type != "plan" && m->type != "obstacles")) continue;
-        Json j = Json::parse(m->body, nullptr, false);
-        if (!j.is_object()) continue;
-        j["received_at"] = m->received_at;
-        slot = m->type == "obstacles" ? j.value("tracks", Json::array()) : j;
-      }
+    for (const char* type : {"telemetry", "plan", "obstacles"}) {
+      auto m = store->lastOfType(r.robot, type);
+      if (!m.ok() || !*m) continue;
+      Json j = Json::parse((*m)->body, nullptr, false);
+      if (!j.is_object()) continue;
+      j["received_at"] = (*m)->received_at;
+      if ((*m)->type == "telemetry") c.telemetry = j;
+      else if ((*m)->type == "plan") c.plan = j;
+      else c.tracks = j.value("tracks", Json::array());
     }
   }
 }

@@ -133,6 +133,16 @@ class PostgresStore final : public Store, private MigrationTarget {
     });
   }
 
+  StatusOr<std::optional<RobotMessage>> lastOfType(const std::string& robot, const std::string& type) override {
+    return guard("cannot read the last " + type + " of robot '" + robot + "'",
+                 [&]() -> StatusOr<std::optional<RobotMessage>> {
+                   pqxx::read_transaction txn(*conn_);
+                   const pqxx::result r = txn.exec_prepared("last_of_type", robot, type);
+                   if (r.empty()) return std::optional<RobotMessage>();
+                   return std::optional<RobotMessage>(messageFromRow(Row{r[0]}));
+                 });
+  }
+
   StatusOr<std::int64_t> telemetryRows() override {
     return guard("cannot count the telemetry rows", [&]() -> StatusOr<std::int64_t> {
       pqxx::read_transaction txn(*conn_);
@@ -276,6 +286,10 @@ class PostgresStore final : public Store, private MigrationTarget {
     conn_->prepare("history_poses",
                    "SELECT seq, x, y, z, vx, vy, vz, status FROM telemetry"
                    " WHERE robot = $1 AND seq >= $2 AND seq <= $3 ORDER BY seq");
+    // A backward scan of the (robot, seq) primary key from the robot's newest row.
+    conn_->prepare("last_of_type",
+                   "SELECT robot, seq, type, t, received_at, body FROM messages"
+                   " WHERE robot = $1 AND type = $2 ORDER BY seq DESC LIMIT 1");
     conn_->prepare("telemetry_rows", "SELECT count(*) FROM telemetry");
     conn_->prepare("add_command",
                    "INSERT INTO commands(robot, operator, issued_at, kind, body, status, reason, updated_at)"

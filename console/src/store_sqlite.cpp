@@ -152,6 +152,16 @@ class SqliteStore final : public Store, private MigrationTarget {
     return out;
   }
 
+  StatusOr<std::optional<RobotMessage>> lastOfType(const std::string& robot, const std::string& type) override {
+    Use u(last_of_type_);
+    u.bind(1, robot);
+    u.bind(2, type);
+    const int rc = u.step();
+    if (rc == SQLITE_DONE) return std::optional<RobotMessage>();
+    if (rc != SQLITE_ROW) return error(rc, "cannot read the last " + type + " of robot '" + robot + "'");
+    return std::optional<RobotMessage>(messageFromRow(u));
+  }
+
   StatusOr<std::int64_t> telemetryRows() override {
     Use u(telemetry_rows_);
     const int rc = u.step();
@@ -331,6 +341,10 @@ class SqliteStore final : public Store, private MigrationTarget {
          "SELECT m.robot, m.seq, m.type, m.t, m.received_at, m.body, t.x, t.y, t.z, t.vx, t.vy, t.vz, t.status"
          " FROM messages m LEFT JOIN telemetry t ON t.robot = m.robot AND t.seq = m.seq"
          " WHERE m.robot = ?1 AND m.seq >= ?2 ORDER BY m.seq LIMIT ?3"},
+        // Walks the (robot, seq) primary key backwards from the robot's newest row.
+        {&last_of_type_,
+         "SELECT robot, seq, type, t, received_at, body FROM messages WHERE robot = ?1 AND type = ?2"
+         " ORDER BY seq DESC LIMIT 1"},
         {&telemetry_rows_, "SELECT count(*) FROM telemetry"},
         {&add_command_,
          "INSERT INTO commands(robot, operator, issued_at, kind, body, status, reason, updated_at)"
@@ -377,7 +391,7 @@ class SqliteStore final : public Store, private MigrationTarget {
   std::string path_, where_;
   bool synchronous_full_;
   sqlite3* db_ = nullptr;
-  Statement upsert_robot_, robots_, robot_, insert_message_, insert_telemetry_, last_seq_, history_,
+  Statement upsert_robot_, robots_, robot_, insert_message_, insert_telemetry_, last_seq_, history_, last_of_type_,
       telemetry_rows_, add_command_, update_command_, command_, commands_, unanswered_;
 };
 

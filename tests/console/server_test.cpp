@@ -568,6 +568,15 @@ TEST_F(ServerTest, ZRestartedServerResumesFromTheDatabase) {
       robot.send(telemetry("r-restart", seq, seq));
       robot.recv();
     }
+    // The protocol's last seq, 2^53 - 1 away from the plan: the restart must not walk the gap
+    // (paging backwards 5,000 seqs at a time, it once never finished).
+    WsClient far(port(), "/ws/robot");
+    far.hello("r-far");
+    far.send(Json{{"type", "plan"}, {"robot", "r-far"}, {"seq", 1}, {"t", 0.0}, {"reason", "initial"},
+                  {"path", {{1, 0, 1}, {12, 0, 1}}}, {"labels", {"A"}}});
+    far.recv();
+    far.send(telemetry("r-far", kMaxSeq, 1.0));
+    EXPECT_EQ(far.recv().value("type", ""), "ack");
   }
   stopServer();
   startServer();
@@ -578,6 +587,9 @@ TEST_F(ServerTest, ZRestartedServerResumesFromTheDatabase) {
     if (r["robot"] == "r-restart") {
       found = true;
       EXPECT_EQ(r["telemetry"]["seq"], 5);
+      EXPECT_EQ(r["plan"]["seq"], 1);
+    } else if (r["robot"] == "r-far") {
+      EXPECT_EQ(r["telemetry"]["seq"], kMaxSeq);
       EXPECT_EQ(r["plan"]["seq"], 1);
     }
   EXPECT_TRUE(found);

@@ -106,6 +106,10 @@ class Store {
   /// Messages of `robot` with seq >= from_seq, in seq order, at most `limit`.
   virtual StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq,
                                                       std::size_t limit) = 0;
+  /// The robot's newest message of `type` (telemetry, plan, obstacles, ...), if any; its cost
+  /// depends on the rows stored, never on how far apart their seqs are. (A restarted server
+  /// shows each robot's last state from these.)
+  virtual StatusOr<std::optional<RobotMessage>> lastOfType(const std::string& robot, const std::string& type) = 0;
   virtual StatusOr<std::int64_t> telemetryRows() = 0;
 
   /// Stores a new command (status pending) and returns its id.
