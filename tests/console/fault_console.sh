@@ -9,6 +9,8 @@
 #   tests/console/fault_console.sh ADIT MAP WORK
 set -euo pipefail
 ADIT=$1 MAP=$2 WORK=$3
+# Deadlines x ADIT_TEST_SLOWDOWN (10 in sanitizer and Debug builds, which load the map slower).
+SLOWDOWN=${ADIT_TEST_SLOWDOWN:-1}
 rm -rf "$WORK" && mkdir -p "$WORK"
 server_pid="" sim_pid=""
 cleanup() {
@@ -25,7 +27,7 @@ start_server() {
   : > "$WORK/serve.log"
   "$ADIT" serve --map "$MAP" --listen "127.0.0.1:$port" --db "sqlite:$WORK/centre.db" -q 2>> "$WORK/serve.log" &
   server_pid=$!
-  for _ in $(seq 600); do
+  for _ in $(seq $((600 * SLOWDOWN))); do
     if grep -q 'http://' "$WORK/serve.log"; then
       port=$(grep -o 'http://127.0.0.1:[0-9]*' "$WORK/serve.log" | head -1 | sed 's#.*:##')
       return 0
@@ -46,12 +48,12 @@ sim_pid=$!
 # Kill the centre once the robot has stored a few hundred messages, while it is still running:
 # the robot is frozen (SIGSTOP) to read the count and to check that it has not finished, then
 # thawed and the centre killed at once, with the robot's messages in flight.
-for _ in $(seq 600); do [ "$(stored)" -ge 300 ] && break; sleep 0.05; done
+for _ in $(seq $((600 * SLOWDOWN))); do [ "$(stored)" -ge 300 ] && break; sleep 0.05; done
 kill -STOP "$sim_pid" 2>/dev/null || fail "the run ended before the fault: $(tail -5 "$WORK/sim.log")"
 # (a run that exited is a zombie until waited for, and SIGSTOP to a zombie succeeds)
 [ "$(awk '{print $3}' "/proc/$sim_pid/stat")" != Z ] || fail "the run ended before the fault: $(tail -5 "$WORK/sim.log")"
 before=$(stored)
-[ "$before" -ge 300 ] || fail "only $before messages stored after 30 s"
+[ "$before" -ge 300 ] || fail "only $before messages stored after $((30 * SLOWDOWN)) s"
 kill -CONT "$sim_pid"
 kill -KILL "$server_pid"
 wait "$server_pid" 2>/dev/null || true

@@ -29,7 +29,8 @@ if(TARGET adit)
                        --workdir ${_e2e_dir}/stress_${fault})
     endforeach()
   endif()
-  adit_stress_test(console_fault_restart 10 bash ${PROJECT_SOURCE_DIR}/tests/console/fault_console.sh
+  adit_stress_test(console_fault_restart 10 env ADIT_TEST_SLOWDOWN=${ADIT_TEST_SLOWDOWN} bash
+                   ${PROJECT_SOURCE_DIR}/tests/console/fault_console.sh
                    $<TARGET_FILE:adit> ${PROJECT_SOURCE_DIR}/maps/district.yaml ${CMAKE_CURRENT_BINARY_DIR}/stress_fault)
   adit_stress_test(campaign_killed_shard 10 bash ${PROJECT_SOURCE_DIR}/tests/tools/campaign_kill.sh
                    $<TARGET_FILE:adit> ${PROJECT_SOURCE_DIR}/maps/district.yaml 6 5)
