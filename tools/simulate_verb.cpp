@@ -29,6 +29,7 @@
 #include "adit/map/map_io.hpp"
 #include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "common/cli.hpp"
 #include "common/figure.hpp"
 #include "common/plan_output.hpp"
@@ -65,6 +66,7 @@ struct SimulateArgs {
   double live_speed = 1.0;
   double live_period = 0.1;
   double live_flush = 30.0;
+  std::string max_memory = "2G";
   bool live_hold = false;
   bool live_lockstep = false;
   std::string robot_id;
@@ -569,6 +571,22 @@ int run(const SimulateArgs& a) {
     return report(invalidArgument(std::string(a.live_hold ? "--live-hold" : "--live-lockstep") + " needs --live URL"));
   StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
   if (!sc.ok()) return report(sc.status());
+  // The run keeps a record of every period (trajectory, then its JSON): refused up front when
+  // that cannot fit, instead of growing until the kernel kills the process (t_max 10^6 s at
+  // dt 0.1 reached 8.7 GB: 870 B a period, rounded up here).
+  {
+    constexpr double kRecordBytesPerPeriod = 1024.0;
+    StatusOr<std::uint64_t> budget = map::parseByteSize(a.max_memory);
+    if (!budget.ok()) return report(invalidArgument("--max-memory: " + budget.status().message()));
+    const double periods = std::ceil(sc->t_max_s / sc->dt_s) + 1.0;
+    char count[32];
+    std::snprintf(count, sizeof count, "%.0f", periods);
+    const std::string what = sc->file + ": t_max / dt = " + count + " periods: the run's record";
+    if (Status s = map::MemoryBudget{*budget}.check(periods * kRecordBytesPerPeriod, what,
+                                                    "lower t_max, raise dt, or raise --max-memory");
+        !s.ok())
+      return report(s);
+  }
   if (!a.quiet)
     std::fprintf(stderr, "adit: simulating %s with %s (sub-goals: %s)\n", sc->name.c_str(), methodName(sc->params.method),
                  subgoalModeName(sc->subgoal_mode));
@@ -782,6 +800,9 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   cmd->add_flag("--live-lockstep", args->live_lockstep,
                 "With --live: after each period wait for the console's acknowledgement (at most --live-flush), so "
                 "a command answering a message acts in the next period");
+  cmd->add_option("--max-memory", args->max_memory,
+                  "Refuse a run whose record (a trajectory sample per period) would need more than this "
+                  "(e.g. 512M, 8G; default 2G)");
   cmd->add_option("--robot-id", args->robot_id, "With --live: the robot's id (default: the scenario file's stem)");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   cmd->callback([args, rc, cmd] {
