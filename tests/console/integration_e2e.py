@@ -64,6 +64,7 @@ class Server:
             [self.args.adit, "serve", "--map", self.args.map, "--db", self.db,
              "--listen", "127.0.0.1:%d" % self.port, "--quiet"],
             stdout=subprocess.DEVNULL, stderr=log)
+        CHILDREN.append(self.proc)
         log.close()
         timeout *= SLOWDOWN
         deadline = time.monotonic() + timeout
@@ -210,6 +211,10 @@ def last_seq(server, robot):
 # and plans ten times slower, and its deadlines must not be what fails.
 SLOWDOWN = 1.0
 
+# Every child process started (servers, the simulator): whatever way the test ends, none outlives
+# it (a failed check used to leave `adit serve` running, loading the next tests' machine).
+CHILDREN = []
+
 
 def wait_for(pred, timeout, what):
     timeout *= SLOWDOWN
@@ -264,6 +269,7 @@ def run(args):
         # its start until the operator resumes it, instead of the test racing the wall clock.
         + (["--live-hold"] if args.fault == "commands" else []),
         stdout=subprocess.DEVNULL, stderr=sim_log)
+    CHILDREN.append(sim)
     sim_log.close()
     try:
         checks = []
@@ -426,6 +432,11 @@ def main():
     except Failure as e:
         print("integration_e2e (%s, %s): FAILED: %s" % (args.fault, args.db, e), file=sys.stderr)
         return 1
+    finally:
+        for child in CHILDREN:
+            if child.poll() is None:
+                child.kill()
+                child.wait()
     return 0
 
 
