@@ -13,7 +13,6 @@ if(TARGET adit AND Python3_Interpreter_FOUND)
            --map ${PROJECT_SOURCE_DIR}/maps/district.yaml
            --scenario ${PROJECT_SOURCE_DIR}/maps/scenarios/district_rescue.yaml --live-period 0.5
            --slowdown ${ADIT_TEST_SLOWDOWN})
-  math(EXPR _e2e_timeout "300 * ${ADIT_TEST_SLOWDOWN}")
   set(_e2e_dir ${CMAKE_CURRENT_BINARY_DIR}/console_e2e)
   # fault;database;live speed (0: as fast as it goes). A kill needs the run to outlast the
   # restart (about 3 s to load the map): 30x gives 10 s of driving. The commands run holds the
@@ -24,7 +23,7 @@ if(TARGET adit AND Python3_Interpreter_FOUND)
     list(GET spec 2 speed)
     add_test(NAME console_e2e_${fault}_${db}
              COMMAND ${_e2e} --fault ${fault} --db ${db} --live-speed ${speed} --workdir ${_e2e_dir}/${fault}_${db})
-    set_tests_properties(console_e2e_${fault}_${db} PROPERTIES LABELS "cli;scenario" TIMEOUT ${_e2e_timeout})
+    set_tests_properties(console_e2e_${fault}_${db} PROPERTIES LABELS "cli;scenario" TIMEOUT 300)
   endforeach()
 
   # PostgreSQL: the store's throw-away server (store.cmake's fixture console_postgres, registered
@@ -34,7 +33,7 @@ if(TARGET adit AND Python3_Interpreter_FOUND)
     add_test(NAME console_e2e_kill_postgresql
              COMMAND ${_e2e} --fault kill --db postgresql --pg-state ${CMAKE_CURRENT_BINARY_DIR}/console_postgres
                      --live-speed 30 --workdir ${_e2e_dir}/kill_postgresql)
-    set_tests_properties(console_e2e_kill_postgresql PROPERTIES LABELS "cli;scenario" TIMEOUT ${_e2e_timeout}
+    set_tests_properties(console_e2e_kill_postgresql PROPERTIES LABELS "cli;scenario" TIMEOUT 300
                          FIXTURES_REQUIRED console_postgres)
   endif()
 endif()

@@ -8,6 +8,7 @@
 # Usage: campaign_kill.sh ADIT MAP N SEED
 set -euo pipefail
 ADIT=$1 MAP=$2 N=$3 SEED=$4
+SLOWDOWN=${ADIT_TEST_SLOWDOWN:-1}  # 10 in sanitizer and Debug builds: the map loads slower
 
 T=$(mktemp -d /tmp/adit-kill-test.XXXXXX)
 trap 'rm -rf "$T"' EXIT
@@ -23,7 +24,7 @@ before=$(sha256sum "$T"/sharded/shard-1-of-2.*)
 # subshell running it).
 "$ADIT" campaign run -q --map "$MAP" --scenarios "$N" --seed "$SEED" --shard 0/2 --jobs 2 --out "$T/sharded" &
 pid=$!
-for _ in $(seq 600); do
+for _ in $(seq $((600 * SLOWDOWN))); do
   [ -n "$(pgrep -P "$pid" || true)" ] && break
   sleep 0.05
 done
