@@ -50,7 +50,6 @@ std::optional<map::Vec3> vec3(const json& j, double max_abs) {
   return v;
 }
 
-
 struct Url {
   std::string host, port, path;
 };
