@@ -11,6 +11,8 @@
 #
 #   tests/console/browser_console.sh ADIT FEED MAP WORK [CHECK_PNG] [SCREENSHOT]
 set -euo pipefail
+# Deadlines x ADIT_TEST_SLOWDOWN (10 in sanitizer and Debug builds).
+SLOWDOWN=${ADIT_TEST_SLOWDOWN:-1}
 ADIT=$1 FEED=$2 MAP=$3 WORK=$4 CHECK_PNG=${5:-} SHOT=${6:-$4/console.png}
 CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
 rm -rf "$WORK" && mkdir -p "$WORK"
@@ -23,7 +25,7 @@ echo "console-test:0123456789abcdef0123" > "$WORK/token"
 "$ADIT" serve --map "$MAP" --listen 127.0.0.1:0 --db "sqlite:$WORK/centre.db" --token-file "$WORK/token" -q \
   2> "$WORK/serve.log" &
 server_pid=$!
-for _ in $(seq 600); do
+for _ in $(seq $((600 * SLOWDOWN))); do
   grep -q 'http://' "$WORK/serve.log" 2>/dev/null && break
   kill -0 "$server_pid" 2>/dev/null || fail "adit serve exited: $(cat "$WORK/serve.log")"
   sleep 0.2
@@ -45,7 +47,7 @@ flags=(--headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader --use-a
 chromium() {
   local profile="$WORK/chromium-$1"; shift
   rm -rf "$profile"; mkdir -p "$profile"
-  timeout 180 "$CHROMIUM" "${flags[@]}" --user-data-dir="$profile" "$@" 2>> "$WORK/chromium.log"
+  timeout $((180 * SLOWDOWN)) "$CHROMIUM" "${flags[@]}" --user-data-dir="$profile" "$@" 2>> "$WORK/chromium.log"
   rm -rf "$profile"
 }
 chromium dom --dump-dom "http://$hostport/" > "$WORK/dom.html"
@@ -80,7 +82,7 @@ scenario=$(dirname "$MAP")/scenarios/district_inspection.yaml
 sim_pid=$!
 api() { python3 -c 'import sys, urllib.request; print(urllib.request.urlopen("http://" + sys.argv[1] + sys.argv[2]).read().decode())' "$hostport" "$1"; }
 robot_known() { api /api/robots | python3 -c 'import json, sys; sys.exit(0 if any(r["robot"] == "district_inspection" and r["telemetry"] for r in json.load(sys.stdin)) else 1)'; }
-for _ in $(seq 300); do robot_known && break; sleep 0.2; done
+for _ in $(seq $((300 * SLOWDOWN))); do robot_known && break; sleep 0.2; done
 robot_known || fail "the simulated robot never reported: $(cat "$WORK/sim.log")"
 chromium click --dump-dom "http://$hostport/#token=0123456789abcdef0123&robot=district_inspection&goal-click=50,0" > "$WORK/click.html"
 click_root=$(grep -o '<html[^>]*>' "$WORK/click.html" | head -1)
@@ -89,7 +91,7 @@ echo "after the click: $click_root"
 command_id=$(sed -n 's/.*data-last-command="\([0-9]*\)".*/\1/p' <<< "$click_root")
 [ -n "$command_id" ] || fail "the click sent no accepted command: $(grep -o 'id="answer"[^<]*' "$WORK/click.html")"
 replanned=""
-for _ in $(seq 100); do
+for _ in $(seq $((100 * SLOWDOWN))); do
   replanned=$(api "/api/history?robot=district_inspection&limit=10000" | python3 -c '
 import json, sys
 cid = int(sys.argv[1]); msgs = json.load(sys.stdin)
