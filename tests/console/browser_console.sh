@@ -16,8 +16,13 @@ SLOWDOWN=${ADIT_TEST_SLOWDOWN:-1}
 ADIT=$1 FEED=$2 MAP=$3 WORK=$4 CHECK_PNG=${5:-} SHOT=${6:-$4/console.png}
 CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
 rm -rf "$WORK" && mkdir -p "$WORK"
-server_pid=""
-cleanup() { if [ -n "$server_pid" ] && kill -0 "$server_pid" 2>/dev/null; then kill -TERM "$server_pid"; wait "$server_pid" || true; fi; }
+server_pid="" sim_pid=""
+# Whatever way the script ends, no child outlives it (a failed check left the simulation running).
+cleanup() {
+  for p in $sim_pid $server_pid; do
+    if kill -0 "$p" 2>/dev/null; then kill -TERM "$p"; wait "$p" || true; fi
+  done
+}
 trap cleanup EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 

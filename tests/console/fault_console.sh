@@ -43,7 +43,8 @@ start_server
 scenario=$(dirname "$MAP")/scenarios/district_rescue.yaml
 # Paced at 20x (about 15 s of wall time for the run) so that the kill below, at about 1.5 s,
 # finds it mid-run even when this script's polls are slow on a loaded machine.
-"$ADIT" simulate "$scenario" --live "ws://127.0.0.1:$port" --live-speed 20 --robot-id faulty -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
+"$ADIT" simulate "$scenario" --live "ws://127.0.0.1:$port" --live-speed 20 --live-flush $((30 * SLOWDOWN)) \
+  --robot-id faulty -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
 sim_pid=$!
 # Kill the centre once the robot has stored a few hundred messages, while it is still running:
 # the robot is frozen (SIGSTOP) to read the count and to check that it has not finished, then
