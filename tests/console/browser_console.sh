@@ -55,9 +55,15 @@ chromium() {
   timeout $((180 * SLOWDOWN)) "$CHROMIUM" "${flags[@]}" --user-data-dir="$profile" "$@" 2>> "$WORK/chromium.log"
   rm -rf "$profile"
 }
-chromium dom --dump-dom "http://$hostport/" > "$WORK/dom.html"
-root=$(grep -o '<html[^>]*>' "$WORK/dom.html" | head -1)
-row=$(grep -o '<tr data-robot="r1"[^>]*>' "$WORK/dom.html" | head -1)
+# The virtual-time budget does not wait for the WebSocket snapshot that draws the robot's row: load
+# the page again until the row is there (bounded), instead of failing on a slow first frame.
+for _ in 1 2 3 4 5; do
+  chromium dom --dump-dom "http://$hostport/" > "$WORK/dom.html"
+  grep -q '<tr data-robot="r1"' "$WORK/dom.html" && break
+done
+root=$(grep -o '<html[^>]*>' "$WORK/dom.html" | head -1 || true)
+row=$(grep -o '<tr data-robot="r1"[^>]*>' "$WORK/dom.html" | head -1 || true)
+[ -n "$row" ] || fail "the page drew no row for robot r1 in 5 loads: $root"
 echo "root: $root"
 echo "row:  $row"
 [[ "$root" == *'data-ready="1"'* ]] || fail "the page did not start"
