@@ -219,14 +219,16 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
   if (const YAML::Node rb = root["robot"]) {
     r.onlyKeys(rb, "robot", {"radius", "v_max", "a_max", "sensor_range"});
     // Ranges a robot in a mine can have (a sensor to the horizon, a vehicle at highway speed, 10 g).
-    if (rb["sensor_range"]) s.sensor_range_m = r.positive(rb["sensor_range"], "robot.sensor_range");
-    if (rb["sensor_range"]) r.within(rb["sensor_range"], "robot.sensor_range", 0.0, 1e4, "m");
-    if (rb["radius"]) s.params.robot.radius_m = r.positive(rb["radius"], "robot.radius");
-    if (rb["radius"]) r.within(rb["radius"], "robot.radius", 0.0, 100.0, "m");
-    if (rb["v_max"]) s.params.robot.v_max_mps = r.positive(rb["v_max"], "robot.v_max");
-    if (rb["v_max"]) r.within(rb["v_max"], "robot.v_max", 0.0, 100.0, "m/s");
-    if (rb["a_max"]) s.params.robot.a_max_mps2 = r.positive(rb["a_max"], "robot.a_max");
-    if (rb["a_max"]) r.within(rb["a_max"], "robot.a_max", 0.0, 100.0, "m/s^2");
+    auto limit = [&](const char* key, double hi, const char* unit, auto& target) {
+      if (!rb[key]) return;
+      const std::string field = std::string("robot.") + key;
+      r.positive(rb[key], field);
+      target = r.within(rb[key], field, 0.0, hi, unit);
+    };
+    limit("sensor_range", 1e4, "m", s.sensor_range_m);
+    limit("radius", 100.0, "m", s.params.robot.radius_m);
+    limit("v_max", 100.0, "m/s", s.params.robot.v_max_mps);
+    limit("a_max", 100.0, "m/s^2", s.params.robot.a_max_mps2);
   }
   if (const YAML::Node list = root["static_obstacles"]) {
     if (!list.IsSequence()) r.fail(list, "static_obstacles", "must be a list");
