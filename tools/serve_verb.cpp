@@ -12,6 +12,7 @@
 #include "adit/console/store.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
+#include "adit/map/content_hash.hpp"
 #include "common/batch_runner.hpp"
 #include "common/cli.hpp"
 #include "common/progress.hpp"
@@ -80,7 +81,7 @@ int runServe(const ServeArgs& args) {
     if (!token.ok()) return report(token.status());
     options.token = *token;
   }
-  StatusOr<std::string> hash = fileContentHash(args.map);
+  StatusOr<std::string> hash = map::fileContentHash(args.map);
   if (!hash.ok()) return report(hash.status());
   options.map_hash = *hash;
   options.map_name = args.map.substr(args.map.find_last_of('/') + 1);

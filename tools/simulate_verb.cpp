@@ -27,6 +27,7 @@
 #include "adit/fusion/subgoal_selector.hpp"
 #include "adit/local/simulator.hpp"
 #include "adit/map/map_io.hpp"
+#include "adit/map/content_hash.hpp"
 #include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
 #include "adit/map/size_estimate.hpp"
@@ -312,7 +313,7 @@ StatusOr<std::unique_ptr<console::RobotLink>> connectLive(const SimulateArgs& a,
     hello.robot = stem.substr(0, stem.rfind('.'));
   }
   hello.map = sc.map_path->substr(sc.map_path->find_last_of('/') + 1);
-  ADIT_ASSIGN_OR_RETURN(hello.map_hash, console::mapFileHash(*sc.map_path));
+  ADIT_ASSIGN_OR_RETURN(hello.map_hash, map::fileContentHash(*sc.map_path));
   hello.radius_m = sc.params.robot.radius_m;
   return console::RobotLink::connect(a.live, hello);
 }

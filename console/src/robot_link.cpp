@@ -83,15 +83,6 @@ Status RobotHello::validate() const {
   return {};
 }
 
-StatusOr<std::string> mapFileHash(const std::string& path) {
-  ADIT_ASSIGN_OR_RETURN(const std::string bytes, map::readFile(path));
-  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64: offset basis, then prime per byte
-  for (unsigned char c : bytes) h = (h ^ c) * 0x100000001b3ull;
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
-  return std::string(buf);
-}
-
 StatusOr<ReceivedCommand> parseCommand(const std::string& text) {
   const json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (!j.is_object()) return invalidArgument("command: not a JSON object");

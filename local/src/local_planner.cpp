@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 
 #include "adit/local/potential_terms.hpp"
 #include "adit/map/collision.hpp"
+#include "adit/map/content_hash.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/rock_points.hpp"
 
@@ -86,16 +86,11 @@ Vec3 unitOr(const Vec3& v, const Vec3& fallback) {
 
 // FNV-1a over the path's coordinates: any change of any point is a new path.
 std::uint64_t pathSignature(const map::Polyline& path) {
-  std::uint64_t h = 1469598103934665603ull;
+  std::uint64_t h = map::kFnv1a64Basis;
   for (const Vec3& p : path.points)
     for (int i = 0; i < 3; ++i) {
-      std::uint64_t bits;
       const double x = p[i];
-      std::memcpy(&bits, &x, sizeof bits);
-      for (int b = 0; b < 8; ++b) {
-        h ^= (bits >> (8 * b)) & 0xffu;
-        h *= 1099511628211ull;
-      }
+      h = map::fnv1a64(&x, sizeof x, h);
     }
   return h;
 }

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "adit/console/robot_link.hpp"
+#include "adit/map/content_hash.hpp"
 
 namespace {
 
@@ -89,7 +90,7 @@ int main(int argc, char** argv) {
                  argv[0]);
     return 2;
   }
-  const auto hash = adit::console::mapFileHash(a.map);
+  const auto hash = adit::map::fileContentHash(a.map);
   if (!hash.ok()) {
     std::fprintf(stderr, "%s\n", hash.status().message().c_str());
     return 2;

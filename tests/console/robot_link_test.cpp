@@ -496,14 +496,6 @@ TEST(RobotLink, ParseCommandNamesTheField) {
   EXPECT_TRUE(parseCommand(R"({"type":"command","command_id":4,"kind":"release"})").ok());
 }
 
-TEST(RobotLink, MapFileHashIsFnv1aOfTheBytes) {
-  const StatusOr<std::string> h = mapFileHash(std::string(ADIT_MAPS_DIR) + "/district.yaml");
-  ASSERT_TRUE(h.ok()) << h.status().message();
-  EXPECT_EQ(h->rfind("fnv1a64:", 0), 0u);
-  EXPECT_EQ(h->size(), 8u + 16u);
-  EXPECT_FALSE(mapFileHash("/nonexistent/map.yaml").ok());
-}
-
 #ifdef ADIT_TOOL_PATH
 // `adit simulate --live` end to end against the test centre: a loop of four roadways; the
 // operator blocks the south roadway the robot is on, pauses it, resumes it. The run still ends

@@ -45,7 +45,7 @@ namespace adit::console {
 struct RobotHello {
   std::string robot;     ///< 1-64 chars of [A-Za-z0-9_.-]
   std::string map;       ///< the map file's name, e.g. "district.yaml"
-  std::string map_hash;  ///< mapFileHash() of the map file
+  std::string map_hash;  ///< map::fileContentHash() of the map file
   double radius_m = 0.4;
   Status validate() const;
 };
@@ -83,11 +83,6 @@ struct LinkStats {
   bool connected = false;
   std::string last_error;               ///< of the connection, for the log
 };
-
-/// "fnv1a64:%016llx" of the file's bytes: the same as the tools' fileContentHash
-/// (tools/common/batch_runner.cpp), re-implemented here because the console sees the map layer
-/// only, never tools/.
-StatusOr<std::string> mapFileHash(const std::string& path);
 
 class RobotLink {
  public:
