@@ -6,7 +6,9 @@
 // scenario) and then DIR/shard-K-of-M.json (the campaign's identity and mergeable statistics:
 // integer counts, integer sums, fixed-bucket histograms). Both are written atomically; the JSON
 // last, so a shard with a JSON is complete. Merging adds integers: the result does not depend
-// on the order of the shards, nor on M or --jobs.
+// on the order of the shards, nor on M or --jobs. Merge believes no number in a shard's JSON: it
+// recomputes them from the CSV's rows, checked against the digest the JSON records
+// (common/campaign_shard.hpp).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -24,6 +26,7 @@
 
 #include "adit/fusion/batch.hpp"
 #include "adit/map/map_io.hpp"
+#include "adit/map/content_hash.hpp"
 #include "adit_commit.hpp"
 #include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
@@ -48,129 +51,6 @@ struct CampaignArgs {
   std::vector<std::string> inputs;
   std::string report, csv, html;
 };
-
-const char* const kOutcomes[] = {"arrived", "collision", "stuck", "timeout", "no_route", "error"};
-// Fixed step-time buckets [us]: bucket k holds [edge k-1, edge k); the last is [1e5, inf).
-constexpr std::array<double, 16> kStepEdgesUs = {1,   2,    5,    10,   20,    50,    100,   200,
-                                                 500, 1000, 2000, 5000, 10000, 20000, 50000, 100000};
-
-// Statistics that merge by addition (and min for the clearance: exact too). Times and lengths
-// are summed in integer milliseconds / millimetres so that sums do not depend on the order.
-struct Stats {
-  std::map<std::string, long long> outcomes;
-  long long scenarios = 0, collisions_among_arrivals = 0, arrivals_beyond_tolerance = 0;
-  long long replans = 0, runs_with_replans = 0, arrival_time_ms = 0, path_length_mm = 0;
-  std::optional<double> min_clearance_m;
-  std::array<long long, kStepEdgesUs.size() + 1> step_p50{}, step_p99{};
-  // Outcome counts by scenario feature: feature -> bucket label -> outcome -> count.
-  std::map<std::string, std::map<std::string, std::map<std::string, long long>>> by_feature;
-
-  Stats() {
-    for (const char* o : kOutcomes) outcomes[o] = 0;
-  }
-  static std::size_t bucket(double us) {
-    return std::size_t(std::upper_bound(kStepEdgesUs.begin(), kStepEdgesUs.end(), us) - kStepEdgesUs.begin());
-  }
-  // "[lo, hi)" of the fixed-width bucket holding v (e.g. width 10: "20-30").
-  static std::string bucketLabel(double v, double width, int decimals) {
-    const double lo = std::floor(v / width + 1e-9) * width;
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f-%.*f", decimals, lo, decimals, lo + width);
-    return buf;
-  }
-  void add(const fusion::BatchRunResult& r) {
-    ++scenarios;
-    ++outcomes[r.outcome];
-    if (r.separation_m > 0.0) {
-      ++by_feature["vehicles"][std::to_string(r.vehicles)][r.outcome];
-      ++by_feature["roof_fall"][r.roof_fall ? "yes" : "no"][r.outcome];
-      ++by_feature["separation_m"][bucketLabel(r.separation_m, 10.0, 0)][r.outcome];
-      ++by_feature["robot_radius_m"][bucketLabel(r.robot_radius_m, 0.05, 2)][r.outcome];
-      ++by_feature["robot_speed_mps"][bucketLabel(r.robot_speed_mps, 0.1, 1)][r.outcome];
-      ++by_feature["roadway_width_m"][bucketLabel(r.roadway_width_m, 0.5, 1)][r.outcome];
-    }
-    replans += r.replans;
-    runs_with_replans += r.replans > 0;
-    if (r.outcome == "error") return;
-    path_length_mm += std::llround(r.path_length_m * 1000.0);
-    if (std::isfinite(r.min_clearance_m)) min_clearance_m = std::min(min_clearance_m.value_or(r.min_clearance_m), r.min_clearance_m);
-    ++step_p50[bucket(r.step_p50_us)];
-    ++step_p99[bucket(r.step_p99_us)];
-    if (r.outcome != "arrived") return;
-    arrival_time_ms += std::llround(r.arrival_time_s * 1000.0);
-    collisions_among_arrivals += r.collisions > 0;
-    arrivals_beyond_tolerance += !(r.final_goal_distance_m <= r.arrival_tolerance_m);
-  }
-  void add(const Stats& o) {
-    scenarios += o.scenarios;
-    for (const auto& [k, v] : o.outcomes) outcomes[k] += v;
-    collisions_among_arrivals += o.collisions_among_arrivals;
-    arrivals_beyond_tolerance += o.arrivals_beyond_tolerance;
-    replans += o.replans;
-    runs_with_replans += o.runs_with_replans;
-    arrival_time_ms += o.arrival_time_ms;
-    path_length_mm += o.path_length_mm;
-    if (o.min_clearance_m) min_clearance_m = std::min(min_clearance_m.value_or(*o.min_clearance_m), *o.min_clearance_m);
-    for (const auto& [feature, buckets] : o.by_feature)
-      for (const auto& [label, counts] : buckets)
-        for (const auto& [outcome, n] : counts) by_feature[feature][label][outcome] += n;
-    for (std::size_t k = 0; k < step_p50.size(); ++k) {
-      step_p50[k] += o.step_p50[k];
-      step_p99[k] += o.step_p99[k];
-    }
-  }
-  // "counts" depends only on the campaign; "step_time_us" is measured (wall clock).
-  Json countsJson() const {
-    Json j;
-    j["scenarios"] = scenarios;
-    j["outcomes"] = Json(outcomes);
-    j["collisions_among_arrivals"] = collisions_among_arrivals;
-    j["arrivals_beyond_tolerance"] = arrivals_beyond_tolerance;
-    j["replans"] = replans;
-    j["runs_with_replans"] = runs_with_replans;
-    j["arrival_time_ms_sum"] = arrival_time_ms;
-    j["path_length_mm_sum"] = path_length_mm;
-    j["min_clearance"] = min_clearance_m ? Json(*min_clearance_m) : Json(nullptr);
-    j["outcomes_by_feature"] = Json(by_feature);
-    return j;
-  }
-  Json stepJson() const {
-    return {{"bucket_upper_edges", kStepEdgesUs}, {"p50_per_run", step_p50}, {"p99_per_run", step_p99}};
-  }
-  Json toJson() const { return {{"counts", countsJson()}, {"step_time_us", stepJson()}}; }
-  static StatusOr<Stats> fromJson(const nlohmann::json& j, const std::string& file) {
-    Stats s;
-    try {
-      const nlohmann::json& c = j.at("counts");
-      s.scenarios = c.at("scenarios").get<long long>();
-      for (const auto& [k, v] : c.at("outcomes").items()) s.outcomes[k] = v.get<long long>();
-      s.collisions_among_arrivals = c.at("collisions_among_arrivals").get<long long>();
-      s.arrivals_beyond_tolerance = c.at("arrivals_beyond_tolerance").get<long long>();
-      s.replans = c.at("replans").get<long long>();
-      s.runs_with_replans = c.at("runs_with_replans").get<long long>();
-      s.arrival_time_ms = c.at("arrival_time_ms_sum").get<long long>();
-      s.path_length_mm = c.at("path_length_mm_sum").get<long long>();
-      if (!c.at("min_clearance").is_null()) s.min_clearance_m = c.at("min_clearance").get<double>();
-      s.by_feature = c.at("outcomes_by_feature").get<decltype(s.by_feature)>();
-      const nlohmann::json& t = j.at("step_time_us");
-      if (t.at("bucket_upper_edges").get<std::vector<double>>() !=
-          std::vector<double>(kStepEdgesUs.begin(), kStepEdgesUs.end()))
-        return invalidArgument(file + ": stats.step_time_us: other bucket edges than this adit's");
-      const auto p50 = t.at("p50_per_run").get<std::vector<long long>>(), p99 = t.at("p99_per_run").get<std::vector<long long>>();
-      if (p50.size() != s.step_p50.size() || p99.size() != s.step_p99.size())
-        return invalidArgument(file + ": stats.step_time_us: wrong number of buckets");
-      std::copy(p50.begin(), p50.end(), s.step_p50.begin());
-      std::copy(p99.begin(), p99.end(), s.step_p99.begin());
-    } catch (const nlohmann::json::exception& e) {
-      return invalidArgument(file + ": stats: " + e.what());
-    }
-    return s;
-  }
-};
-
-std::string shardName(int k, int m, const char* ext) {
-  return "shard-" + std::to_string(k) + "-of-" + std::to_string(m) + ext;
-}
 
 Status writeText(const std::string& path, const std::string& text) {
   return map::writeFileAtomically(path, [&](std::ostream& os) { return bool(os << text); });
@@ -218,7 +98,7 @@ int runShard(const CampaignArgs& a) {
   id.adit_version = ADIT_VERSION;
   id.adit_commit = ADIT_COMMIT;
   if (a.map.empty()) return report(invalidArgument("--map is required (a survey .yaml)"));
-  StatusOr<std::string> hash = fileContentHash(a.map);
+  StatusOr<std::string> hash = map::fileContentHash(a.map);
   if (!hash.ok()) return report(hash.status());
   id.map_hash = *hash;
   StatusOr<BatchSetup> setup = loadBatchSetup("", a.map);
@@ -242,22 +122,28 @@ int runShard(const CampaignArgs& a) {
   ProgressBar bar(a.quiet);
   StatusOr<std::vector<fusion::BatchRunResult>> runs = runBatchWorkers(*setup, bp, indices, a.jobs, bar, "shard");
   if (!runs.ok()) return report(runs.status());
-  Stats stats;
+  // The statistics are computed from the rows as written (3 decimals), the way merge recomputes
+  // them, so that a shard's JSON and its CSV agree exactly.
+  CampaignStats stats;
   Json failures = Json::array();
   std::string csv = std::string(fusion::batchCsvHeader()) + "\n";
   for (const fusion::BatchRunResult& r : *runs) {
-    stats.add(r);
-    csv += fusion::batchCsvRow(r) + "\n";
-    if (r.outcome != "arrived" || r.collisions > 0)
-      failures.push_back({{"index", r.index}, {"seed", r.seed}, {"outcome", r.outcome}, {"collisions", r.collisions},
-                          {"message", r.message}});
+    const std::string line = fusion::batchCsvRow(r);
+    StatusOr<fusion::BatchRunResult> written = fusion::parseBatchCsvRow(line);
+    if (!written.ok())
+      return report(internalError("scenario " + std::to_string(r.index) + ": its row does not read back: " +
+                                  written.status().message()));
+    written->message = r.message;
+    if (Status s = stats.add(*written); !s.ok()) return report(s);
+    csv += line + "\n";
+    if (isFailure(*written)) failures.push_back(failureEntry(*written));
   }
   const std::string base = (std::filesystem::path(a.out) / shardName(k, m, "")).string();
   if (Status s = writeText(base + ".csv", csv); !s.ok()) return report(s);
   Json j;
   j["campaign"] = campaignIdentityJson(id);
   j["shard"] = {{"index", k}, {"count", m}, {"indices", "i mod " + std::to_string(m) + " == " + std::to_string(k)},
-                {"csv", shardName(k, m, ".csv")}};
+                {"csv", shardName(k, m, ".csv")}, {"csv_sha256", map::sha256Hex(csv)}};
   j["stats"] = stats.toJson();
   j["failures"] = failures;
   j["jobs"] = std::min<int>(a.jobs, int(indices.size()));
@@ -371,7 +257,8 @@ int merge(const CampaignArgs& a) {
   }
   std::vector<ShardFile> shards;
   for (const std::string& f : files) {
-    StatusOr<std::string> text = map::readFile(f);
+    // A shard JSON is its identity, counts and failure list: far below this.
+    StatusOr<std::string> text = map::readFile(f, std::size_t{256} << 20);
     if (!text.ok()) {
       problems.push_back(text.status().message());
       continue;
@@ -395,11 +282,13 @@ int merge(const CampaignArgs& a) {
       problems.push_back(f + ": no shard.index");
       continue;
     }
-    s.k = s.json["shard"]["index"].get<int>();
-    if (s.k < 0 || s.k >= s.id.shards) {
-      problems.push_back(f + ": shard.index " + std::to_string(s.k) + " outside 0.." + std::to_string(s.id.shards - 1));
+    // As a long long: a wider value is refused below, never wrapped into range.
+    const long long k = s.json["shard"]["index"].get<long long>();
+    if (k < 0 || k >= s.id.shards) {
+      problems.push_back(f + ": shard.index " + s.json["shard"]["index"].dump() + " outside 0.." + std::to_string(s.id.shards - 1));
       continue;
     }
+    s.k = int(k);
     shards.push_back(std::move(s));
   }
   if (shards.empty() && problems.empty()) problems.push_back("no shard given");
@@ -422,44 +311,60 @@ int merge(const CampaignArgs& a) {
       if (!by_k.count(k)) missing += (missing.empty() ? "" : ", ") + shardName(k, id.shards, ".json");
     if (!missing.empty()) problems.push_back("missing shards of the campaign of " + shards.front().path + ": " + missing);
   }
-  // Statistics and rows (the rows when --csv is asked for).
-  Stats total;
+  // Nothing in a shard's JSON is believed: its CSV must have the recorded digest, its rows must
+  // be this shard's scenarios of this campaign, and the statistics and failures are recomputed
+  // from them and must be what the JSON says (common/campaign_shard.hpp).
+  CampaignStats total;
   std::vector<std::pair<int, Json>> failures;
   std::vector<std::pair<int, std::string>> rows;
   for (const auto& [k, s] : by_k) {
     if (!problems.empty()) break;
-    StatusOr<Stats> st = Stats::fromJson(s->json.value("stats", nlohmann::json::object()), s->path);
-    if (!st.ok()) {
-      problems.push_back(st.status().message());
+    const nlohmann::json& shard = s->json["shard"];
+    if (!shard.contains("csv_sha256") || !shard["csv_sha256"].is_string()) {
+      problems.push_back(s->path + ": no shard.csv_sha256 (written by an adit before 0.1 of this format: run the shard again)");
       continue;
     }
-    const long long expected = (s->id.scenarios - k + s->id.shards - 1) / s->id.shards;
-    if (st->scenarios != expected) {
-      problems.push_back(s->path + ": " + std::to_string(st->scenarios) + " scenarios, shard " + std::to_string(k) +
-                         " of " + std::to_string(s->id.shards) + " has " + std::to_string(expected));
+    const std::string csv_path = (std::filesystem::path(s->dir) / shardName(k, s->id.shards, ".csv")).string();
+    StatusOr<std::string> text =
+        map::readFile(csv_path, maxShardCsvBytes(shardScenarioCount(k, s->id.shards, s->id.scenarios)));
+    if (!text.ok()) {
+      problems.push_back(text.status().message());
       continue;
     }
-    total.add(*st);
-    for (const auto& f : s->json.value("failures", nlohmann::json::array())) {
-      Json e = f;
-      const std::string i = std::to_string(f.value("index", -1));
-      e["replay"] = "adit simulate --replay " + s->dir + ":" + i + " --picture replay-" + i + ".png --html replay-" + i + ".html";
-      failures.emplace_back(f.value("index", -1), e);
+    const std::string digest = map::sha256Hex(*text), recorded = shard["csv_sha256"].get<std::string>();
+    if (digest != recorded) {
+      problems.push_back(csv_path + ": SHA-256 " + digest + ", but " + s->path + " recorded " + recorded +
+                         ": the rows were changed since the shard was written");
+      continue;
     }
-    if (!a.csv.empty()) {
-      const std::string csv_path = (std::filesystem::path(s->dir) / shardName(k, s->id.shards, ".csv")).string();
-      StatusOr<std::string> text = map::readFile(csv_path);
-      if (!text.ok()) {
-        problems.push_back(text.status().message());
-        continue;
-      }
-      std::istringstream is(*text);
-      std::string line;
-      std::getline(is, line);  // header
-      long long n = 0;
-      for (; std::getline(is, line); ++n) rows.emplace_back(std::atoi(line.c_str()), line);
-      if (n != expected) problems.push_back(csv_path + ": " + std::to_string(n) + " rows, expected " + std::to_string(expected));
+    StatusOr<ShardRows> read = readShardRows(*text, csv_path, s->id, k);
+    if (!read.ok()) {
+      problems.push_back(read.status().message());
+      continue;
     }
+    StatusOr<std::vector<Json>> listed = checkShardSummary(s->json, *read, s->path);
+    if (!listed.ok()) {
+      problems.push_back(listed.status().message());
+      continue;
+    }
+    if (Status st = total.add(read->stats); !st.ok()) {
+      problems.push_back(s->path + ": " + st.message());
+      continue;
+    }
+    for (Json& e : *listed) {
+      const int i = e["index"].get<int>();
+      const std::string is = std::to_string(i);
+      e["replay"] = "adit simulate --replay " + s->dir + ":" + is + " --picture replay-" + is + ".png --html replay-" + is + ".html";
+      failures.emplace_back(i, std::move(e));
+    }
+    if (!a.csv.empty())
+      for (std::size_t r = 0; r < read->rows.size(); ++r) rows.emplace_back(read->rows[r].index, std::move(read->lines[r]));
+  }
+  // Every output is written only when all of them can be: a bad --html path is said before a
+  // --csv is written.
+  for (const auto& [path, flag] : {std::pair{a.csv, "--csv"}, {a.html, "--html"}, {a.report, "--out"}}) {
+    if (path.empty() || !problems.empty()) continue;
+    if (Status st = checkOutputPath(path, flag); !st.ok()) problems.push_back(st.message());
   }
   if (!problems.empty()) {
     for (const std::string& p : problems) std::fprintf(stderr, "adit: error: %s\n", p.c_str());

@@ -3,7 +3,10 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <charconv>
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <cstdio>
 #include <random>
 #include <vector>
@@ -317,13 +320,111 @@ BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::En
 }
 
 const char* batchCsvHeader() {
-  return "index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us";
+  return "index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us,"
+         "collisions,final_goal_distance,arrival_tolerance,vehicles,roof_fall,separation,robot_radius,robot_speed,"
+         "roadway_width";
 }
 
 std::string batchCsvRow(const BatchRunResult& r) {
   return std::to_string(r.index) + "," + std::to_string(r.seed) + "," + r.outcome + "," + number(r.arrival_time_s) +
          "," + number(r.path_length_m) + "," + number(r.min_clearance_m) + "," + std::to_string(r.replans) + "," +
-         number(r.step_p50_us) + "," + number(r.step_p99_us);
+         number(r.step_p50_us) + "," + number(r.step_p99_us) + "," + std::to_string(r.collisions) + "," +
+         number(r.final_goal_distance_m) + "," + number(r.arrival_tolerance_m) + "," + std::to_string(r.vehicles) +
+         "," + (r.roof_fall ? "1" : "0") + "," + number(r.separation_m) + "," + number(r.robot_radius_m) + "," +
+         number(r.robot_speed_mps) + "," + number(r.roadway_width_m);
+}
+
+namespace {
+
+constexpr int kCsvColumns = 18;
+const char* const kCsvColumnNames[kCsvColumns] = {
+    "index",      "seed",        "outcome",           "arrival_time", "path_length", "min_clearance",
+    "replans",    "step_p50_us", "step_p99_us",       "collisions",   "final_goal_distance",
+    "arrival_tolerance", "vehicles", "roof_fall",     "separation",   "robot_radius", "robot_speed",
+    "roadway_width"};
+
+std::string columnError(int c, std::string_view text, const char* why) {
+  std::string shown(text.substr(0, 40));
+  if (text.size() > 40) shown += "...";
+  return std::string("column ") + std::to_string(c + 1) + " (" + kCsvColumnNames[c] + "): '" + shown + "' " + why;
+}
+
+// A decimal integer in [0, hi]: digits only (no sign, no spaces), checked before it can wrap.
+StatusOr<std::uint64_t> csvInteger(std::string_view s, int c, std::uint64_t hi) {
+  if (s.empty() || s.size() > 20) return invalidArgument(columnError(c, s, "is not an integer"));
+  std::uint64_t v = 0;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec == std::errc::result_out_of_range || (ec == std::errc() && v > hi))
+    return invalidArgument(columnError(c, s, ("is beyond " + std::to_string(hi)).c_str()));
+  if (ec != std::errc() || end != s.data() + s.size()) return invalidArgument(columnError(c, s, "is not an integer"));
+  return v;
+}
+
+// A finite decimal number in [lo, hi]; empty gives `empty` when that is allowed (not NaN).
+StatusOr<double> csvNumber(std::string_view s, int c, double lo, double hi, std::optional<double> empty = {}) {
+  if (s.empty()) {
+    if (empty) return *empty;
+    return invalidArgument(columnError(c, s, "is empty"));
+  }
+  double v = 0.0;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v, std::chars_format::fixed);
+  if (ec != std::errc() || end != s.data() + s.size() || !std::isfinite(v))
+    return invalidArgument(columnError(c, s, "is not a number"));
+  if (v < lo || v > hi) return invalidArgument(columnError(c, s, "is out of range"));
+  return v;
+}
+
+}  // namespace
+
+StatusOr<BatchRunResult> parseBatchCsvRow(std::string_view line) {
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  std::string_view f[kCsvColumns];
+  int n = 0;
+  std::size_t from = 0;
+  for (;;) {
+    const std::size_t comma = line.find(',', from);
+    if (n == kCsvColumns)
+      return invalidArgument("more than " + std::to_string(kCsvColumns) + " columns (" + batchCsvHeader() + ")");
+    f[n++] = line.substr(from, comma == std::string_view::npos ? std::string_view::npos : comma - from);
+    if (comma == std::string_view::npos) break;
+    from = comma + 1;
+  }
+  if (n != kCsvColumns)
+    return invalidArgument(std::to_string(n) + " columns, expected " + std::to_string(kCsvColumns) + " (" +
+                           batchCsvHeader() + ")");
+  constexpr double kLength = 1e9, kTime = 1e9, kStepUs = 1e12;
+  constexpr std::uint64_t kInt = std::numeric_limits<int>::max();
+  BatchRunResult r;
+  ADIT_ASSIGN_OR_RETURN(const std::uint64_t index, csvInteger(f[0], 0, kInt));
+  r.index = int(index);
+  ADIT_ASSIGN_OR_RETURN(r.seed, csvInteger(f[1], 1, std::numeric_limits<std::uint64_t>::max()));
+  bool known = f[2] == "error";
+  for (local::Outcome o : {local::Outcome::kArrived, local::Outcome::kCollision, local::Outcome::kStuck,
+                           local::Outcome::kTimeout, local::Outcome::kNoRoute})
+    known = known || f[2] == local::outcomeName(o);
+  if (!known) return invalidArgument(columnError(2, f[2], "is not an outcome (arrived, collision, stuck, timeout, no_route, error)"));
+  r.outcome = std::string(f[2]);
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  ADIT_ASSIGN_OR_RETURN(r.arrival_time_s, csvNumber(f[3], 3, 0.0, kTime, nan));
+  ADIT_ASSIGN_OR_RETURN(r.path_length_m, csvNumber(f[4], 4, 0.0, kLength));
+  ADIT_ASSIGN_OR_RETURN(r.min_clearance_m, csvNumber(f[5], 5, -kLength, kLength, inf));
+  ADIT_ASSIGN_OR_RETURN(const std::uint64_t replans, csvInteger(f[6], 6, kInt));
+  r.replans = int(replans);
+  ADIT_ASSIGN_OR_RETURN(r.step_p50_us, csvNumber(f[7], 7, 0.0, kStepUs));
+  ADIT_ASSIGN_OR_RETURN(r.step_p99_us, csvNumber(f[8], 8, 0.0, kStepUs));
+  ADIT_ASSIGN_OR_RETURN(const std::uint64_t collisions, csvInteger(f[9], 9, kInt));
+  r.collisions = int(collisions);
+  ADIT_ASSIGN_OR_RETURN(r.final_goal_distance_m, csvNumber(f[10], 10, 0.0, kLength, nan));
+  ADIT_ASSIGN_OR_RETURN(r.arrival_tolerance_m, csvNumber(f[11], 11, 0.0, kLength));
+  ADIT_ASSIGN_OR_RETURN(const std::uint64_t vehicles, csvInteger(f[12], 12, kInt));
+  r.vehicles = int(vehicles);
+  ADIT_ASSIGN_OR_RETURN(const std::uint64_t roof_fall, csvInteger(f[13], 13, 1));
+  r.roof_fall = roof_fall == 1;
+  ADIT_ASSIGN_OR_RETURN(r.separation_m, csvNumber(f[14], 14, 0.0, kLength));
+  ADIT_ASSIGN_OR_RETURN(r.robot_radius_m, csvNumber(f[15], 15, 0.0, kLength));
+  ADIT_ASSIGN_OR_RETURN(r.robot_speed_mps, csvNumber(f[16], 16, 0.0, kLength));
+  ADIT_ASSIGN_OR_RETURN(r.roadway_width_m, csvNumber(f[17], 17, 0.0, kLength));
+  return r;
 }
 
 }  // namespace adit::fusion

@@ -17,13 +17,13 @@ function(adit_run)
   endif()
 endfunction()
 
-# The rows of a CSV without the step-time columns (8, 9), sorted by index (numerically).
+# The rows of a CSV without the step-time columns (8, 9: wall clock), sorted by index (numerically).
 function(rows csv var)
   file(STRINGS ${csv} lines)
   list(REMOVE_AT lines 0)
   set(kept "")
   foreach(line IN LISTS lines)
-    string(REGEX REPLACE ",[^,]*,[^,]*$" "" row "${line}")
+    string(REGEX REPLACE "^([^,]*,[^,]*,[^,]*,[^,]*,[^,]*,[^,]*,[^,]*,)[^,]*,[^,]*," "\\1" row "${line}")
     list(APPEND kept "${row}")
   endforeach()
   list(SORT kept COMPARE NATURAL)

@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "adit/map/map_io.hpp"
+#include "adit/map/content_hash.hpp"
 
 namespace adit::tools {
 
@@ -85,8 +86,6 @@ fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams
   r.message = sc.status().message();
   return r;
 }
-
-nlohmann::ordered_json range(double lo, double hi) { return nlohmann::ordered_json::array({lo, hi}); }
 
 }  // namespace
 
@@ -228,63 +227,6 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
   return runs;
 }
 
-StatusOr<std::string> fileContentHash(const std::string& path) {
-  ADIT_ASSIGN_OR_RETURN(const std::string bytes, map::readFile(path));
-  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64 offset basis and prime
-  for (unsigned char c : bytes) h = (h ^ c) * 0x100000001b3ull;
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
-  return std::string(buf);
-}
-
-nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id) {
-  const fusion::BatchParams& g = id.generator;
-  nlohmann::ordered_json gen;
-  gen["separation"] = range(g.min_separation_m, g.max_separation_m);
-  gen["max_moving_obstacles"] = g.max_moving_obstacles;
-  gen["vehicle_speed"] = range(g.vehicle_speed_min_mps, g.vehicle_speed_max_mps);
-  gen["vehicle_radius"] = g.vehicle_radius_m;
-  gen["roof_fall"] = {{"probability", g.roof_fall_probability}, {"radius", g.roof_fall_radius_m}};
-  gen["robot_radius"] = range(g.robot_radius_min_m, g.robot_radius_max_m);
-  gen["robot_speed"] = range(g.robot_speed_min_mps, g.robot_speed_max_mps);
-  gen["t_max"] = g.t_max_s;
-  nlohmann::ordered_json j;
-  j["map"] = id.map;
-  j["map_hash"] = id.map_hash;
-  j["seed"] = id.seed;
-  j["scenarios"] = id.scenarios;
-  j["shards"] = id.shards;
-  j["generator"] = gen;
-  j["adit_version"] = id.adit_version;
-  j["adit_commit"] = id.adit_commit;
-  return j;
-}
-
-StatusOr<CampaignIdentity> campaignIdentityFromJson(const nlohmann::json& j, const std::string& file) {
-  if (!j.is_object() || !j.contains("campaign") || !j["campaign"].is_object())
-    return invalidArgument(file + ": not a campaign shard (no \"campaign\" object)");
-  const nlohmann::json& c = j["campaign"];
-  CampaignIdentity id;
-  try {
-    id.map = c.at("map").get<std::string>();
-    id.map_hash = c.at("map_hash").get<std::string>();
-    id.seed = c.at("seed").get<std::uint64_t>();
-    id.scenarios = c.at("scenarios").get<int>();
-    id.shards = c.at("shards").get<int>();
-    id.adit_version = c.value("adit_version", std::string());
-    id.adit_commit = c.value("adit_commit", std::string());
-    if (!c.at("generator").is_object()) return invalidArgument(file + ": campaign.generator: expected an object");
-  } catch (const nlohmann::json::exception& e) {
-    return invalidArgument(file + ": campaign: " + e.what());
-  }
-  if (id.scenarios < 1 || id.shards < 1 || id.shards > id.scenarios)
-    return invalidArgument(file + ": campaign: scenarios and shards must satisfy 1 <= shards <= scenarios");
-  // JSON is YAML: the generator object is read by the generator's own reader.
-  ADIT_ASSIGN_OR_RETURN(id.generator, fusion::parseBatchParams(c["generator"].dump(), file + ": campaign.generator"));
-  id.generator.seed = id.seed;
-  return id;
-}
-
 StatusOr<local::Scenario> replayScenario(const std::string& spec) {
   const std::size_t colon = spec.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == spec.size())
@@ -313,7 +255,7 @@ StatusOr<local::Scenario> replayScenario(const std::string& spec) {
   ADIT_ASSIGN_OR_RETURN(const CampaignIdentity id, campaignIdentityFromJson(j, shard));
   if (index >= id.scenarios)
     return invalidArgument("--replay " + spec + ": the campaign has scenarios 0.." + std::to_string(id.scenarios - 1));
-  ADIT_ASSIGN_OR_RETURN(const std::string hash, fileContentHash(id.map));
+  ADIT_ASSIGN_OR_RETURN(const std::string hash, map::fileContentHash(id.map));
   if (hash != id.map_hash)
     return invalidArgument(id.map + ": the map changed since the campaign (" + hash + ", recorded " + id.map_hash +
                            " in " + shard + ")");

@@ -9,9 +9,8 @@
 /// so they share it copy-on-write. A run's row depends only on (seed, index, generator), never
 /// on the worker that ran it, so any split of the indices gives the same rows.
 ///
-/// A campaign's identity (CampaignIdentity) is what makes two shards parts of one campaign: the
-/// map's content hash, seed, scenario count, shard count and generator ranges. It is written
-/// into every shard's JSON and is enough to rebuild any scenario (replayScenario()).
+/// A campaign's identity (CampaignIdentity, common/campaign_shard.hpp) is written into every
+/// shard's JSON and is enough to rebuild any scenario (replayScenario()).
 ///
 ///   ADIT_ASSIGN_OR_RETURN(BatchSetup setup, loadBatchSetup("", "maps/district.yaml"));
 ///   ADIT_ASSIGN_OR_RETURN(auto rows, runBatchWorkers(setup, params, {0, 4, 8}, 2, bar));
@@ -28,6 +27,7 @@
 #include "adit/local/simulator.hpp"
 #include "adit/map/survey_network.hpp"
 #include "adit/status.hpp"
+#include "common/campaign_shard.hpp"
 #include "common/progress.hpp"
 
 namespace adit::tools {
@@ -56,28 +56,6 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
                                                                 const fusion::BatchParams& params,
                                                                 const std::vector<int>& indices, int jobs,
                                                                 ProgressBar& bar, const char* stage = "batch");
-
-/// Which campaign a shard belongs to.
-struct CampaignIdentity {
-  std::string map;       ///< the map path as given (informative: shards compare by map_hash)
-  std::string map_hash;  ///< "fnv1a64:<16 hex digits>" of the map file's bytes
-  std::uint64_t seed = 1;
-  int scenarios = 0;     ///< N: scenario indices 0..N-1
-  int shards = 1;        ///< M
-  fusion::BatchParams generator;
-  std::string adit_version;
-  std::string adit_commit;  ///< `git describe` of the build (recorded, not compared: a re-run shard may be a rebuild)
-};
-
-/// FNV-1a 64 of the file's bytes, as "fnv1a64:<hex>". Errors: the file cannot be read.
-StatusOr<std::string> fileContentHash(const std::string& path);
-
-/// {"map", "map_hash", "seed", "scenarios", "shards", "generator": {...}, "adit_version",
-/// "adit_commit"}; the
-/// generator object uses the keys of the generator YAML (fusion::parseBatchParams).
-nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id);
-/// The inverse; errors name `file` and the missing or bad field.
-StatusOr<CampaignIdentity> campaignIdentityFromJson(const nlohmann::json& j, const std::string& file);
 
 /// Scenario INDEX of a recorded campaign, from "CAMPAIGN:INDEX" where CAMPAIGN is a campaign
 /// directory (any shard-K-of-M.json in it) or a shard JSON. Checks that the map has not changed

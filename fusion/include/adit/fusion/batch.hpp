@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <string_view>
 
 #include "adit/fusion/navigated_simulation.hpp"
 #include "adit/local/scenario.hpp"
@@ -106,10 +107,20 @@ StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::
 BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index,
                                 const BelievedWorld* believed = nullptr);
 
-/// `index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us`
+/// `index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us,`
+/// `collisions,final_goal_distance,arrival_tolerance,vehicles,roof_fall,separation,robot_radius,`
+/// `robot_speed,roadway_width`: the first nine as before, then what a campaign's statistics are
+/// computed from (so that they can be recomputed from the rows alone).
 const char* batchCsvHeader();
-/// One CSV line (no newline); empty fields for NaN / infinite values. Timing columns vary
-/// between runs of the same seed; the others do not.
+/// One CSV line (no newline); numbers with 3 decimals, empty fields for NaN / infinite values.
+/// Timing columns vary between runs of the same seed; the others do not. The message is not a
+/// column (free text).
 std::string batchCsvRow(const BatchRunResult& r);
+/// The inverse of batchCsvRow() for untrusted text: exactly the header's columns; integers in
+/// range (seed: any uint64); outcome a local::outcomeName() or "error"; numbers finite and within
+/// bounds no run reaches (lengths and times below 1e9, step times below 1e12 us), empty only
+/// where batchCsvRow() writes an empty field (arrival_time, min_clearance, final_goal_distance).
+/// Errors name the column and the text. Allocation-bounded: fields are views.
+StatusOr<BatchRunResult> parseBatchCsvRow(std::string_view line);
 
 }  // namespace adit::fusion
