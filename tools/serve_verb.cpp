@@ -6,7 +6,9 @@
 
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <string>
+#include <vector>
 
 #include "adit/console/server.hpp"
 #include "adit/console/store.hpp"
@@ -25,7 +27,8 @@ struct ServeArgs {
   std::string map;
   std::string db = "sqlite:adit-centre.db";
   std::string listen = "127.0.0.1:8080";
-  std::string token_file;
+  std::string token_file, robot_tokens;
+  std::vector<std::string> allow_origins;
   double mesh_cell = 0.0;
   bool quiet = false;
 };
@@ -44,47 +47,35 @@ StatusOr<std::string> randomToken() {
   return hex;
 }
 
-// The token file: its first non-empty line, `TOKEN` or `LABEL:TOKEN` (the label names the
-// operator in the command log; default "operator").
-Status readTokenFile(const std::string& path, console::ServerOptions* options) {
-  ADIT_ASSIGN_OR_RETURN(std::string text, map::readFile(path, 4096));
-  std::string line;
-  for (std::size_t start = 0; start <= text.size();) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    line = text.substr(start, end - start);
-    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.pop_back();
-    if (!line.empty()) break;
-    start = end + 1;
-  }
-  if (line.empty()) return invalidArgument(path + ": no token in the file");
-  const auto colon = line.find(':');
-  if (colon != std::string::npos) {
-    options->operator_name = line.substr(0, colon);
-    line = line.substr(colon + 1);
-    if (options->operator_name.empty()) return invalidArgument(path + ":1: the label before ':' is empty");
-  }
-  if (line.size() < 16) return invalidArgument(path + ":1: the token is shorter than 16 characters");
-  options->token = line;
-  return Status::okStatus();
-}
-
 int runServe(const ServeArgs& args) {
   console::ServerOptions options;
   if (Status s = console::parseListen(args.listen, &options); !s.ok()) return report(s);
   options.stop_on_signals = true;
   options.mesh_cell = args.mesh_cell;
   if (!args.token_file.empty()) {
-    if (Status s = readTokenFile(args.token_file, &options); !s.ok()) return report(s);
+    StatusOr<TokenFile> t = readTokenFile(args.token_file);
+    if (!t.ok()) return report(t.status());
+    options.token = t->token;
+    if (!t->label.empty()) options.operator_name = t->label;
   } else {
     StatusOr<std::string> token = randomToken();
     if (!token.ok()) return report(token.status());
     options.token = *token;
   }
+  if (!args.robot_tokens.empty()) {
+    StatusOr<std::string> text = map::readFile(args.robot_tokens, std::size_t{16} << 20);
+    if (!text.ok()) return report(text.status());
+    StatusOr<std::map<std::string, std::string>> tokens = console::parseRobotTokens(*text, args.robot_tokens);
+    if (!tokens.ok()) return report(tokens.status());
+    options.robot_tokens = std::move(*tokens);
+  }
+  options.allowed_origins = args.allow_origins;
   StatusOr<std::string> hash = map::fileContentHash(args.map);
   if (!hash.ok()) return report(hash.status());
   options.map_hash = *hash;
   options.map_name = args.map.substr(args.map.find_last_of('/') + 1);
+  // Bad options are said before the map loads (which takes a while).
+  if (Status s = options.validate(); !s.ok()) return report(s);
 
   ProgressBar bar(args.quiet);
   StatusOr<map::LoadedMap> loaded = map::loadMapAndSurvey(args.map, {map::UnknownPolicy::kRock, bar.callback()});
@@ -102,6 +93,8 @@ int runServe(const ServeArgs& args) {
                (*store)->backend().c_str());
   std::fprintf(stderr, "adit serve: http://%s:%u/\n", any ? "127.0.0.1" : host.c_str(), (*server)->port());
   std::fprintf(stderr, "adit serve: operator token (%s): %s\n", options.operator_name.c_str(), options.token.c_str());
+  if (!options.robot_tokens.empty())
+    std::fprintf(stderr, "adit serve: %zu robot credentials from %s\n", options.robot_tokens.size(), args.robot_tokens.c_str());
   if (any) std::fprintf(stderr, "adit serve: warning: listening on every interface, not only loopback\n");
   std::fflush(stderr);
   if (Status s = (*server)->run(); !s.ok()) return report(s);
@@ -123,6 +116,12 @@ void registerServeVerb(CLI::App& app, int* rc) {
   cmd->add_option("--listen", args->listen, "HOST:PORT to listen on (port 0: any free one)")->capture_default_str();
   cmd->add_option("--token-file", args->token_file,
                   "File whose first line is the operator token, TOKEN or LABEL:TOKEN (default: a random one)");
+  cmd->add_option("--robot-tokens", args->robot_tokens,
+                  "File of robot credentials, one 'ROBOT_ID TOKEN' per line: a robot then connects with its own "
+                  "token and speaks only as that robot (without it, robots use the operator token)");
+  cmd->add_option("--allow-origin", args->allow_origins,
+                  "SCHEME://HOST[:PORT] of another site whose pages may open the WebSockets (repeatable; default: "
+                  "the console's own pages only)");
   cmd->add_option("--mesh-cell", args->mesh_cell, "Cell edge of the page's roadway surface [m] (0: automatic)")
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", args->quiet, "No progress bar");

@@ -71,6 +71,7 @@ struct SimulateArgs {
   bool live_hold = false;
   bool live_lockstep = false;
   std::string robot_id;
+  std::string live_token_file;
 };
 
 using Json = nlohmann::ordered_json;
@@ -315,7 +316,12 @@ StatusOr<std::unique_ptr<console::RobotLink>> connectLive(const SimulateArgs& a,
   hello.map = sc.map_path->substr(sc.map_path->find_last_of('/') + 1);
   ADIT_ASSIGN_OR_RETURN(hello.map_hash, map::fileContentHash(*sc.map_path));
   hello.radius_m = sc.params.robot.radius_m;
-  return console::RobotLink::connect(a.live, hello);
+  console::LinkOptions options;
+  if (!a.live_token_file.empty()) {
+    ADIT_ASSIGN_OR_RETURN(const TokenFile t, readTokenFile(a.live_token_file));
+    options.token = t.token;
+  }
+  return console::RobotLink::connect(a.live, hello, options);
 }
 
 nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
@@ -568,6 +574,7 @@ int run(const SimulateArgs& a) {
     return report(invalidArgument("--live-period must be > 0 s"));
   if (!(a.live_flush >= 0.0) || !std::isfinite(a.live_flush))
     return report(invalidArgument("--live-flush must be >= 0 s"));
+  if (!a.live_token_file.empty() && a.live.empty()) return report(invalidArgument("--live-token-file needs --live URL"));
   if ((a.live_hold || a.live_lockstep) && a.live.empty())
     return report(invalidArgument(std::string(a.live_hold ? "--live-hold" : "--live-lockstep") + " needs --live URL"));
   StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
@@ -805,6 +812,9 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
                   "Refuse a run whose record (a trajectory sample per period) would need more than this "
                   "(e.g. 512M, 8G; default 2G)");
   cmd->add_option("--robot-id", args->robot_id, "With --live: the robot's id (default: the scenario file's stem)");
+  cmd->add_option("--live-token-file", args->live_token_file,
+                  "With --live: the robot's credential, a file whose first line is its token (from the console's "
+                  "--robot-tokens file, or the operator token file for a single robot)");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   cmd->callback([args, rc, cmd] {
     args->batch_given = cmd->count("--batch") > 0;

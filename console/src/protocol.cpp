@@ -188,7 +188,8 @@ StatusOr<Hello> parseHello(const Json& j) {
     h.map = j["map"].get<std::string>();
   }
   ADIT_ASSIGN_OR_RETURN(h.radius, numberField(j, "radius"));
-  if (!(h.radius > 0.0)) return refuse("field 'radius' must be positive");
+  if (!(h.radius > 0.0) || h.radius > kMaxRobotRadius)
+    return refuse("field 'radius' must be in (0, " + std::to_string(int(kMaxRobotRadius)) + "] m");
   return h;
 }
 

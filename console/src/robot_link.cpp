@@ -192,8 +192,24 @@ struct RobotLink::Impl {
         if (ec2) return fail(g, "connecting to " + url.host + ":" + url.port + ": " + ec2.message(), false);
         beast::get_lowest_layer(*s).expires_never();
         s->set_option(websocket::stream_base::timeout::suggested(beast::role_type::client));
-        s->async_handshake(url.host + ":" + url.port, url.path, [this, g, s](beast::error_code ec3) {
+        // The robot's credential (console/doc/protocol.md, "Who may connect"), as a header: it
+        // never appears in a URL.
+        s->set_option(websocket::stream_base::decorator([token = options.token](websocket::request_type& req) {
+          if (!token.empty()) req.set(beast::http::field::authorization, "Bearer " + token);
+        }));
+        auto res = std::make_shared<websocket::response_type>();
+        s->async_handshake(*res, url.host + ":" + url.port, url.path, [this, g, s, res](beast::error_code ec3) {
           if (g != generation) return;
+          // 401 or 403: the centre refused this robot's credential or origin; retrying with the
+          // same credential cannot help, so the first connect() says it at once.
+          const unsigned code = res->result_int();
+          if (ec3 && (code == 401 || code == 403)) {
+            const json body = json::parse(res->body(), nullptr, false);
+            const std::string why = body.is_object() && body.contains("error") && body["error"].is_string()
+                                        ? body["error"].get<std::string>().substr(0, 300)
+                                        : std::string(res->reason());
+            return fail(g, "the centre refused the connection (" + std::to_string(code) + "): " + why, true);
+          }
           if (ec3) return fail(g, "WebSocket handshake on " + url.path + ": " + ec3.message(), false);
           auto text = std::make_shared<std::string>(helloText());
           s->text(true);

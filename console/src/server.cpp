@@ -183,6 +183,9 @@ struct Server::Impl {
   void accept();
   Response handle(const Request& req);
   Response handleCommandPost(const Request& req);
+  /// A WebSocket upgrade's Origin and credential (console/doc/protocol.md, "Who may connect");
+  /// the refusal to send, or nothing and `*credential_robot` set (empty: the operator token).
+  std::optional<Response> authorizeUpgrade(const Request& req, bool robot, std::string* credential_robot);
   void onRobotText(WsSession& session, const std::string& text);
   void onViewerOpen(const std::shared_ptr<WsSession>& session);
   void broadcast(const Json& message, bool telemetry);
@@ -196,8 +199,10 @@ struct Server::Impl {
 // as Beast requires). A viewer's queue is bounded by dropping the oldest telemetry.
 class WsSession : public std::enable_shared_from_this<WsSession> {
  public:
-  WsSession(tcp::socket&& socket, Server::Impl& impl, bool robot)
-      : ws_(std::move(socket)), impl_(impl), robot_(robot) {}
+  // `credential_robot`: the robot id this connection's credential may speak for; empty for the
+  // operator token (any robot).
+  WsSession(tcp::socket&& socket, Server::Impl& impl, bool robot, std::string credential_robot)
+      : ws_(std::move(socket)), impl_(impl), robot_(robot), credential_robot_(std::move(credential_robot)) {}
 
   void run(Request req) {
     // A viewer never sends: without pings its idle connection would time out after 5 minutes.
@@ -214,20 +219,28 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void send(std::shared_ptr<const std::string> text, bool telemetry) {
     if (closing_) return;
     const std::size_t limit = robot_ ? kMaxRobotQueue : kMaxViewerQueue;
-    if (queue_.size() >= limit) {
-      if (robot_) {  // it stopped reading: drop it; it resends after reconnecting
-        closeAfterWrites(websocket::close_code::policy_error);
-        return;
-      }
-      const std::size_t first = writing_ ? 1 : 0;  // the front one is being written
+    if (queue_.size() >= limit && robot_) {  // it stopped reading: drop it; it resends after reconnecting
+      closeAfterWrites(websocket::close_code::policy_error);
+      return;
+    }
+    // A viewer that does not keep up loses its oldest telemetry first (counted, reported as
+    // `lag`); when what it has queued is still over the count or the bytes (the snapshot and the
+    // other messages are never dropped), it is too slow to serve: closed, and logged.
+    const std::size_t first = writing_ ? 1 : 0;  // the front one is being written
+    while (!robot_ && (queue_.size() >= limit || queued_bytes_ + text->size() > kMaxViewerQueueBytes)) {
       auto victim = std::find_if(queue_.begin() + static_cast<long>(first), queue_.end(),
                                  [](const Out& o) { return o.telemetry; });
-      if (victim == queue_.end()) victim = queue_.begin() + static_cast<long>(first);
-      if (victim != queue_.end()) {
-        queue_.erase(victim);
-        ++dropped_;
+      if (victim == queue_.end()) {
+        logLine("closed a viewer too slow to read: " + std::to_string(queued_bytes_) + " bytes in " +
+                std::to_string(queue_.size()) + " messages queued");
+        closeAfterWrites(websocket::close_code::try_again_later);
+        return;
       }
+      queued_bytes_ -= victim->text->size();
+      queue_.erase(victim);
+      ++dropped_;
     }
+    queued_bytes_ += text->size();
     queue_.push_back({std::move(text), telemetry});
     if (!writing_) writeNext();
   }
@@ -239,6 +252,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   }
 
   bool robot() const { return robot_; }
+  const std::string& credentialRobot() const { return credential_robot_; }
   const std::string& robotId() const { return robot_id_; }
   double radius() const { return radius_; }
   void bind(const std::string& id, double radius) {
@@ -281,7 +295,9 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void writeNext() {
     if (dead_) return;
     if (dropped_ > 0) {
-      queue_.push_front({std::make_shared<const std::string>(Json{{"type", "lag"}, {"dropped", dropped_}}.dump()), false});
+      auto lag = std::make_shared<const std::string>(Json{{"type", "lag"}, {"dropped", dropped_}}.dump());
+      queued_bytes_ += lag->size();
+      queue_.push_front({std::move(lag), false});
       dropped_ = 0;
     }
     if (queue_.empty()) {
@@ -302,6 +318,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       dead_ = true;
       return;
     }
+    queued_bytes_ -= queue_.front().text->size();
     queue_.pop_front();
     writeNext();
   }
@@ -310,10 +327,12 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   beast::flat_buffer buffer_;
   Server::Impl& impl_;
   const bool robot_;
+  const std::string credential_robot_;
   std::deque<Out> queue_;
   bool writing_ = false, closing_ = false, close_sent_ = false, dead_ = false;
   websocket::close_code close_code_ = websocket::close_code::normal;
   std::size_t dropped_ = 0;
+  std::size_t queued_bytes_ = 0;  // of the texts in queue_ (a broadcast text shared by viewers counts for each)
   std::string robot_id_;
   double radius_ = 0.0;
 
@@ -350,10 +369,20 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     Request req = parser_->release();
     if (websocket::is_upgrade(req)) {
       const std::string target(req.target());
-      const bool robot = target == "/ws/robot", viewer = target == "/ws/view";
+      const std::string path = target.substr(0, target.find('?'));
+      const bool robot = path == "/ws/robot", viewer = path == "/ws/view";
       if (robot || viewer) {
+        // Who may open it is decided before the handshake is accepted: a refusal is a plain
+        // HTTP answer (403 foreign origin, 401 no or wrong credential) and no WebSocket exists.
+        std::string credential_robot;
+        if (std::optional<Response> refused = impl_.authorizeUpgrade(req, robot, &credential_robot)) {
+          refused->keep_alive(false);
+          write(std::move(*refused));
+          return;
+        }
         stream_.expires_never();
-        std::make_shared<WsSession>(stream_.release_socket(), impl_, robot)->run(std::move(req));
+        std::make_shared<WsSession>(stream_.release_socket(), impl_, robot, std::move(credential_robot))
+            ->run(std::move(req));
         return;
       }
     }
@@ -531,6 +560,19 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
       session.send(errorJson(hello.status().message()));
       return;
     }
+    if (!session.credentialRobot().empty() && hello->robot != session.credentialRobot()) {
+      logLine("refused hello as robot '" + hello->robot + "' from a connection with the credential of '" +
+              session.credentialRobot() + "'");
+      session.send(errorJson("this connection's credential is robot '" + session.credentialRobot() + "'s, not '" +
+                             hello->robot + "'s"));
+      session.closeAfterWrites(websocket::close_code::policy_error);
+      return;
+    }
+    if (!session.robotId().empty() && hello->robot != session.robotId()) {
+      session.send(errorJson("this connection is robot '" + session.robotId() + "'; a connection speaks for one robot"));
+      session.closeAfterWrites(websocket::close_code::policy_error);
+      return;
+    }
     if (hello->map_hash != options.map_hash) {
       session.send(errorJson("map_hash " + hello->map_hash + " is not the served map's " + options.map_hash));
       session.closeAfterWrites(websocket::close_code::policy_error);
@@ -547,6 +589,13 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
       return;
     }
     session.bind(hello->robot, hello->radius);
+    // An authenticated newer connection of the same robot replaces the older one (a reconnect
+    // after a half-open drop): the older is closed, so commands never go to two connections.
+    if (auto older = robot_sessions[hello->robot].lock(); older && older.get() != &session && !older->dead()) {
+      logLine("robot " + hello->robot + ": a new connection replaces the older one");
+      older->send(errorJson("replaced by a newer connection of robot '" + hello->robot + "'"));
+      older->closeAfterWrites(websocket::close_code::policy_error);
+    }
     robot_sessions[hello->robot] = session.shared_from_this();
     cache[hello->robot].last_seen = now;
     cache[hello->robot].stored_seq = std::max(cache[hello->robot].stored_seq, *acked);
@@ -709,12 +758,73 @@ void Server::Impl::onViewerOpen(const std::shared_ptr<WsSession>& session) {
   viewers[session.get()] = session;
 }
 
-Response Server::Impl::handleCommandPost(const Request& req) {
+namespace {
+
+// The request's credential: `Authorization: Bearer TOKEN`, else (for a browser's WebSocket,
+// which cannot set headers) `?token=TOKEN` in the target when `query_allowed`.
+std::string credentialOf(const Request& req, bool query_allowed) {
   const auto auth = req.find(http::field::authorization);
   const std::string bearer = "Bearer ";
-  if (auth == req.end() || auth->value().size() <= bearer.size() ||
-      !sameToken(std::string(auth->value().substr(bearer.size())), options.token) ||
-      std::string(auth->value().substr(0, bearer.size())) != bearer)
+  if (auth != req.end()) {
+    const std::string value(auth->value());
+    return value.size() > bearer.size() && value.compare(0, bearer.size(), bearer) == 0 ? value.substr(bearer.size())
+                                                                                       : std::string();
+  }
+  if (!query_allowed) return std::string();
+  const std::string target(req.target());
+  const auto q = target.find('?');
+  if (q == std::string::npos) return std::string();
+  const auto query = parseQuery(target.substr(q + 1));
+  const auto it = query.find("token");
+  return it == query.end() ? std::string() : it->second;
+}
+
+// "http://HOST" or "https://HOST" for the request's Host header: the page's own origin.
+bool sameOrigin(const std::string& origin, const Request& req) {
+  const auto host = req.find(http::field::host);
+  if (host == req.end() || host->value().empty()) return false;
+  const std::string h(host->value());
+  return origin == "http://" + h || origin == "https://" + h;
+}
+
+}  // namespace
+
+std::optional<Response> Server::Impl::authorizeUpgrade(const Request& req, bool robot, std::string* credential_robot) {
+  const char* const route = robot ? "/ws/robot" : "/ws/view";
+  // A browser always sends Origin; a page on another site must not reach the robots or the mine
+  // through the operator's browser (cross-site WebSocket hijacking). Robots are not browsers and
+  // send none.
+  if (const auto origin = req.find(http::field::origin); origin != req.end()) {
+    const std::string o(origin->value());
+    const bool allowed = sameOrigin(o, req) || std::find(options.allowed_origins.begin(), options.allowed_origins.end(),
+                                                         o) != options.allowed_origins.end();
+    if (!allowed) {
+      logLine(std::string("refused a WebSocket on ") + route + " from origin '" + o.substr(0, 200) + "'");
+      return refusal(req, http::status::forbidden,
+                     "origin '" + o.substr(0, 200) + "' may not open " + route + " (adit serve --allow-origin)");
+    }
+  }
+  const std::string credential = credentialOf(req, /*query_allowed=*/true);
+  if (!credential.empty() && sameToken(credential, options.token)) {
+    credential_robot->clear();  // the operator token speaks for any robot
+    return std::nullopt;
+  }
+  if (robot && !credential.empty())
+    for (const auto& [id, token] : options.robot_tokens)
+      if (sameToken(credential, token)) {
+        *credential_robot = id;
+        return std::nullopt;
+      }
+  logLine(std::string("refused a WebSocket on ") + route + ": " + (credential.empty() ? "no" : "a wrong") + " credential");
+  return refusal(req, http::status::unauthorized,
+                 std::string(credential.empty() ? "missing" : "wrong") + " credential for " + route + " (" +
+                     (robot ? "the robot's token or the operator token" : "the operator token") +
+                     ": Authorization: Bearer TOKEN, or ?token=TOKEN)");
+}
+
+Response Server::Impl::handleCommandPost(const Request& req) {
+  const std::string credential = credentialOf(req, /*query_allowed=*/false);
+  if (credential.empty() || !sameToken(credential, options.token))
     return refusal(req, http::status::unauthorized, "missing or wrong operator token (Authorization: Bearer TOKEN)");
   StatusOr<Json> body = protocol::parseObject(req.body());
   if (!body.ok()) return refusal(req, http::status::bad_request, body.status().message());
@@ -792,6 +902,13 @@ Response Server::Impl::handle(const Request& req) {
     res.prepare_payload();
     return res;
   }
+  // Reading the mine needs the operator token as commanding it does (the page sends it); only
+  // the health check is open, for monitoring.
+  if (path != "/api/health") {
+    const std::string credential = credentialOf(req, /*query_allowed=*/false);
+    if (credential.empty() || !sameToken(credential, options.token))
+      return refusal(req, http::status::unauthorized, "missing or wrong operator token (Authorization: Bearer TOKEN)");
+  }
   if (path == "/api/health") {
     StatusOr<int> version = store->schemaVersion();
     if (!version.ok()) return refusal(req, http::status::internal_server_error, "database: " + version.status().message());
@@ -856,7 +973,43 @@ Status ServerOptions::validate() const {
   if (operator_name.empty()) return invalidArgument("the operator name is empty");
   if (map_hash.empty()) return invalidArgument("the map hash is empty");
   if (!(mesh_cell >= 0.0)) return invalidArgument("mesh cell must be >= 0");
+  for (const std::string& o : allowed_origins) {
+    const auto scheme = o.find("://");
+    if (scheme == std::string::npos || scheme == 0 || scheme + 3 == o.size() || o.back() == '/' ||
+        o.find_first_of(" \t/", scheme + 3) != std::string::npos)
+      return invalidArgument("--allow-origin '" + o + "': expected SCHEME://HOST[:PORT], e.g. https://ops.example:8443");
+  }
+  std::set<std::string> tokens{token};
+  for (const auto& [id, t] : robot_tokens) {
+    if (!protocol::validRobotId(id)) return invalidArgument("robot token for '" + id + "': not a valid robot id");
+    if (t.size() < kMinTokenLength) return invalidArgument("robot token for '" + id + "': shorter than 16 characters");
+    if (!tokens.insert(t).second)
+      return invalidArgument("robot token for '" + id + "': the same as another robot's or the operator's");
+  }
   return Status::okStatus();
+}
+
+StatusOr<std::map<std::string, std::string>> parseRobotTokens(const std::string& text, const std::string& file) {
+  std::map<std::string, std::string> out;
+  std::set<std::string> seen_tokens;
+  std::istringstream in(text);
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream fields(line);
+    std::string id, token, extra;
+    fields >> id >> token;
+    const std::string at = file + ":" + std::to_string(n) + ": ";
+    if (token.empty() || (fields >> extra)) return invalidArgument(at + "expected ROBOT_ID TOKEN");
+    if (!protocol::validRobotId(id)) return invalidArgument(at + "'" + id.substr(0, 80) + "' is not a valid robot id");
+    if (token.size() < kMinTokenLength) return invalidArgument(at + "the token is shorter than 16 characters");
+    if (out.count(id)) return invalidArgument(at + "robot '" + id + "' again");
+    if (!seen_tokens.insert(token).second) return invalidArgument(at + "the same token as an earlier robot's");
+    out[id] = token;
+  }
+  return out;
 }
 
 Status parseListen(const std::string& listen, ServerOptions* options) {

@@ -108,15 +108,16 @@ class PostgresStore final : public Store, private MigrationTarget {
     });
   }
 
-  StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq,
-                                              std::size_t limit) override {
+  StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq, std::size_t limit,
+                                              std::size_t max_bytes) override {
     return guard("cannot read the history of robot '" + robot + "'", [&]() -> StatusOr<std::vector<RobotMessage>> {
       // Two index range scans merged here rather than a LEFT JOIN: on tables without fresh
       // statistics PostgreSQL's generic plan for the prepared join was a nested loop with a join
       // filter, quadratic in the rows (50 ms for a 1,000-message replay instead of 3).
       pqxx::read_transaction txn(*conn_);
       const pqxx::result r =
-          txn.exec_prepared("history", robot, static_cast<long long>(from_seq), sqlLimit(limit));
+          txn.exec_prepared("history", robot, static_cast<long long>(from_seq), sqlLimit(limit),
+                            static_cast<long long>(std::min<std::size_t>(max_bytes, std::size_t{1} << 62)));
       std::vector<RobotMessage> out;
       out.reserve(r.size());
       for (const pqxx::row& row : r) out.push_back(messageFromRow(Row{row}));
@@ -280,9 +281,14 @@ class PostgresStore final : public Store, private MigrationTarget {
                    "INSERT INTO telemetry(robot, seq, t, x, y, z, vx, vy, vz, status)"
                    " VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10)");
     conn_->prepare("last_seq", "SELECT coalesce(max(seq), 0) FROM messages WHERE robot = $1");
+    // The byte budget is applied in the database: the bodies past it never reach libpq's result
+    // (which holds a whole result in memory).
     conn_->prepare("history",
-                   "SELECT robot, seq, type, t, received_at, body FROM messages"
-                   " WHERE robot = $1 AND seq >= $2 ORDER BY seq LIMIT $3");
+                   "SELECT robot, seq, type, t, received_at, body FROM ("
+                   "SELECT robot, seq, type, t, received_at, body,"
+                   " sum(octet_length(body)) OVER (ORDER BY seq) - octet_length(body) AS before"
+                   " FROM messages WHERE robot = $1 AND seq >= $2 ORDER BY seq LIMIT $3) page"
+                   " WHERE before < $4 ORDER BY seq");
     conn_->prepare("history_poses",
                    "SELECT seq, x, y, z, vx, vy, vz, status FROM telemetry"
                    " WHERE robot = $1 AND seq >= $2 AND seq <= $3 ORDER BY seq");

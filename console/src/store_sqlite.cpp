@@ -136,18 +136,21 @@ class SqliteStore final : public Store, private MigrationTarget {
     return static_cast<std::int64_t>(u.integer(0));
   }
 
-  StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq,
-                                              std::size_t limit) override {
+  StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq, std::size_t limit,
+                                              std::size_t max_bytes) override {
     std::vector<RobotMessage> out;
     Use u(history_);
     u.bind(1, robot);
     u.bind(2, static_cast<long long>(from_seq));
     u.bind(3, sqlLimit(limit));
     int rc;
-    while ((rc = u.step()) == SQLITE_ROW) {
+    std::size_t bytes = 0;
+    while (bytes < max_bytes && (rc = u.step()) == SQLITE_ROW) {
       out.push_back(messageFromRow(u));
       if (!u.isNull(6)) out.back().pose = poseFromRow(u, 6);
+      bytes += out.back().body.size();
     }
+    if (bytes >= max_bytes) return out;  // stopped early: the statement is reset by Use
     if (rc != SQLITE_DONE) return error(rc, "cannot read the history of robot '" + robot + "'");
     return out;
   }

@@ -401,7 +401,8 @@
   // ----- the live stream ---------------------------------------------------------------------
   let retry = 500;
   function connect() {
-    const ws = new WebSocket(`ws://${location.host}/ws/view`);
+    // A browser's WebSocket cannot send headers: the token goes in the query (never logged).
+    const ws = new WebSocket(`ws://${location.host}/ws/view?token=${encodeURIComponent(token.value.trim())}`);
     ws.onopen = () => { $('conn').textContent = 'live'; $('conn').className = 'ok'; retry = 500; };
     ws.onclose = () => {
       $('conn').textContent = 'reconnecting';
@@ -433,7 +434,6 @@
   let hashClicked = false;
   function clickFromHash() {
     const params = new URLSearchParams(location.hash.slice(1));
-    if (params.has('token')) token.value = params.get('token');
     if (params.has('robot') && state.robots.has(params.get('robot'))) $('robot').value = params.get('robot');
     const at = params.get('goal-click');
     if (!at || hashClicked || !$('robot').value) return;
@@ -451,7 +451,7 @@
   async function backfill(r, lastSeq) {
     r.backfilled = true;
     const from = Math.max(1, lastSeq - TRAIL_MAX + 1);
-    const res = await fetch(`/api/history?robot=${encodeURIComponent(r.id)}&from_seq=${from}&limit=${TRAIL_MAX}`);
+    const res = await authed(`/api/history?robot=${encodeURIComponent(r.id)}&from_seq=${from}&limit=${TRAIL_MAX}`);
     if (!res.ok) return;
     const past = await res.json();
     const trail = [], seqs = [];
@@ -469,16 +469,23 @@
   }
 
   // ----- operator commands -------------------------------------------------------------------
+  // Everything but the page itself needs the operator token (reading the mine included): from
+  // `#token=T`, this tab's earlier entry, or the field.
   const token = $('token');
-  token.value = sessionStorage.getItem('adit-token') || '';
+  const hashToken = new URLSearchParams(location.hash.slice(1)).get('token');
+  token.value = hashToken || sessionStorage.getItem('adit-token') || '';
+  if (hashToken) sessionStorage.setItem('adit-token', hashToken);
   token.addEventListener('change', () => sessionStorage.setItem('adit-token', token.value.trim()));
+  function authed(url, options = {}) {
+    return fetch(url, { ...options, headers: { ...(options.headers || {}), Authorization: 'Bearer ' + token.value.trim() } });
+  }
 
   async function command(body) {
     body.robot = $('robot').value;
     if (!body.robot) { $('answer').textContent = 'no robot connected yet'; return; }
-    const res = await fetch('/api/commands', {
+    const res = await authed('/api/commands', {
       method: 'POST',
-      headers: { 'Content-Type': 'application/json', Authorization: 'Bearer ' + token.value.trim() },
+      headers: { 'Content-Type': 'application/json' },
       body: JSON.stringify(body),
     });
     const answer = await res.json();
@@ -564,11 +571,11 @@
     if (!id) return;
     const messages = [];
     for (let from = 1; ;) {
-      const page = await (await fetch(`/api/history?robot=${encodeURIComponent(id)}&from_seq=${from}&limit=10000`)).json();
+      const page = await (await authed(`/api/history?robot=${encodeURIComponent(id)}&from_seq=${from}&limit=10000`)).json();
       if (!Array.isArray(page) || page.length === 0) break;
       messages.push(...page.filter((m) => m.type === 'telemetry'));
+      // An answer may stop short of the limit (8 MiB of messages): page on until an empty one.
       from = page[page.length - 1].seq + 1;
-      if (page.length < 10000) break;
     }
     if (!messages.length) { $('answer').textContent = 'no stored telemetry for ' + id; return; }
     state.replay = { robot: id, messages, trail: [], current: messages[0] };
@@ -599,7 +606,22 @@
 
   // ----- start -------------------------------------------------------------------------------
   async function start() {
-    const [map, mesh] = await Promise.all([fetch('/api/map').then((r) => r.json()), fetch('/api/map/mesh').then((r) => r.json())]);
+    let map, mesh;
+    for (;;) {
+      if (token.value.trim()) {
+        const res = await Promise.all([authed('/api/map'), authed('/api/map/mesh')]);
+        if (res.every((r) => r.ok)) {
+          [map, mesh] = await Promise.all(res.map((r) => r.json()));
+          break;
+        }
+        if (!res.some((r) => r.status === 401)) throw new Error(`/api/map answered ${res[0].status}`);
+        $('conn').textContent = 'wrong operator token';
+      } else {
+        $('conn').textContent = 'enter the operator token';
+      }
+      $('conn').className = 'bad';
+      await new Promise((resolve) => token.addEventListener('change', resolve, { once: true }));
+    }
     state.map = map;
     $('mapname').textContent = `${map.name} (${map.roadways.length} roadways, resolution ${map.resolution} m)`;
     for (const r of map.roadways) {

@@ -20,13 +20,19 @@ namespace net = boost::asio;
 using tcp = net::ip::tcp;
 using Json = nlohmann::json;
 
-/// Connects to ws://host:port{path}.
+/// Connects to ws://host:port{path} with `token` as `Authorization: Bearer` (none when empty)
+/// and, when given, an `Origin` header (as a browser would send).
 inline websocket::stream<tcp::socket> openWebSocket(net::io_context& ioc, const std::string& host,
-                                                    const std::string& port, const std::string& path) {
+                                                    const std::string& port, const std::string& path,
+                                                    const std::string& token = "", const std::string& origin = "") {
   tcp::resolver resolver(ioc);
   websocket::stream<tcp::socket> ws(ioc);
   net::connect(ws.next_layer(), resolver.resolve(host, port));
-  ws.handshake(host, path);
+  ws.set_option(websocket::stream_base::decorator([token, origin](websocket::request_type& req) {
+    if (!token.empty()) req.set(http::field::authorization, "Bearer " + token);
+    if (!origin.empty()) req.set(http::field::origin, origin);
+  }));
+  ws.handshake(host + ":" + port, path);
   ws.read_message_max(64 << 20);
   return ws;
 }

@@ -40,7 +40,7 @@ hostport=$(grep -o 'http://[0-9.]*:[0-9]*' "$WORK/serve.log" | head -1 | sed 's#
 grep -q "operator token (console-test): 0123456789abcdef0123" "$WORK/serve.log" || fail "the token file's label and token are not printed"
 echo "serving on $hostport"
 
-"$FEED" "$hostport" --robots 1 --hz 20 --seconds 4 > "$WORK/feed.txt"
+"$FEED" "$hostport" --token 0123456789abcdef0123 --robots 1 --hz 20 --seconds 4 > "$WORK/feed.txt"
 last=$(awk '$1 == "last" && $2 == "r1" {print $3}' "$WORK/feed.txt")
 [ -n "$last" ] || fail "the feed reported no last pose"
 echo "robot r1 last pose $last"
@@ -58,7 +58,7 @@ chromium() {
 # The virtual-time budget does not wait for the WebSocket snapshot that draws the robot's row: load
 # the page again until the row is there (bounded), instead of failing on a slow first frame.
 for _ in 1 2 3 4 5; do
-  chromium dom --dump-dom "http://$hostport/" > "$WORK/dom.html"
+  chromium dom --dump-dom "http://$hostport/#token=0123456789abcdef0123" > "$WORK/dom.html"
   grep -q '<tr data-robot="r1"' "$WORK/dom.html" && break
 done
 root=$(grep -o '<html[^>]*>' "$WORK/dom.html" | head -1 || true)
@@ -79,7 +79,12 @@ ok = all(abs(a - b) < 1e-3 for a, b in zip(last, pose)) and all(abs(a - b) < 1e-
 print(f"feed {last}, page pose {pose}, marker {drawn}")
 sys.exit(0 if ok and len(pose) == 3 and len(drawn) == 3 else 1)
 PY
-chromium shot --screenshot="$SHOT" "http://$hostport/"
+# Without the operator token the page reads nothing of the mine and asks for it.
+chromium notoken --dump-dom "http://$hostport/" > "$WORK/notoken.html"
+grep -q 'id="conn"[^>]*>enter the operator token<' "$WORK/notoken.html" || fail "without a token the page does not ask for one"
+if grep -q '<tr data-robot=' "$WORK/notoken.html"; then fail "without a token the page shows the robots"; fi
+echo "without a token: the page asks for it and shows no robot"
+chromium shot --screenshot="$SHOT" "http://$hostport/#token=0123456789abcdef0123"
 [ -s "$SHOT" ] || fail "chromium wrote no screenshot"
 if [ -n "$CHECK_PNG" ]; then
   "$CHECK_PNG" check-png "$SHOT" 4fc3f7 20 || fail "the screenshot does not show the robot's colour"
@@ -89,9 +94,10 @@ echo "screenshot: $SHOT"
 # 2. A goal set by a click on the top view: a navigated robot (adit simulate --live) gets it,
 #    accepts it and replans toward it (a `plan` with reason "goal").
 scenario=$(dirname "$MAP")/scenarios/district_inspection.yaml
-"$ADIT" simulate "$scenario" --live "ws://$hostport" --live-speed 1 -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
+"$ADIT" simulate "$scenario" --live "ws://$hostport" --live-speed 1 --live-token-file "$WORK/token" -q > "$WORK/sim.json" \
+  2> "$WORK/sim.log" &
 sim_pid=$!
-api() { python3 -c 'import sys, urllib.request; print(urllib.request.urlopen("http://" + sys.argv[1] + sys.argv[2]).read().decode())' "$hostport" "$1"; }
+api() { python3 -c 'import sys, urllib.request; print(urllib.request.urlopen(urllib.request.Request("http://" + sys.argv[1] + sys.argv[2], headers={"Authorization": "Bearer 0123456789abcdef0123"})).read().decode())' "$hostport" "$1"; }
 robot_known() { api /api/robots | python3 -c 'import json, sys; sys.exit(0 if any(r["robot"] == "district_inspection" and r["telemetry"] for r in json.load(sys.stdin)) else 1)'; }
 for _ in $(seq $((300 * SLOWDOWN))); do robot_known && break; sleep 0.2; done
 robot_known || fail "the simulated robot never reported: $(cat "$WORK/sim.log")"

@@ -34,6 +34,7 @@ struct Args {
   int robots = 1;
   double hz = 20.0, seconds = 3.0;
   bool viewer = false, realtime = false;
+  std::string token;  // the operator token (reads the map, opens both sockets)
 };
 
 Json fetchMap(const Args& a) {
@@ -43,6 +44,7 @@ Json fetchMap(const Args& a) {
   stream.connect(resolver.resolve(a.host, a.port));
   http::request<http::empty_body> req{http::verb::get, "/api/map", 11};
   req.set(http::field::host, a.host);
+  req.set(http::field::authorization, "Bearer " + a.token);
   http::write(stream, req);
   beast::flat_buffer b;
   http::response<http::string_body> res;
@@ -74,7 +76,7 @@ struct Latency {
 
 void runRobot(const Args& a, const Json& map, int index, Latency* latency, std::string* last) {
   net::io_context ioc;
-  auto ws = openWebSocket(ioc, a.host, a.port, "/ws/robot");
+  auto ws = openWebSocket(ioc, a.host, a.port, "/ws/robot", a.token);
   const std::string id = "r" + std::to_string(index + 1);
   const Json& road = map["roadways"][static_cast<std::size_t>(index) % map["roadways"].size()];
   const double lift = 0.6;  // centreline runs along the floor; the robot's centre is above it
@@ -130,7 +132,8 @@ double percentile(std::vector<double> v, double p) {
 int main(int argc, char** argv) {
   Args a;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s HOST:PORT [--robots N] [--hz F] [--seconds S] [--viewer] [--realtime]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s HOST:PORT --token T [--robots N] [--hz F] [--seconds S] [--viewer] [--realtime]\n",
+                 argv[0]);
     return 2;
   }
   const std::string hp = argv[1];
@@ -138,7 +141,8 @@ int main(int argc, char** argv) {
   a.port = hp.substr(hp.rfind(':') + 1);
   for (int i = 2; i < argc; ++i) {
     const std::string o = argv[i];
-    if (o == "--robots" && i + 1 < argc) a.robots = std::atoi(argv[++i]);
+    if (o == "--token" && i + 1 < argc) a.token = argv[++i];
+    else if (o == "--robots" && i + 1 < argc) a.robots = std::atoi(argv[++i]);
     else if (o == "--hz" && i + 1 < argc) a.hz = std::atof(argv[++i]);
     else if (o == "--seconds" && i + 1 < argc) a.seconds = std::atof(argv[++i]);
     else if (o == "--viewer") a.viewer = true;
@@ -160,7 +164,7 @@ int main(int argc, char** argv) {
     net::io_context viewer_ioc;
     std::optional<websocket::stream<tcp::socket>> vws;
     if (a.viewer) {
-      vws.emplace(openWebSocket(viewer_ioc, a.host, a.port, "/ws/view"));
+      vws.emplace(openWebSocket(viewer_ioc, a.host, a.port, "/ws/view", a.token));
       viewer = std::thread([&] {
         beast::error_code ec;
         while (!ec) {

@@ -23,9 +23,12 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 # taken while the server loads its map); the restart keeps it.
 port=0
 
+# One token file for both starts: the robot's credential must still hold after the restart.
+echo "fault-test:$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')" > "$WORK/token"
 start_server() {
   : > "$WORK/serve.log"
-  "$ADIT" serve --map "$MAP" --listen "127.0.0.1:$port" --db "sqlite:$WORK/centre.db" -q 2>> "$WORK/serve.log" &
+  "$ADIT" serve --map "$MAP" --listen "127.0.0.1:$port" --db "sqlite:$WORK/centre.db" --token-file "$WORK/token" -q \
+    2>> "$WORK/serve.log" &
   server_pid=$!
   for _ in $(seq $((600 * SLOWDOWN))); do
     if grep -q 'http://' "$WORK/serve.log"; then
@@ -41,10 +44,20 @@ stored() { python3 -c 'import sqlite3, sys; print(sqlite3.connect(sys.argv[1]).e
 
 start_server
 scenario=$(dirname "$MAP")/scenarios/district_rescue.yaml
+# A robot with a wrong credential is refused at once with the centre's reason (exit 2), not retried.
+echo "not-the-token-0123456789" > "$WORK/wrong_token"
+set +e
+"$ADIT" simulate "$scenario" --live "ws://127.0.0.1:$port" --live-token-file "$WORK/wrong_token" -q > /dev/null 2> "$WORK/wrong.log"
+code=$?
+set -e
+[ "$code" -eq 2 ] || fail "a wrong robot credential: exit $code, expected 2: $(cat "$WORK/wrong.log")"
+grep -q "refused the connection (401): wrong credential for /ws/robot" "$WORK/wrong.log" ||
+  fail "a wrong robot credential: no reason given: $(cat "$WORK/wrong.log")"
+echo "a wrong credential: $(tail -1 "$WORK/wrong.log")"
 # Paced at 20x (about 15 s of wall time for the run) so that the kill below, at about 1.5 s,
 # finds it mid-run even when this script's polls are slow on a loaded machine.
 "$ADIT" simulate "$scenario" --live "ws://127.0.0.1:$port" --live-speed 20 --live-flush $((30 * SLOWDOWN)) \
-  --robot-id faulty -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
+  --robot-id faulty --live-token-file "$WORK/token" -q > "$WORK/sim.json" 2> "$WORK/sim.log" &
 sim_pid=$!
 # Kill the centre once the robot has stored a few hundred messages, while it is still running:
 # the robot is frozen (SIGSTOP) to read the count and to check that it has not finished, then

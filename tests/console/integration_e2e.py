@@ -49,8 +49,11 @@ def check(cond, what):
 class Server:
     """`adit serve` as a child process; the URL and the token come from its stderr."""
 
-    def __init__(self, args, db, port, log_path):
+    def __init__(self, args, db, port, log_path, token_file):
         self.args, self.db, self.port, self.log_path = args, db, port, log_path
+        # One operator token for every start, as a real centre's token file: the robot's
+        # credential (the same file) must still hold after a restart.
+        self.token_file = token_file
         self.proc = None
         self.token = None
         self.starts = 0
@@ -62,7 +65,7 @@ class Server:
         log = open(self.log_path, "ab")
         self.proc = subprocess.Popen(
             [self.args.adit, "serve", "--map", self.args.map, "--db", self.db,
-             "--listen", "127.0.0.1:%d" % self.port, "--quiet"],
+             "--listen", "127.0.0.1:%d" % self.port, "--token-file", self.token_file, "--quiet"],
             stdout=subprocess.DEVNULL, stderr=log)
         CHILDREN.append(self.proc)
         log.close()
@@ -97,8 +100,11 @@ class Server:
                 self.proc.wait()
                 raise Failure("adit serve did not stop within %.0f s of signal %d" % (30 * SLOWDOWN, sig))
 
-    def http(self, method, path, body=None, token=None):
-        """(status, parsed JSON) of one request."""
+    def http(self, method, path, body=None, token=True):
+        """(status, parsed JSON) of one request; with the operator token unless `token` is None
+        or another string."""
+        if token is True:
+            token = self.token
         req = urllib.request.Request("http://127.0.0.1:%d%s" % (self.port, path), method=method)
         data = None
         if body is not None:
@@ -253,7 +259,10 @@ def run(args):
     serve_log = os.path.join(work, "serve.log")
     if os.path.exists(serve_log):  # a previous run's: the announcements are counted per start
         os.remove(serve_log)
-    server = Server(args, db, 0, serve_log)
+    token_file = os.path.join(work, "token")
+    with open(token_file, "w") as f:
+        f.write("e2e:%s\n" % os.urandom(16).hex())
+    server = Server(args, db, 0, serve_log, token_file)
     server.start()
     proxy = Proxy(server.port) if args.fault == "drop" else None
     live_port = proxy.port if proxy else server.port
@@ -263,7 +272,8 @@ def run(args):
     t0 = time.monotonic()
     sim = subprocess.Popen(
         [args.adit, "simulate", args.scenario, "--live", "ws://127.0.0.1:%d" % live_port,
-         "--live-speed", str(args.live_speed), "--live-period", str(args.live_period), "--robot-id", robot, "--out", run_json]
+         "--live-speed", str(args.live_speed), "--live-period", str(args.live_period), "--robot-id", robot, "--out", run_json,
+         "--live-token-file", token_file]
         + (["--live-flush", "1"] if args.fault == "gone" else ["--live-flush", "%g" % (30 * SLOWDOWN)])
         # The operator's block must act before the robot reaches crosscut-90: the robot waits at
         # its start until the operator resumes it, instead of the test racing the wall clock.
@@ -362,7 +372,7 @@ def operator_commands(server, robot):
     out = []
     # 401 without the token, 422 for a goal in rock (the survey's roadways are 4 m wide, z = -1.5
     # here; (60, 30, -1.5) lies between the main and the return airway: solid rock).
-    status, body = server.http("POST", "/api/commands", {"robot": robot, "kind": "pause"})
+    status, body = server.http("POST", "/api/commands", {"robot": robot, "kind": "pause"}, None)
     check(status == 401, "a command without the token: %d %s" % (status, body))
     status, body = server.http("POST", "/api/commands", {"robot": robot, "kind": "goal", "goal": [60, 30, -1.5]},
                                server.token)

@@ -22,4 +22,5 @@ until grep -q 'adit serve: http://' "$log"; do
   sleep 0.1; i=$((i + 1))
 done
 url=$(sed -n 's|^adit serve: http://\([^/]*\)/.*|ws://\1|p' "$log")
-"$build/tests/adit_console_load" --url "$url" --map "$root/maps/district.yaml" --server-pid "$pid" "$@"
+token=$(sed -n 's|^adit serve: operator token ([^)]*): \(.*\)$|\1|p' "$log")
+"$build/tests/adit_console_load" --url "$url" --map "$root/maps/district.yaml" --server-pid "$pid" --token "$token" "$@"

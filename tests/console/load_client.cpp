@@ -43,6 +43,7 @@ struct Args {
   double hz = 50.0;
   double seconds = 30.0;
   long server_pid = 0;
+  std::string token;  // the operator token: the viewer's and every robot's credential
 };
 
 bool parseArgs(int argc, char** argv, Args* a) {
@@ -54,9 +55,10 @@ bool parseArgs(int argc, char** argv, Args* a) {
     else if (k == "--hz") a->hz = std::stod(v);
     else if (k == "--seconds") a->seconds = std::stod(v);
     else if (k == "--server-pid") a->server_pid = std::stol(v);
+    else if (k == "--token") a->token = v;
     else return false;
   }
-  return argc % 2 == 1 && a->robots > 0 && a->hz > 0 && a->seconds > 0;
+  return argc % 2 == 1 && a->robots > 0 && a->hz > 0 && a->seconds > 0 && !a->token.empty();
 }
 
 // Send times of every (robot, seq), read by the viewer thread.
@@ -86,7 +88,7 @@ double quantile(std::vector<double> v, double q) {
 int main(int argc, char** argv) {
   Args a;
   if (!parseArgs(argc, argv, &a)) {
-    std::fprintf(stderr, "usage: %s --url ws://HOST:PORT --map MAP [--robots N] [--hz F] [--seconds S] [--server-pid P]\n",
+    std::fprintf(stderr, "usage: %s --url ws://HOST:PORT --map MAP --token T [--robots N] [--hz F] [--seconds S] [--server-pid P]\n",
                  argv[0]);
     return 2;
   }
@@ -107,6 +109,9 @@ int main(int argc, char** argv) {
   try {
     tcp::resolver resolver(ioc);
     net::connect(beast::get_lowest_layer(view), resolver.resolve(host, port));
+    view.set_option(beast::websocket::stream_base::decorator([&a](beast::websocket::request_type& req) {
+      req.set(beast::http::field::authorization, "Bearer " + a.token);
+    }));
     view.handshake(host, "/ws/view");
     view.read_message_max(64 << 20);
   } catch (const std::exception& e) {
@@ -142,7 +147,9 @@ int main(int argc, char** argv) {
     hello.robot = "load-" + run + "-" + std::to_string(i);
     hello.map = a.map.substr(a.map.find_last_of('/') + 1);
     hello.map_hash = *hash;
-    auto link = adit::console::RobotLink::connect(a.url, hello);
+    adit::console::LinkOptions options;
+    options.token = a.token;
+    auto link = adit::console::RobotLink::connect(a.url, hello, options);
     if (!link.ok()) {
       std::fprintf(stderr, "robot %d: %s\n", i, link.status().message().c_str());
       return 2;

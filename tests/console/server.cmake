@@ -63,4 +63,16 @@ if(ADIT_BUILD_TOOLS)
   adit_serve_cli_test(empty_token 2 "empty_token.txt: no token in the file"
                       --map ${_small} --token-file ${CMAKE_CURRENT_SOURCE_DIR}/console/data/empty_token.txt)
   adit_serve_cli_test(bad_db 2 "mysql" --map ${_small} --db mysql://centre/adit --listen 127.0.0.1:0)
+  # Credentials and origins (issue 17): refused before the map loads, naming the file and line.
+  set(_data ${CMAKE_CURRENT_SOURCE_DIR}/console/data)
+  adit_serve_cli_test(robot_tokens_duplicate 2 "robot_tokens_duplicate.txt:4: robot 'r1' again"
+                      --map ${_small} --robot-tokens ${_data}/robot_tokens_duplicate.txt)
+  adit_serve_cli_test(robot_tokens_short 2 "robot_tokens_short.txt:1: the token is shorter than 16 characters"
+                      --map ${_small} --robot-tokens ${_data}/robot_tokens_short.txt)
+  adit_serve_cli_test(robot_tokens_same 2 "robot_tokens_same.txt:2: the same token as an earlier robot's"
+                      --map ${_small} --robot-tokens ${_data}/robot_tokens_same.txt)
+  adit_serve_cli_test(robot_tokens_operator 2 "robot token for 'r1': the same as another robot's or the operator's"
+                      --map ${_small} --token-file ${_data}/robot_r1_token.txt --robot-tokens ${_data}/robot_tokens_r1.txt)
+  adit_serve_cli_test(bad_origin 2 "--allow-origin 'ops.example': expected SCHEME://HOST"
+                      --map ${_small} --allow-origin ops.example)
 endif()

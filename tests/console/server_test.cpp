@@ -12,6 +12,7 @@
 #include <fstream>
 #include <thread>
 
+#include "adit/console/robot_link.hpp"
 #include "adit/console/server.hpp"
 #include "adit/console/store.hpp"
 #include "adit/map/distance_field.hpp"
@@ -25,6 +26,7 @@ using namespace adit::console::testing;  // NOLINT: Beast's names and the client
 
 constexpr const char* kHash = "fnv1a64:00000000c0ffee00";
 constexpr const char* kToken = "0123456789abcdef0123456789abcdef";
+constexpr const char* kRobotToken = "robot-r-own-0123456789";
 
 // ----- the roadway mesh -----------------------------------------------------------------------
 
@@ -100,8 +102,8 @@ struct Reply {
 
 class WsClient {
  public:
-  WsClient(unsigned short port, const std::string& path)
-      : ws_(openWebSocket(ioc_, "127.0.0.1", std::to_string(port), path)) {}
+  WsClient(unsigned short port, const std::string& path, const std::string& token = kToken)
+      : ws_(openWebSocket(ioc_, "127.0.0.1", std::to_string(port), path, token)) {}
   void send(const std::string& text) { ws_.write(net::buffer(text)); }
   void send(const Json& j) { send(j.dump()); }
   Json recv() { return readJson(ws_); }
@@ -164,6 +166,8 @@ class ServerTest : public ::testing::Test {
     o.operator_name = "alice";
     o.map_name = "junction";
     o.map_hash = kHash;
+    o.allowed_origins = {"https://ops.example"};
+    o.robot_tokens = {{"r-own", kRobotToken}};
     StatusOr<std::unique_ptr<Server>> server = Server::create(*loaded_, *field_, *store_, o);
     ASSERT_TRUE(server.ok()) << server.status().toString();
     server_ = server->release();
@@ -211,7 +215,9 @@ class ServerTest : public ::testing::Test {
     http::read(s, b, p);
     return {static_cast<int>(p.get().result_int()), p.get().body()};
   }
-  static Reply get(const std::string& target) { return request(http::verb::get, target); }
+  static Reply get(const std::string& target, const std::string& token = kToken) {
+    return request(http::verb::get, target, "", token);
+  }
   static Reply post(const Json& body, const std::string& token = kToken) {
     return request(http::verb::post, "/api/commands", body.dump(), token);
   }
@@ -259,7 +265,7 @@ TEST_F(ServerTest, ServesThePageItsAssetsAndTheMap) {
   const Json mesh = get("/api/map/mesh").json();
   EXPECT_GT(mesh["indices"].size(), 0u);
   EXPECT_EQ(mesh["positions"].size(), mesh["normals"].size());
-  const Reply head = request(http::verb::head, "/api/map");
+  const Reply head = request(http::verb::head, "/api/map", "", kToken);
   EXPECT_EQ(head.status, 200);
   EXPECT_TRUE(head.body.empty());
   EXPECT_EQ(get("/nope").status, 404);
@@ -524,7 +530,7 @@ TEST_F(ServerTest, ASlowViewersQueueIsBoundedAndReportsWhatItDropped) {
   viewer.next_layer().open(tcp::v4());
   viewer.next_layer().set_option(net::socket_base::receive_buffer_size(4096));
   viewer.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port()));
-  viewer.handshake("127.0.0.1", "/ws/view");
+  viewer.handshake("127.0.0.1", std::string("/ws/view?token=") + kToken);  // as the page does
   WsClient robot(port(), "/ws/robot");
   robot.hello("r-lag");
   // 4 KiB each: 16 MiB in all, more than the loopback socket buffers can hide.
@@ -553,6 +559,176 @@ TEST_F(ServerTest, ASlowViewersQueueIsBoundedAndReportsWhatItDropped) {
   EXPECT_EQ(delivered + dropped, n);
   EXPECT_EQ(stored("r-lag"), 1000u);  // the history's default page: everything was stored
   EXPECT_EQ(get("/api/history?robot=r-lag&from_seq=3001&limit=10000").json().size(), 1000u);
+}
+
+// ----- who may connect (issue 17): credentials and origins ------------------------------------
+
+// The HTTP status of a WebSocket upgrade of `path` with these headers (101: accepted) and the
+// refusal's body.
+std::pair<int, std::string> upgrade(unsigned short port, const std::string& path,
+                                    const std::vector<std::pair<http::field, std::string>>& headers) {
+  net::io_context ioc;
+  tcp::socket s(ioc);
+  s.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+  http::request<http::empty_body> req{http::verb::get, path, 11};
+  req.set(http::field::host, "127.0.0.1:" + std::to_string(port));
+  req.set(http::field::upgrade, "websocket");
+  req.set(http::field::connection, "Upgrade");
+  req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
+  req.set(http::field::sec_websocket_version, "13");
+  for (const auto& [field, value] : headers) req.set(field, value);
+  http::write(s, req);
+  beast::flat_buffer b;
+  http::response_parser<http::string_body> p;
+  http::read(s, b, p);
+  return {static_cast<int>(p.get().result_int()), p.get().body()};
+}
+
+TEST_F(ServerTest, AWebSocketFromAForeignOriginIsRefusedOnBothRoutes) {
+  const std::string bearer = std::string("Bearer ") + kToken;
+  for (const char* path : {"/ws/robot", "/ws/view"}) {
+    SCOPED_TRACE(path);
+    // The issue's attack: a page on another site opening the console's sockets with the
+    // operator's browser. Refused before any WebSocket exists, whatever the credential.
+    const auto evil = upgrade(port(), path, {{http::field::origin, "http://evil.example"}, {http::field::authorization, bearer}});
+    EXPECT_EQ(evil.first, 403);
+    EXPECT_NE(evil.second.find("origin 'http://evil.example' may not open"), std::string::npos) << evil.second;
+    // The console's own page, an --allow-origin site, and a robot (no Origin) are let in.
+    const std::string own = "http://127.0.0.1:" + std::to_string(port());
+    EXPECT_EQ(upgrade(port(), path, {{http::field::origin, own}, {http::field::authorization, bearer}}).first, 101);
+    EXPECT_EQ(upgrade(port(), path, {{http::field::origin, "https://ops.example"}, {http::field::authorization, bearer}}).first,
+              101);
+    EXPECT_EQ(upgrade(port(), path, {{http::field::authorization, bearer}}).first, 101);
+    // A look-alike is not the allowed origin.
+    EXPECT_EQ(upgrade(port(), path, {{http::field::origin, "https://ops.example.evil"}, {http::field::authorization, bearer}})
+                  .first,
+              403);
+  }
+}
+
+TEST_F(ServerTest, EveryWebSocketAndEveryReadNeedsACredential) {
+  for (const char* path : {"/ws/robot", "/ws/view"}) {
+    SCOPED_TRACE(path);
+    EXPECT_EQ(upgrade(port(), path, {}).first, 401);
+    EXPECT_EQ(upgrade(port(), path, {{http::field::authorization, "Bearer not-the-token-0000000"}}).first, 401);
+    EXPECT_EQ(upgrade(port(), std::string(path) + "?token=" + kToken, {}).first, 101);  // a browser's way
+  }
+  // A robot's own token opens /ws/robot, never /ws/view (it is not the operator).
+  EXPECT_EQ(upgrade(port(), "/ws/robot", {{http::field::authorization, std::string("Bearer ") + kRobotToken}}).first, 101);
+  EXPECT_EQ(upgrade(port(), "/ws/view", {{http::field::authorization, std::string("Bearer ") + kRobotToken}}).first, 401);
+  // Reading the mine needs the operator token; the health check stays open for monitoring.
+  for (const char* target : {"/api/robots", "/api/map", "/api/map/mesh", "/api/history?robot=r1", "/api/commands"}) {
+    SCOPED_TRACE(target);
+    EXPECT_EQ(get(target, "").status, 401);
+    EXPECT_EQ(get(target, kRobotToken).status, 401);
+  }
+  EXPECT_EQ(get("/api/health", "").status, 200);
+}
+
+TEST_F(ServerTest, ARobotTokenSpeaksOnlyForItsRobot) {
+  {
+    WsClient own(port(), "/ws/robot", kRobotToken);
+    EXPECT_EQ(own.hello("r-own"), 0);
+    own.send(telemetry("r-own", 1));
+    EXPECT_EQ(own.recv()["type"], "ack");
+  }
+  // The issue's impostor: r-own's credential saying hello as another robot is refused and
+  // dropped; nothing is stored for the other robot.
+  WsClient impostor(port(), "/ws/robot", kRobotToken);
+  impostor.send(Json{{"type", "hello"}, {"robot", "r-victim"}, {"map", "junction"}, {"map_hash", kHash}, {"radius", 0.4}});
+  const Json e = impostor.recv();
+  EXPECT_EQ(e["type"], "error");
+  EXPECT_NE(e.value("reason", "").find("credential is robot 'r-own'"), std::string::npos) << e.dump();
+  EXPECT_EQ(impostor.closeCode(), static_cast<int>(websocket::close_code::policy_error));
+  EXPECT_EQ(get("/api/history?robot=r-victim").status, 404);
+}
+
+TEST_F(ServerTest, TheRobotLinkAuthenticatesAndSaysWhyTheCentreRefusedIt) {
+  const std::string url = "ws://127.0.0.1:" + std::to_string(port());
+  RobotHello hello;
+  hello.robot = "r-own";
+  hello.map = "junction";
+  hello.map_hash = kHash;
+  LinkOptions options;
+  options.connect_timeout_s = 10.0;
+  // No credential: refused at once with the centre's reason (not retried until the timeout).
+  const auto t0 = std::chrono::steady_clock::now();
+  StatusOr<std::unique_ptr<RobotLink>> none = RobotLink::connect(url, hello, options);
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.status().message().find("refused the connection (401): missing credential for /ws/robot"),
+            std::string::npos)
+      << none.status().message();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));
+  // Its own token: connected. Another robot's id with it: refused by the hello.
+  options.token = kRobotToken;
+  StatusOr<std::unique_ptr<RobotLink>> own = RobotLink::connect(url, hello, options);
+  ASSERT_TRUE(own.ok()) << own.status().message();
+  own->reset();  // disconnects
+  hello.robot = "r-someone-else";
+  StatusOr<std::unique_ptr<RobotLink>> other = RobotLink::connect(url, hello, options);
+  ASSERT_FALSE(other.ok());
+  EXPECT_NE(other.status().message().find("credential is robot 'r-own'"), std::string::npos) << other.status().message();
+}
+
+TEST_F(ServerTest, ASecondConnectionOfARobotReplacesTheFirstAndGetsItsCommands) {
+  WsClient first(port(), "/ws/robot");
+  first.hello("r-twice");
+  WsClient second(port(), "/ws/robot");
+  second.hello("r-twice");
+  // The first is told and closed: commands can no longer reach two connections.
+  const Json told = first.recv();
+  EXPECT_EQ(told["type"], "error");
+  EXPECT_NE(told.value("reason", "").find("replaced by a newer connection"), std::string::npos) << told.dump();
+  EXPECT_EQ(first.closeCode(), static_cast<int>(websocket::close_code::policy_error));
+  const Reply r = post({{"robot", "r-twice"}, {"kind", "pause"}});
+  ASSERT_EQ(r.status, 202) << r.body;
+  const Json c = second.recv();
+  EXPECT_EQ(c["type"], "command");
+  EXPECT_EQ(c["kind"], "pause");
+}
+
+TEST_F(ServerTest, AHelloWithAnAbsurdRadiusIsRefused) {
+  WsClient robot(port(), "/ws/robot");
+  robot.send(Json{{"type", "hello"}, {"robot", "r-huge"}, {"map", "junction"}, {"map_hash", kHash}, {"radius", 1e308}});
+  const Json e = robot.recv();
+  EXPECT_EQ(e["type"], "error");
+  EXPECT_NE(e.value("reason", "").find("'radius' must be in (0, 10] m"), std::string::npos) << e.dump();
+}
+
+TEST_F(ServerTest, AViewerTooSlowForWhatCannotBeDroppedIsClosedNotGrown) {
+  // Plans are never dropped for a viewer (only telemetry is): 400 plans of about 180 KB to a
+  // viewer that reads nothing is 72 MB, over its 32 MiB plus what the loopback socket buffers
+  // hold. It is closed (1013) with what was queued, not kept growing.
+  net::io_context ioc;
+  websocket::stream<tcp::socket> viewer(ioc);
+  viewer.next_layer().open(tcp::v4());
+  viewer.next_layer().set_option(net::socket_base::receive_buffer_size(4096));
+  viewer.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port()));
+  viewer.handshake("127.0.0.1", std::string("/ws/view?token=") + kToken);
+  viewer.read_message_max(64 << 20);
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-plans");
+  Json path = Json::array(), labels = Json::array();
+  for (int i = 0; i < 5000; ++i) path.push_back({5.0 + 1e-3 * i, 0.123456789, 1.123456789});
+  const int n = 400;
+  for (int seq = 1; seq <= n; ++seq) {
+    robot.send(Json{{"type", "plan"}, {"robot", "r-plans"}, {"seq", seq}, {"t", 0.1 * seq}, {"reason", "replan"},
+                    {"path", path}, {"labels", labels}});
+    EXPECT_EQ(robot.recv()["type"], "ack");
+  }
+  // Read until the close, or until every plan arrived (then it was not closed: a failure, and
+  // the loop ends instead of waiting for a close that never comes).
+  beast::error_code ec;
+  int plans = 0;
+  while (!ec && plans < n) {
+    beast::flat_buffer b;
+    viewer.read(b, ec);
+    if (!ec && Json::parse(beast::buffers_to_string(b.data()), nullptr, false).value("type", "") == "plan") ++plans;
+  }
+  EXPECT_LT(plans, n);
+  EXPECT_EQ(ec, websocket::error::closed) << ec.message();
+  EXPECT_EQ(viewer.reason().code, websocket::close_code::try_again_later);
+  expectHealthy();
 }
 
 // Runs last in the suite (gtest keeps the file's order): a restarted centre resumes from the

@@ -210,6 +210,26 @@ TEST_P(StoreTest, ADuplicateRobotSeqIsNotStoredAgain) {
   EXPECT_TRUE(*db.appendMessage(telemetry("r2", 7)));
 }
 
+TEST_P(StoreTest, HistoryStopsAtItsByteBudgetWithTheCrossingMessageLast) {
+  // The issue's attack: 10,000 messages of 250 KB would be a 2.5 GB answer. Bodies of 100 KB
+  // here; a budget of 250 KB gives three (the third crosses it), whatever the count limit; the
+  // next page starts after them; a message larger than the budget still comes alone.
+  Store& db = open();
+  for (std::int64_t seq = 1; seq <= 6; ++seq) {
+    RobotMessage m = event("big", seq);
+    m.body = R"({"type":"event","pad":")" + std::string(100000, 'p') + R"("})";
+    ASSERT_TRUE(*db.appendMessage(m));
+  }
+  StatusOr<std::vector<RobotMessage>> page = db.history("big", 1, 10000, 250000);
+  ASSERT_TRUE(page.ok()) << page.status().toString();
+  ASSERT_EQ(page->size(), 3u);
+  EXPECT_EQ(page->back().seq, 3);
+  EXPECT_EQ(db.history("big", 4, 10000, 250000)->front().seq, 4);
+  EXPECT_EQ(db.history("big", 1, 10000, 1000)->size(), 1u);
+  EXPECT_EQ(db.history("big", 1, 2, 250000)->size(), 2u);  // the count limit still holds
+  EXPECT_EQ(db.history("big", 1, 10000)->size(), 6u);       // 600 KB: within the default 8 MiB
+}
+
 TEST_P(StoreTest, HistoryIsInSeqOrderFromSeqWithALimit) {
   Store& db = open();
   std::vector<std::int64_t> seqs(30);

@@ -13,6 +13,7 @@
 
 #include <unistd.h>
 
+#include "adit/map/map_io.hpp"
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
 
@@ -36,6 +37,40 @@ inline int exitCodeFor(const adit::Status& s) {
 inline int report(const adit::Status& s) {
   std::fprintf(stderr, "adit: error: %s\n", s.message().c_str());
   return exitCodeFor(s);
+}
+
+/// A token file (`adit serve --token-file`, `adit simulate --live-token-file`): its first
+/// non-empty line, `TOKEN` or `LABEL:TOKEN` (the label names the operator in the command log).
+struct TokenFile {
+  std::string label, token;
+};
+inline adit::StatusOr<TokenFile> readTokenFile(const std::string& path) {
+  ADIT_ASSIGN_OR_RETURN(std::string text, adit::map::readFile(path, 4096));
+  std::string line;
+  int n = 0;
+  for (std::size_t start = 0; start <= text.size();) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    line = text.substr(start, end - start);
+    ++n;
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.pop_back();
+    if (!line.empty()) break;
+    start = end + 1;
+  }
+  if (line.empty()) return adit::invalidArgument(path + ": no token in the file");
+  const std::string at = path + ":" + std::to_string(n) + ": ";
+  TokenFile t;
+  const auto colon = line.find(':');
+  if (colon != std::string::npos) {
+    t.label = line.substr(0, colon);
+    line = line.substr(colon + 1);
+    if (t.label.empty()) return adit::invalidArgument(at + "the label before ':' is empty");
+  }
+  if (line.size() < 16) return adit::invalidArgument(at + "the token is shorter than 16 characters");
+  for (char c : line)
+    if (c == ' ' || c == '\t') return adit::invalidArgument(at + "the token contains white space");
+  t.token = line;
+  return t;
 }
 
 /// Checks, before any work, that `path` (given with `flag`) can be written: an existing file,

@@ -16,6 +16,9 @@ inline constexpr std::size_t kMaxMessageBytes = 256 * 1024;
 inline constexpr std::size_t kMaxPoints = 10000;
 /// Messages a viewer may have waiting before the oldest telemetry is dropped.
 inline constexpr std::size_t kMaxViewerQueue = 1024;
+/// Bytes a viewer may have waiting (its snapshot included): past them the oldest telemetry is
+/// dropped, and a viewer whose other messages alone exceed them is closed (1013, try again later).
+inline constexpr std::size_t kMaxViewerQueueBytes = std::size_t{32} << 20;
 /// Commands of one robot still pending or sent before POST /api/commands answers 429.
 inline constexpr std::size_t kMaxPendingCommands = 64;
 /// Fastest manual velocity set-point an operator may send (its norm) [m/s].
@@ -26,5 +29,13 @@ inline constexpr double kMaxManualSpeed = 2.0;
 inline constexpr std::int64_t kMaxSeq = (std::int64_t{1} << 53) - 1;
 /// Largest absolute coordinate of a goal [m]: as a scenario's points.
 inline constexpr double kMaxCoordinate = 1e7;
+/// Bodies in one history answer (`GET /api/history`, Store::history): the answer ends after the
+/// message that crosses it (so it always holds one), and a client pages on from the last seq.
+/// Without it one answer of 10,000 messages of 256 KiB would be 2.5 GB in the server's memory.
+inline constexpr std::size_t kMaxHistoryBytes = std::size_t{8} << 20;
+/// Largest robot radius a hello may give [m]: a larger one would make every goal unreachable.
+inline constexpr double kMaxRobotRadius = 10.0;
+/// Shortest robot token (`adit serve --robot-tokens`): as the operator token's 16 characters.
+inline constexpr std::size_t kMinTokenLength = 16;
 
 }  // namespace adit::console

@@ -54,6 +54,10 @@ struct LinkOptions {
   std::size_t outbox_limit = 10000;      ///< unacknowledged messages kept
   double connect_timeout_s = 5.0;        ///< the first connection (connect() fails after it)
   double max_backoff_s = 2.0;            ///< between reconnection attempts
+  /// The robot's credential, sent as `Authorization: Bearer TOKEN` in the WebSocket handshake:
+  /// its token from the centre's `--robot-tokens` file, or the operator token. Empty: none (a
+  /// centre that checks refuses with 401, and connect() fails with its reason).
+  std::string token;
 };
 
 /// An operator command as received (protocol.md, centre → robot). Fields not given for the kind

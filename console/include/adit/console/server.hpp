@@ -21,6 +21,7 @@
 /// between free and rock cells, coplanar faces merged into rectangles.
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -45,12 +46,24 @@ struct ServerOptions {
   bool stop_on_signals = false;       ///< SIGINT / SIGTERM end run() cleanly
   /// Mesh cell edge [m]; 0 picks a multiple of the voxel size that keeps the surface small.
   double mesh_cell = 0.0;
+  /// Origins (`scheme://host[:port]`) besides the console's own whose pages may open its
+  /// WebSockets (`--allow-origin`); a browser's handshake from any other origin is refused 403.
+  std::vector<std::string> allowed_origins;
+  /// Robot credentials (`--robot-tokens FILE`): robot id -> token. A robot's connection
+  /// authenticates with its own token and may then speak only as that robot; the operator token
+  /// speaks for any robot (a single-robot setup, tests).
+  std::map<std::string, std::string> robot_tokens;
 
   Status validate() const;
 };
 
 /// Parses `HOST:PORT` (`127.0.0.1:8080`, `0.0.0.0:0`, `[::1]:8080`) into the options.
 Status parseListen(const std::string& listen, ServerOptions* options);
+
+/// A robot-tokens file: one `ROBOT_ID TOKEN` per line, `#` comments and blank lines ignored.
+/// Errors name `file` and the line: a bad robot id, a token shorter than kMinTokenLength or with
+/// white space, an id or a token given twice.
+StatusOr<std::map<std::string, std::string>> parseRobotTokens(const std::string& text, const std::string& file);
 
 /// The roadway surface: a triangle list with one normal per vertex, pointing into free space.
 struct RoadwayMesh {

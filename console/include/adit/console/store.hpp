@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "adit/console/protocol_limits.hpp"
 #include "adit/status.hpp"
 
 namespace adit::console {
@@ -103,9 +104,11 @@ class Store {
   }
   /// Highest stored seq of the robot, 0 when none.
   virtual StatusOr<std::int64_t> lastSeq(const std::string& robot) = 0;
-  /// Messages of `robot` with seq >= from_seq, in seq order, at most `limit`.
+  /// Messages of `robot` with seq >= from_seq, in seq order, at most `limit`, and no more once
+  /// their bodies reach `max_bytes` (the message that crosses it is the last; the bodies beyond
+  /// are not read into memory).
   virtual StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq,
-                                                      std::size_t limit) = 0;
+                                                      std::size_t limit, std::size_t max_bytes = kMaxHistoryBytes) = 0;
   /// The robot's newest message of `type` (telemetry, plan, obstacles, ...), if any; its cost
   /// depends on the rows stored, never on how far apart their seqs are. (A restarted server
   /// shows each robot's last state from these.)
