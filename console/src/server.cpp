@@ -629,6 +629,14 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
   message->body = text;
   message->received_at = protocol::isoNow();
   RobotCache& rc = cache[message->robot];
+  // A seq far beyond what is stored is not a robot's next message (they come in order, at most
+  // an outbox ahead): refused, so that one message cannot use up the robot's seq range.
+  if (message->seq > rc.stored_seq + kMaxSeqGap) {
+    session.send(errorJson("seq " + std::to_string(message->seq) + " is more than " + std::to_string(kMaxSeqGap) +
+                               " beyond the last stored (" + std::to_string(rc.stored_seq) + ")",
+                           seq));
+    return;
+  }
   rc.last_seen = message->received_at;
   PendingMessage p;
   const auto key = std::make_pair(message->robot, message->seq);

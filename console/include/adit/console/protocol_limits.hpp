@@ -27,6 +27,9 @@ inline constexpr double kMaxManualSpeed = 2.0;
 /// JavaScript included) holds exactly. A robot that reached it would need a new robot id; at
 /// 50 messages a second that is 5.7 million years.
 inline constexpr std::int64_t kMaxSeq = (std::int64_t{1} << 53) - 1;
+/// How far beyond a robot's last stored seq a message may be: a robot sends in order, at most
+/// its outbox (10,000 by default) ahead.
+inline constexpr std::int64_t kMaxSeqGap = 1000000;
 /// Largest absolute coordinate of a goal [m]: as a scenario's points.
 inline constexpr double kMaxCoordinate = 1e7;
 /// Bodies in one history answer (`GET /api/history`, Store::history): the answer ends after the
