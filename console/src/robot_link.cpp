@@ -88,8 +88,10 @@ StatusOr<ReceivedCommand> parseCommand(const std::string& text) {
   if (!j.is_object()) return invalidArgument("command: not a JSON object");
   if (!j.contains("type") || j["type"] != "command") return invalidArgument("command: type is not \"command\"");
   ReceivedCommand c;
-  if (!j.contains("command_id") || !j["command_id"].is_number_integer())
-    return invalidArgument("command: command_id missing or not an integer");
+  // An id in the protocol's range, read as what it is: 2^64 - 1 must not become -1.
+  if (!j.contains("command_id") || !j["command_id"].is_number_unsigned() || j["command_id"].get<std::uint64_t>() < 1 ||
+      j["command_id"].get<std::uint64_t>() > static_cast<std::uint64_t>(kMaxSeq))
+    return invalidArgument("command: command_id must be an integer in 1..9007199254740991 (2^53 - 1)");
   c.id = j["command_id"].get<std::int64_t>();
   if (!j.contains("kind") || !j["kind"].is_string()) return invalidArgument("command " + std::to_string(c.id) + ": kind missing");
   c.kind = j["kind"].get<std::string>();

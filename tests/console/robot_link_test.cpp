@@ -494,6 +494,10 @@ TEST(RobotLink, ParseCommandNamesTheField) {
   ASSERT_TRUE(c.ok());
   EXPECT_EQ(c->roadway, "crosscut-90");
   EXPECT_TRUE(parseCommand(R"({"type":"command","command_id":4,"kind":"release"})").ok());
+  // Ids outside 1..2^53-1, and one that a signed read would wrap to -1, are refused (issue 17).
+  for (const char* id : {"0", "-3", "9007199254740992", "18446744073709551615", "1.5", "\"7\""})
+    EXPECT_FALSE(parseCommand(std::string(R"({"type":"command","kind":"pause","command_id":)") + id + "}").ok()) << id;
+  EXPECT_TRUE(parseCommand(R"({"type":"command","kind":"pause","command_id":9007199254740991})").ok());
 }
 
 #ifdef ADIT_TOOL_PATH
