@@ -186,6 +186,8 @@ struct Server::Impl {
   /// A WebSocket upgrade's Origin and credential (console/doc/protocol.md, "Who may connect");
   /// the refusal to send, or nothing and `*credential_robot` set (empty: the operator token).
   std::optional<Response> authorizeUpgrade(const Request& req, bool robot, std::string* credential_robot);
+  /// The 401 answer unless `req` carries the operator token in its Authorization header.
+  std::optional<Response> requireOperator(const Request& req) const;
   void onRobotText(WsSession& session, const std::string& text);
   void onViewerOpen(const std::shared_ptr<WsSession>& session);
   void broadcast(const Json& message, bool telemetry);
@@ -830,10 +832,14 @@ std::optional<Response> Server::Impl::authorizeUpgrade(const Request& req, bool 
                      ": Authorization: Bearer TOKEN, or ?token=TOKEN)");
 }
 
-Response Server::Impl::handleCommandPost(const Request& req) {
+std::optional<Response> Server::Impl::requireOperator(const Request& req) const {
   const std::string credential = credentialOf(req, /*query_allowed=*/false);
-  if (credential.empty() || !sameToken(credential, options.token))
-    return refusal(req, http::status::unauthorized, "missing or wrong operator token (Authorization: Bearer TOKEN)");
+  if (!credential.empty() && sameToken(credential, options.token)) return std::nullopt;
+  return refusal(req, http::status::unauthorized, "missing or wrong operator token (Authorization: Bearer TOKEN)");
+}
+
+Response Server::Impl::handleCommandPost(const Request& req) {
+  if (std::optional<Response> refused = requireOperator(req)) return *refused;
   StatusOr<Json> body = protocol::parseObject(req.body());
   if (!body.ok()) return refusal(req, http::status::bad_request, body.status().message());
   StatusOr<protocol::CommandRequest> cmd = protocol::parseCommandRequest(*body);
@@ -913,9 +919,7 @@ Response Server::Impl::handle(const Request& req) {
   // Reading the mine needs the operator token as commanding it does (the page sends it); only
   // the health check is open, for monitoring.
   if (path != "/api/health") {
-    const std::string credential = credentialOf(req, /*query_allowed=*/false);
-    if (credential.empty() || !sameToken(credential, options.token))
-      return refusal(req, http::status::unauthorized, "missing or wrong operator token (Authorization: Bearer TOKEN)");
+    if (std::optional<Response> refused = requireOperator(req)) return *refused;
   }
   if (path == "/api/health") {
     StatusOr<int> version = store->schemaVersion();
