@@ -229,7 +229,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     // `lag`); when what it has queued is still over the count or the bytes (the snapshot and the
     // other messages are never dropped), it is too slow to serve: closed, and logged.
     const std::size_t first = writing_ ? 1 : 0;  // the front one is being written
-    while (!robot_ && (queue_.size() >= limit || queued_bytes_ + text->size() > kMaxViewerQueueBytes)) {
+    while (!robot_ && (queue_.size() >= limit || queued_bytes_ + text->size() > impl_.options.viewer_queue_bytes)) {
       auto victim = std::find_if(queue_.begin() + static_cast<long>(first), queue_.end(),
                                  [](const Out& o) { return o.telemetry; });
       if (victim == queue_.end()) {
@@ -985,6 +985,7 @@ Status ServerOptions::validate() const {
   if (operator_name.empty()) return invalidArgument("the operator name is empty");
   if (map_hash.empty()) return invalidArgument("the map hash is empty");
   if (!(mesh_cell >= 0.0)) return invalidArgument("mesh cell must be >= 0");
+  if (viewer_queue_bytes < (std::size_t{1} << 20)) return invalidArgument("a viewer's queue must hold at least 1 MiB");
   for (const std::string& o : allowed_origins) {
     const auto scheme = o.find("://");
     if (scheme == std::string::npos || scheme == 0 || scheme + 3 == o.size() || o.back() == '/' ||

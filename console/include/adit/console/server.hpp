@@ -53,6 +53,9 @@ struct ServerOptions {
   /// authenticates with its own token and may then speak only as that robot; the operator token
   /// speaks for any robot (a single-robot setup, tests).
   std::map<std::string, std::string> robot_tokens;
+  /// Bytes one viewer may have queued (kMaxViewerQueueBytes; at least 1 MiB). Tests lower it to
+  /// reach the limit with less traffic.
+  std::size_t viewer_queue_bytes = kMaxViewerQueueBytes;
 
   Status validate() const;
 };
