@@ -108,6 +108,13 @@ class PostgresStore final : public Store, private MigrationTarget {
     });
   }
 
+  StatusOr<std::int64_t> storedBytes(const std::string& robot) override {
+    return guard("cannot read the stored bytes of robot '" + robot + "'", [&]() -> StatusOr<std::int64_t> {
+      pqxx::read_transaction txn(*conn_);
+      return static_cast<std::int64_t>(integer(txn.exec_prepared1("stored_bytes", robot)[0]));
+    });
+  }
+
   StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq, std::size_t limit,
                                               std::size_t max_bytes) override {
     return guard("cannot read the history of robot '" + robot + "'", [&]() -> StatusOr<std::vector<RobotMessage>> {
@@ -281,6 +288,7 @@ class PostgresStore final : public Store, private MigrationTarget {
                    "INSERT INTO telemetry(robot, seq, t, x, y, z, vx, vy, vz, status)"
                    " VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10)");
     conn_->prepare("last_seq", "SELECT coalesce(max(seq), 0) FROM messages WHERE robot = $1");
+    conn_->prepare("stored_bytes", "SELECT coalesce(sum(octet_length(body)), 0)::BIGINT FROM messages WHERE robot = $1");
     // The byte budget is applied in the database: the bodies past it never reach libpq's result
     // (which holds a whole result in memory).
     conn_->prepare("history",

@@ -136,6 +136,14 @@ class SqliteStore final : public Store, private MigrationTarget {
     return static_cast<std::int64_t>(u.integer(0));
   }
 
+  StatusOr<std::int64_t> storedBytes(const std::string& robot) override {
+    Use u(stored_bytes_);
+    u.bind(1, robot);
+    const int rc = u.step();
+    if (rc != SQLITE_ROW) return error(rc, "cannot read the stored bytes of robot '" + robot + "'");
+    return static_cast<std::int64_t>(u.integer(0));
+  }
+
   StatusOr<std::vector<RobotMessage>> history(const std::string& robot, std::int64_t from_seq, std::size_t limit,
                                               std::size_t max_bytes) override {
     std::vector<RobotMessage> out;
@@ -340,6 +348,7 @@ class SqliteStore final : public Store, private MigrationTarget {
          "INSERT INTO telemetry(robot, seq, t, x, y, z, vx, vy, vz, status)"
          " VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)"},
         {&last_seq_, "SELECT coalesce(max(seq), 0) FROM messages WHERE robot = ?1"},
+        {&stored_bytes_, "SELECT coalesce(sum(length(CAST(body AS BLOB))), 0) FROM messages WHERE robot = ?1"},
         {&history_,
          "SELECT m.robot, m.seq, m.type, m.t, m.received_at, m.body, t.x, t.y, t.z, t.vx, t.vy, t.vz, t.status"
          " FROM messages m LEFT JOIN telemetry t ON t.robot = m.robot AND t.seq = m.seq"
@@ -394,7 +403,7 @@ class SqliteStore final : public Store, private MigrationTarget {
   std::string path_, where_;
   bool synchronous_full_;
   sqlite3* db_ = nullptr;
-  Statement upsert_robot_, robots_, robot_, insert_message_, insert_telemetry_, last_seq_, history_, last_of_type_,
+  Statement upsert_robot_, robots_, robot_, insert_message_, insert_telemetry_, last_seq_, stored_bytes_, history_, last_of_type_,
       telemetry_rows_, add_command_, update_command_, command_, commands_, unanswered_;
 };
 

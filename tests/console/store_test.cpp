@@ -276,6 +276,26 @@ TEST_P(StoreTest, LastSeqIsTheHighestStoredSeq) {
   EXPECT_EQ(*db.lastSeq("r2"), 0);
 }
 
+TEST_P(StoreTest, StoredBytesAreTheRobotsBodiesInBytes) {
+  Store& db = open();
+  EXPECT_EQ(*db.storedBytes("r1"), 0);
+  std::int64_t expected = 0;
+  for (std::int64_t s : {1, 2, 3}) {
+    RobotMessage m = event("r1", s);
+    m.body = R"({"kind":"d\u00e9bris","note":")" + std::string(100 * static_cast<std::size_t>(s), 'x') + "\"}";
+    expected += static_cast<std::int64_t>(m.body.size());
+    ASSERT_TRUE(*db.appendMessage(m));
+  }
+  RobotMessage utf8 = event("r1", 4);
+  utf8.body = "{\"kind\":\"éboulement\"}";  // two-byte characters count as their bytes
+  expected += static_cast<std::int64_t>(utf8.body.size());
+  ASSERT_TRUE(*db.appendMessage(utf8));
+  ASSERT_TRUE(*db.appendMessage(event("r2", 1)));
+  EXPECT_EQ(*db.storedBytes("r1"), expected);
+  EXPECT_EQ(*db.storedBytes("r2"), static_cast<std::int64_t>(event("r2", 1).body.size()));
+  EXPECT_EQ(*db.storedBytes("nobody"), 0);
+}
+
 TEST_P(StoreTest, RefusedMessagesStoreNothing) {
   Store& db = open();
   RobotMessage no_pose = telemetry("r1", 1);

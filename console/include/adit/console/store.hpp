@@ -104,6 +104,9 @@ class Store {
   }
   /// Highest stored seq of the robot, 0 when none.
   virtual StatusOr<std::int64_t> lastSeq(const std::string& robot) = 0;
+  /// Bytes of the robot's stored message bodies (its quota's measure): a scan of the robot's
+  /// rows, so the server asks once per robot and counts on from there.
+  virtual StatusOr<std::int64_t> storedBytes(const std::string& robot) = 0;
   /// Messages of `robot` with seq >= from_seq, in seq order, at most `limit`, and no more once
   /// their bodies reach `max_bytes` (the message that crosses it is the last; the bodies beyond
   /// are not read into memory).
