@@ -4,6 +4,7 @@
 // viewers' WebSockets until SIGINT / SIGTERM.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -15,6 +16,7 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/content_hash.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "common/batch_runner.hpp"
 #include "common/cli.hpp"
 #include "common/progress.hpp"
@@ -30,6 +32,8 @@ struct ServeArgs {
   std::string token_file, robot_tokens;
   std::vector<std::string> allow_origins;
   double mesh_cell = 0.0;
+  double robot_rate = console::RobotQuota{}.messages_per_s;
+  std::string robot_bandwidth = "1M", robot_store_quota = "4G";
   bool quiet = false;
 };
 
@@ -70,6 +74,16 @@ int runServe(const ServeArgs& args) {
     options.robot_tokens = std::move(*tokens);
   }
   options.allowed_origins = args.allow_origins;
+  options.quota.messages_per_s = args.robot_rate;
+  options.quota.burst_messages = 10.0 * args.robot_rate;
+  StatusOr<std::uint64_t> bandwidth = map::parseByteSize(args.robot_bandwidth);
+  if (!bandwidth.ok()) return report(invalidArgument("--robot-bandwidth: " + bandwidth.status().message()));
+  options.quota.bytes_per_s = double(*bandwidth);
+  options.quota.burst_bytes = std::max(2.0 * double(*bandwidth), double(console::kMaxMessageBytes));
+  StatusOr<std::uint64_t> stored = map::parseByteSize(args.robot_store_quota);
+  if (!stored.ok()) return report(invalidArgument("--robot-store-quota: " + stored.status().message()));
+  if (*stored > std::uint64_t{1} << 50) return report(invalidArgument("--robot-store-quota: at most 1024T"));
+  options.quota.stored_bytes = static_cast<std::int64_t>(*stored);
   StatusOr<std::string> hash = map::fileContentHash(args.map);
   if (!hash.ok()) return report(hash.status());
   options.map_hash = *hash;
@@ -123,6 +137,17 @@ void registerServeVerb(CLI::App& app, int* rc) {
                   "SCHEME://HOST[:PORT] of another site whose pages may open the WebSockets (repeatable; default: "
                   "the console's own pages only)");
   cmd->add_option("--mesh-cell", args->mesh_cell, "Cell edge of the page's roadway surface [m] (0: automatic)")
+      ->capture_default_str();
+  cmd->add_option("--robot-rate", args->robot_rate,
+                  "Messages a second one robot may send, sustained (bursts of 10x that): a faster robot is read "
+                  "more slowly, nothing is lost")
+      ->capture_default_str();
+  cmd->add_option("--robot-bandwidth", args->robot_bandwidth,
+                  "Bytes a second one robot may send, sustained (bursts of 2x that; K, M, G suffixes)")
+      ->capture_default_str();
+  cmd->add_option("--robot-store-quota", args->robot_store_quota,
+                  "Message bytes the database keeps per robot; past it the robot's new messages are refused "
+                  "(K, M, G suffixes)")
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", args->quiet, "No progress bar");
   cmd->callback([args, rc] { *rc = runServe(*args); });

@@ -121,7 +121,14 @@ class LiveConsole final : public fusion::NavigatedObserver {
   }
 
   void roofFall(const local::ScenarioEvent& e) override {
-    send({{"type", "event"}, {"t", e.t_s}, {"kind", e.type}, {"center", vecJson(e.center)}, {"radius", e.radius_m}});
+    // A fall between two periods is sensed at the next: sent then (t never goes back, as the
+    // console requires), with the moment it happened in `at`.
+    send({{"type", "event"},
+          {"t", std::max(e.t_s, sent_t_)},
+          {"at", e.t_s},
+          {"kind", e.type},
+          {"center", vecJson(e.center)},
+          {"radius", e.radius_m}});
   }
 
   void afterCycle(double t_s, const fusion::Navigator& nav, const fusion::NavigatorCycle& c,
@@ -165,11 +172,17 @@ class LiveConsole final : public fusion::NavigatedObserver {
   }
 
  private:
-  void send(const Json& j) {
+  // Every message's t is at least the last one's: the console refuses a clock that goes back,
+  // and the navigator's t_k + dt and the next period's t differ in the last bit.
+  void send(Json j) {
+    sent_t_ = std::max(sent_t_, j["t"].get<double>());
+    j["t"] = sent_t_;
     const StatusOr<std::uint64_t> s = link_.send(j.dump());
     if (!s.ok() && !quiet_) std::fprintf(stderr, "adit: live: %s\n", s.status().message().c_str());
   }
   void answer(std::int64_t id, const std::string& result, const std::string& reason, double t) {
+    t = std::max(t, sent_t_);
+    sent_t_ = t;
     if (Status s = link_.answer(id, result, reason, t); !s.ok() && !quiet_)
       std::fprintf(stderr, "adit: live: %s\n", s.message().c_str());
     if (!quiet_)
@@ -297,6 +310,7 @@ class LiveConsole final : public fusion::NavigatedObserver {
   double resolution_ = 0.2;
   std::chrono::steady_clock::time_point wall0_ = std::chrono::steady_clock::now();
   double next_telemetry_ = 0.0;
+  double sent_t_ = 0.0;  // the latest t sent
   int collisions_ = 0;
   const char* last_status_ = "following";
   std::set<std::array<double, 3>> sent_rock_;

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 
 #include "adit/console/server.hpp"
@@ -154,7 +155,85 @@ Status checkCommandResult(const Json& j) {
   return Status::okStatus();
 }
 
+std::string pointText(const map::Vec3& p) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "[%.6g, %.6g, %.6g]", p.x(), p.y(), p.z());
+  return buf;
+}
+
+// The point at `v` (already checked to be [x, y, z] numbers by parseRobotMessage) inside `box`.
+Status pointWithin(const Json& v, const std::string& name, const map::Aabb& box) {
+  const map::Vec3 p(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+  if (box.contains(p)) return Status::okStatus();
+  return refuse("field '" + name + "' " + pointText(p) + " is outside the map (bounds " + pointText(box.min) + " to " +
+                pointText(box.max) + ", " + std::to_string(int(kMapBoundsMargin)) + " m margin included)");
+}
+
+Status optionalPointWithin(const Json& j, const char* key, const map::Aabb& box) {
+  auto it = j.find(key);
+  if (it == j.end() || it->is_null()) return Status::okStatus();
+  return pointWithin(*it, key, box);
+}
+
+Status listWithin(const Json& j, const char* key, const map::Aabb& box) {
+  auto it = j.find(key);
+  if (it == j.end()) return Status::okStatus();
+  for (std::size_t i = 0; i < it->size(); ++i)
+    ADIT_RETURN_IF_ERROR(pointWithin((*it)[i], std::string(key) + "[" + std::to_string(i) + "]", box));
+  return Status::okStatus();
+}
+
+Status speedAtMost(const Json& j, const char* key, const std::string& name) {
+  auto it = j.find(key);
+  if (it == j.end() || it->is_null()) return Status::okStatus();
+  const map::Vec3 v((*it)[0].get<double>(), (*it)[1].get<double>(), (*it)[2].get<double>());
+  if (v.norm() <= kMaxReportedSpeed) return Status::okStatus();
+  return refuse("field '" + name + "' " + pointText(v) + " is faster than " + std::to_string(int(kMaxReportedSpeed)) +
+                " m/s");
+}
+
+Status radiusWithin(const Json& j, const std::string& name) {
+  auto it = j.find("radius");
+  if (it == j.end()) return Status::okStatus();
+  const double r = it->get<double>();
+  if (r >= 0.0 && r <= kMaxReportedRadius) return Status::okStatus();
+  return refuse("field '" + name + "' must be in [0, " + std::to_string(int(kMaxReportedRadius)) + "] m");
+}
+
 }  // namespace
+
+Status checkSize(const std::string& type, std::size_t bytes) {
+  if ((type == "telemetry" || type == "event" || type == "command_result") && bytes > kMaxSmallMessageBytes)
+    return refuse("a " + type + " message of " + std::to_string(bytes) + " bytes is over the " +
+                  std::to_string(kMaxSmallMessageBytes) + " bytes allowed (only plans and obstacles carry lists)");
+  return Status::okStatus();
+}
+
+Status checkWithin(const Json& j, const map::Aabb& box) {
+  const std::string type = j.value("type", "");
+  if (type == "telemetry") {
+    ADIT_RETURN_IF_ERROR(pointWithin(j["pose"], "pose", box));
+    ADIT_RETURN_IF_ERROR(speedAtMost(j, "velocity", "velocity"));
+    ADIT_RETURN_IF_ERROR(optionalPointWithin(j, "goal", box));
+    ADIT_RETURN_IF_ERROR(optionalPointWithin(j, "subgoal", box));
+  } else if (type == "plan") {
+    ADIT_RETURN_IF_ERROR(listWithin(j, "path", box));
+  } else if (type == "obstacles") {
+    ADIT_RETURN_IF_ERROR(listWithin(j, "rock", box));
+    if (auto tracks = j.find("tracks"); tracks != j.end())
+      for (std::size_t i = 0; i < tracks->size(); ++i) {
+        const Json& track = (*tracks)[i];
+        const std::string name = "tracks[" + std::to_string(i) + "]";
+        ADIT_RETURN_IF_ERROR(pointWithin(track["position"], name + ".position", box));
+        ADIT_RETURN_IF_ERROR(speedAtMost(track, "velocity", name + ".velocity"));
+        ADIT_RETURN_IF_ERROR(radiusWithin(track, name + ".radius"));
+      }
+  } else if (type == "event") {
+    ADIT_RETURN_IF_ERROR(optionalPointWithin(j, "center", box));
+    ADIT_RETURN_IF_ERROR(radiusWithin(j, "radius"));
+  }
+  return Status::okStatus();
+}
 
 bool validRobotId(const std::string& id) {
   if (id.empty() || id.size() > 64) return false;

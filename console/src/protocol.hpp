@@ -40,6 +40,14 @@ StatusOr<Hello> parseHello(const Json& j);
 /// number finite. `out.body` is left to the caller (the text as received).
 StatusOr<RobotMessage> parseRobotMessage(const Json& j);
 
+/// A telemetry, event or command_result message over kMaxSmallMessageBytes is refused.
+Status checkSize(const std::string& type, std::size_t bytes);
+
+/// The message's points within `box` (the served map's bounds inflated by kMapBoundsMargin), its
+/// speeds at most kMaxReportedSpeed and radii in [0, kMaxReportedRadius] (after
+/// parseRobotMessage accepted it): a refusal names the field and the value.
+Status checkWithin(const Json& j, const map::Aabb& box);
+
 /// command_result's fields (after parseRobotMessage accepted it).
 struct CommandResult {
   std::int64_t command_id = 0;

@@ -6,10 +6,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -20,6 +22,7 @@
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
@@ -109,10 +112,41 @@ Json pointJson(const map::Vec3& p) { return Json::array({p.x(), p.y(), p.z()}); 
 
 class WsSession;
 
+// A token bucket over messages and bytes (RobotQuota's rates). take() spends one message and
+// its bytes and answers how long to wait before reading the next: the bucket may go into debt
+// by one message (at most kMaxMessageBytes), so nothing is ever refused for the rate, and the
+// wait is short (0.25 s for the largest message at the default 1 MiB/s).
+class TokenBucket {
+ public:
+  double take(const RobotQuota& q, std::size_t size, std::chrono::steady_clock::time_point now) {
+    if (!started_) {
+      messages_ = q.burst_messages;
+      bytes_ = q.burst_bytes;
+      last_ = now;
+      started_ = true;
+    }
+    const double dt = std::max(0.0, std::chrono::duration<double>(now - last_).count());
+    last_ = now;
+    messages_ = std::min(q.burst_messages, messages_ + dt * q.messages_per_s) - 1.0;
+    bytes_ = std::min(q.burst_bytes, bytes_ + dt * q.bytes_per_s) - double(size);
+    return std::max({0.0, -messages_ / q.messages_per_s, -bytes_ / q.bytes_per_s});
+  }
+
+ private:
+  bool started_ = false;
+  double messages_ = 0.0, bytes_ = 0.0;
+  std::chrono::steady_clock::time_point last_;
+};
+
 struct RobotCache {
   Json telemetry, plan, tracks;
   std::string last_seen;
   std::int64_t stored_seq = 0;  // highest seq known stored (from hello's lastSeq, then each batch)
+  // Bytes of bodies stored or on their way (RobotQuota::stored_bytes): read from the Store at
+  // the robot's first hello, then counted as fresh messages go to the writer.
+  std::optional<std::int64_t> stored_bytes;
+  bool over_quota_logged = false;
+  TokenBucket bucket;  // the robot's rate, whichever connection it uses
 };
 
 // The Store behind a mutex, shared by the I/O thread and the writer thread: `store->call()`
@@ -156,6 +190,7 @@ struct Server::Impl {
   Store& raw_store;
   LockedStore store{raw_store, store_mutex};
   ServerOptions options;
+  map::Aabb bounds;  // where a robot's reported points may be: the map's, kMapBoundsMargin wider
   std::map<std::string, std::pair<std::string, std::string>> assets;  // path -> (content type, bytes)
   std::string map_json, mesh_json;
   std::set<std::string> roadways;
@@ -176,7 +211,7 @@ struct Server::Impl {
   void finish(std::vector<PendingMessage> done, const Status& status);
 
   Impl(const map::LoadedMap& l, const map::DistanceField& f, Store& s, ServerOptions o)
-      : loaded(l), field(f), raw_store(s), options(std::move(o)) {}
+      : loaded(l), field(f), raw_store(s), options(std::move(o)), bounds(l.map.bounds().inflated(kMapBoundsMargin)) {}
   ~Impl() { stopWriter(); }
 
   Status prepare();
@@ -189,6 +224,7 @@ struct Server::Impl {
   /// The 401 answer unless `req` carries the operator token in its Authorization header.
   std::optional<Response> requireOperator(const Request& req) const;
   void onRobotText(WsSession& session, const std::string& text);
+  double throttle(WsSession& session, std::size_t bytes);
   void onViewerOpen(const std::shared_ptr<WsSession>& session);
   void broadcast(const Json& message, bool telemetry);
   void deliver(Command command);
@@ -261,6 +297,33 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     robot_id_ = id;
     radius_ = radius;
   }
+  TokenBucket& ownBucket() { return own_bucket_; }
+  // Answers a refused message with an error; the connection's first refusal is logged too (an
+  // honest robot whose messages are refused is a bug to find; a flood of bad ones logs one line).
+  void refuse(const std::string& reason, std::optional<std::int64_t> seq) {
+    if (!refusal_logged_) {
+      refusal_logged_ = true;
+      logLine("refused a message of " + (robot_id_.empty() ? std::string("a robot connection") : "robot " + robot_id_) +
+              (seq ? " (seq " + std::to_string(*seq) + ")" : std::string()) + ": " + reason +
+              " (later refusals on this connection are not logged)");
+    }
+    send(errorJson(reason, seq));
+  }
+  // A robot's clock on this connection (protocol.md "Limits"): each message newer than the
+  // newest seen (a higher seq) must not go back in time. A reconnection may start a new run
+  // whose clock starts again, so the check is per connection.
+  // (A microsecond of tolerance: t_k + dt and (k + 1) dt differ in the last bit.)
+  static constexpr double kClockTolerance = 1e-6;
+  Status checkTime(std::int64_t seq, double t) {
+    if (seq <= newest_seq_) return Status::okStatus();  // a resend or a reordering: checked when new
+    if (t < newest_t_ - kClockTolerance)
+      return invalidArgument("t " + std::to_string(t) + " of seq " + std::to_string(seq) + " is before t " +
+                             std::to_string(newest_t_) + " of seq " + std::to_string(newest_seq_) +
+                             " (a robot's time never goes back on one connection)");
+    newest_seq_ = seq;
+    newest_t_ = t;
+    return Status::okStatus();
+  }
 
  private:
   struct Out {
@@ -288,6 +351,22 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     buffer_.consume(buffer_.size());
     if (robot_) {
       impl_.onRobotText(*this, text);
+      // The robot's rate: the next read waits until its bucket allows it. Not reading is what
+      // slows the sender (TCP's window fills), so a flood costs the server a timer, not memory.
+      const double wait = impl_.throttle(*this, text.size());
+      if (wait > 0.0 && !dead_) {
+        if (!throttle_logged_) {
+          throttle_logged_ = true;
+          logLine("robot " + (robot_id_.empty() ? std::string("(before hello)") : robot_id_) +
+                  " is over its rate; its messages are read more slowly");
+        }
+        timer_.expires_after(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+            std::chrono::duration<double>(wait)));
+        timer_.async_wait([self = shared_from_this()](beast::error_code waited) {
+          if (!waited && !self->dead_) self->read();
+        });
+        return;
+      }
     } else {
       send(errorJson("viewers send nothing; commands go to POST /api/commands"));
     }
@@ -337,6 +416,11 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   std::size_t queued_bytes_ = 0;  // of the texts in queue_ (a broadcast text shared by viewers counts for each)
   std::string robot_id_;
   double radius_ = 0.0;
+  net::steady_timer timer_{ws_.get_executor()};  // a throttled read's wait
+  bool throttle_logged_ = false, refusal_logged_ = false;
+  TokenBucket own_bucket_;  // before hello: the connection's own rate
+  std::int64_t newest_seq_ = 0;
+  double newest_t_ = -std::numeric_limits<double>::infinity();
 
  public:
   bool dead() const { return dead_; }
@@ -544,6 +628,11 @@ void Server::Impl::deliver(Command command) {
   if (command.status == CommandStatus::kPending) setCommandStatus(command, CommandStatus::kSent, "");
 }
 
+double Server::Impl::throttle(WsSession& session, std::size_t bytes) {
+  TokenBucket& bucket = session.robotId().empty() ? session.ownBucket() : cache[session.robotId()].bucket;
+  return bucket.take(options.quota, bytes, std::chrono::steady_clock::now());
+}
+
 void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
   StatusOr<Json> parsed = protocol::parseObject(text);
   if (!parsed.ok()) {
@@ -585,6 +674,11 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
     StatusOr<std::int64_t> acked = s.ok() ? store->lastSeq(hello->robot) : StatusOr<std::int64_t>(s);
     StatusOr<std::vector<Command>> unanswered =
         acked.ok() ? store->unansweredCommands(hello->robot) : StatusOr<std::vector<Command>>(acked.status());
+    if (unanswered.ok() && !cache[hello->robot].stored_bytes) {
+      StatusOr<std::int64_t> bytes = store->storedBytes(hello->robot);
+      if (bytes.ok()) cache[hello->robot].stored_bytes = *bytes;
+      else unanswered = bytes.status();
+    }
     if (!unanswered.ok()) {
       logLine("database: " + unanswered.status().message());
       session.send(errorJson("database: " + unanswered.status().message()));
@@ -606,16 +700,16 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
     return;
   }
   if (session.robotId().empty()) {
-    session.send(errorJson("send hello first", seq));
+    session.refuse("send hello first", seq);
     return;
   }
   StatusOr<RobotMessage> message = protocol::parseRobotMessage(j);
   if (!message.ok()) {
-    session.send(errorJson(message.status().message(), seq));
+    session.refuse(message.status().message(), seq);
     return;
   }
   if (message->robot != session.robotId()) {
-    session.send(errorJson("unknown robot '" + message->robot + "' (this connection is '" + session.robotId() + "')", seq));
+    session.refuse("unknown robot '" + message->robot + "' (this connection is '" + session.robotId() + "')", seq);
     return;
   }
   std::optional<Command> command;
@@ -623,7 +717,7 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
     const protocol::CommandResult r = protocol::commandResultOf(j);
     StatusOr<std::optional<Command>> c = store->command(r.command_id);
     if (c.ok() && (!*c || (*c)->robot != message->robot)) {
-      session.send(errorJson("unknown command_id " + std::to_string(r.command_id) + " for robot " + message->robot, seq));
+      session.refuse("unknown command_id " + std::to_string(r.command_id) + " for robot " + message->robot, seq);
       return;
     }
     if (c.ok()) command = **c;
@@ -634,20 +728,47 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
   // A seq far beyond what is stored is not a robot's next message (they come in order, at most
   // an outbox ahead): refused, so that one message cannot use up the robot's seq range.
   if (message->seq > rc.stored_seq + kMaxSeqGap) {
-    session.send(errorJson("seq " + std::to_string(message->seq) + " is more than " + std::to_string(kMaxSeqGap) +
+    session.refuse("seq " + std::to_string(message->seq) + " is more than " + std::to_string(kMaxSeqGap) +
                                " beyond the last stored (" + std::to_string(rc.stored_seq) + ")",
-                           seq));
+                           seq);
+    return;
+  }
+  if (Status size = protocol::checkSize(message->type, text.size()); !size.ok()) {
+    session.refuse(size.message(), seq);
+    return;
+  }
+  if (Status within = protocol::checkWithin(j, bounds); !within.ok()) {
+    session.refuse(within.message(), seq);
+    return;
+  }
+  const auto key = std::make_pair(message->robot, message->seq);
+  const bool fresh = !in_flight.count(key) && message->seq > rc.stored_seq;
+  const std::int64_t size = static_cast<std::int64_t>(text.size());
+  if (fresh && rc.stored_bytes && *rc.stored_bytes + size > options.quota.stored_bytes) {
+    if (!rc.over_quota_logged) {
+      rc.over_quota_logged = true;
+      logLine("robot " + message->robot + " reached its stored-bytes quota (" +
+              std::to_string(options.quota.stored_bytes) + " bytes): its new messages are refused");
+    }
+    session.refuse("robot '" + message->robot + "' has " + std::to_string(*rc.stored_bytes) +
+                               " bytes stored; this message would pass its quota of " +
+                               std::to_string(options.quota.stored_bytes) + " (adit serve --robot-store-quota)",
+                           seq);
+    return;
+  }
+  if (Status time = session.checkTime(message->seq, message->t); !time.ok()) {
+    session.refuse(time.message(), seq);
     return;
   }
   rc.last_seen = message->received_at;
   PendingMessage p;
-  const auto key = std::make_pair(message->robot, message->seq);
   if (in_flight.count(key)) {
     p.mode = PendingMessage::Mode::kAckOnly;
   } else if (message->seq <= rc.stored_seq) {
     p.mode = PendingMessage::Mode::kExact;
   } else {
     in_flight.insert(key);
+    if (rc.stored_bytes) *rc.stored_bytes += size;
   }
   p.session = session.shared_from_this();
   p.message = std::move(*message);
@@ -978,6 +1099,18 @@ Response Server::Impl::handle(const Request& req) {
   return refusal(req, http::status::not_found, "no such path: " + path);
 }
 
+Status RobotQuota::validate() const {
+  // Finite and positive, and a burst that holds the largest message: else a robot's one
+  // message could wait forever for tokens the bucket never holds.
+  if (!(messages_per_s > 0.0) || !std::isfinite(messages_per_s)) return invalidArgument("--robot-rate must be > 0 messages/s");
+  if (!(bytes_per_s > 0.0) || !std::isfinite(bytes_per_s)) return invalidArgument("--robot-bandwidth must be > 0 bytes/s");
+  if (!(burst_messages >= 1.0) || !std::isfinite(burst_messages)) return invalidArgument("a robot's burst must be >= 1 message");
+  if (!(burst_bytes >= double(kMaxMessageBytes)) || !std::isfinite(burst_bytes))
+    return invalidArgument("a robot's byte burst must hold one message (" + std::to_string(kMaxMessageBytes) + " bytes)");
+  if (stored_bytes < std::int64_t{1} << 20) return invalidArgument("--robot-store-quota must be at least 1 MiB");
+  return Status::okStatus();
+}
+
 Status ServerOptions::validate() const {
   if (token.empty()) return invalidArgument("the operator token is empty");
   for (char c : token)
@@ -986,6 +1119,7 @@ Status ServerOptions::validate() const {
   if (map_hash.empty()) return invalidArgument("the map hash is empty");
   if (!(mesh_cell >= 0.0)) return invalidArgument("mesh cell must be >= 0");
   if (viewer_queue_bytes < (std::size_t{1} << 20)) return invalidArgument("a viewer's queue must hold at least 1 MiB");
+  ADIT_RETURN_IF_ERROR(quota.validate());
   for (const std::string& o : allowed_origins) {
     const auto scheme = o.find("://");
     if (scheme == std::string::npos || scheme == 0 || scheme + 3 == o.size() || o.back() == '/' ||

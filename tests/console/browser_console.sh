@@ -128,7 +128,20 @@ if "accepted" in results and plans:
 done
 kill -TERM "$sim_pid" 2>/dev/null || true
 wait "$sim_pid" 2>/dev/null || true
-[ -n "$replanned" ] || fail "the robot did not accept and replan toward the clicked goal (command $command_id)"
+if [ -z "$replanned" ]; then
+  # What the centre holds of it, and what the robot said: the reason is in one of them.
+  api "/api/history?robot=district_inspection&limit=10000" | python3 -c '
+import json, sys
+msgs = json.load(sys.stdin)
+print("history: %d messages, last seq %s" % (len(msgs), msgs[-1]["seq"] if msgs else "-"))
+for m in msgs:
+    if m["type"] in ("command_result", "plan", "event"):
+        print("  seq %s t %s %s %s" % (m["seq"], m["t"], m["type"], m.get("result", m.get("reason", ""))))' || true
+  api "/api/commands?robot=district_inspection" || true
+  echo "simulate's log:"; tail -n 20 "$WORK/sim.log"
+  echo "the centre's log:"; tail -n 20 "$WORK/serve.log"
+  fail "the robot did not accept and replan toward the clicked goal (command $command_id)"
+fi
 echo "$replanned"
 
 kill -TERM "$server_pid"

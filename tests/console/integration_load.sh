@@ -13,7 +13,9 @@ db=${2:?usage: integration_load.sh BUILD_DIR DB [LOAD_ARGS...]}
 shift 2
 root=$(cd "$(dirname "$0")/../.." && pwd)
 log=$(mktemp)
-"$build/bin/adit" serve --map "$root/maps/district.yaml" --db "$db" --listen 127.0.0.1:0 --quiet 2>"$log" &
+# ADIT_SERVE_ARGS: more `adit serve` options (e.g. "--robot-bandwidth 256k").
+# shellcheck disable=SC2086
+"$build/bin/adit" serve --map "$root/maps/district.yaml" --db "$db" --listen 127.0.0.1:0 --quiet ${ADIT_SERVE_ARGS:-} 2>"$log" &
 pid=$!
 trap 'kill "$pid" 2>/dev/null || true; wait "$pid" 2>/dev/null || true; rm -f "$log"' EXIT INT TERM
 i=0

@@ -75,4 +75,11 @@ if(ADIT_BUILD_TOOLS)
                       --map ${_small} --token-file ${_data}/robot_r1_token.txt --robot-tokens ${_data}/robot_tokens_r1.txt)
   adit_serve_cli_test(bad_origin 2 "--allow-origin 'ops.example': expected SCHEME://HOST"
                       --map ${_small} --allow-origin ops.example)
+  # Quotas (issue 17): each bad value named, before the map loads.
+  adit_serve_cli_test(zero_rate 2 "--robot-rate must be > 0 messages/s" --map ${_small} --robot-rate 0)
+  adit_serve_cli_test(negative_rate 2 "--robot-rate must be > 0 messages/s" --map ${_small} --robot-rate=-5)
+  adit_serve_cli_test(bad_bandwidth 2 "--robot-bandwidth: " --map ${_small} --robot-bandwidth fast)
+  adit_serve_cli_test(zero_bandwidth 2 "--robot-bandwidth: memory size '0'" --map ${_small} --robot-bandwidth 0)
+  adit_serve_cli_test(tiny_store_quota 2 "--robot-store-quota must be at least 1 MiB" --map ${_small}
+                      --robot-store-quota 100k)
 endif()

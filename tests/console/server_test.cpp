@@ -172,6 +172,9 @@ class ServerTest : public ::testing::Test {
     o.allowed_origins = {"https://ops.example"};
     o.robot_tokens = {{"r-own", kRobotToken}};
     o.viewer_queue_bytes = kViewerQueueBytes;
+    // The fixture's tests send megabytes in bursts to reach other limits; the quotas have their
+    // own centres below.
+    o.quota.bytes_per_s = o.quota.burst_bytes = 256.0 * (1 << 20);
     StatusOr<std::unique_ptr<Server>> server = Server::create(*loaded_, *field_, *store_, o);
     ASSERT_TRUE(server.ok()) << server.status().toString();
     server_ = server->release();
@@ -286,7 +289,7 @@ TEST_F(ServerTest, StoresEachSeqOnceAndAcknowledgesResends) {
       robot.send(telemetry("r-ack", seq));
       EXPECT_EQ(robot.recv(), (Json{{"type", "ack"}, {"seq", seq}}));
     }
-    robot.send(telemetry("r-ack", 2, 99.0));  // a resend after a lost ack: acked, not stored again
+    robot.send(telemetry("r-ack", 2, 9.0));  // a resend after a lost ack: acked, not stored again
     EXPECT_EQ(robot.recv(), (Json{{"type", "ack"}, {"seq", 2}}));
   }
   WsClient again(port(), "/ws/robot");
@@ -537,9 +540,10 @@ TEST_F(ServerTest, ASlowViewersQueueIsBoundedAndReportsWhatItDropped) {
   viewer.handshake("127.0.0.1", std::string("/ws/view?token=") + kToken);  // as the page does
   WsClient robot(port(), "/ws/robot");
   robot.hello("r-lag");
-  // 4 KiB each: 16 MiB in all, more than the loopback socket buffers can hide.
+  // 3.7 KB each (under the 4 KiB a telemetry may have): 15 MB in all, more than the loopback
+  // socket buffers and the fixture's 4 MiB queue can hide.
   const int n = 4000, chunk = 500;
-  const std::string padding(4096, 'p');
+  const std::string padding(3500, 'p');
   for (int seq = 1; seq <= n; seq += chunk) {  // a robot reads its acks as it goes
     for (int k = seq; k < seq + chunk; ++k) {
       Json t = telemetry("r-lag", k, 1.0 + 1e-3 * k);
@@ -749,6 +753,226 @@ TEST_F(ServerTest, AViewerTooSlowForWhatCannotBeDroppedIsClosedNotGrown) {
   EXPECT_EQ(ec, websocket::error::closed) << ec.message();
   EXPECT_EQ(viewer.reason().code, websocket::close_code::try_again_later);
   expectHealthy();
+}
+
+TEST_F(ServerTest, PointsSpeedsAndRadiiOutsideTheMineAreRefused) {
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-where");
+  auto refusedFor = [&](const Json& m) {
+    robot.send(m);
+    const Json e = robot.recv();
+    EXPECT_EQ(e.value("type", ""), "error") << m.dump();
+    return e.value("reason", std::string());
+  };
+  Json far = telemetry("r-where", 1);
+  far["pose"] = {5.0e4, 0.0, 1.0};
+  EXPECT_NE(refusedFor(far).find("field 'pose' [50000, 0, 1] is outside the map"), std::string::npos);
+  Json fast = telemetry("r-where", 1);
+  fast["velocity"] = {300.0, 0.0, 0.0};
+  EXPECT_NE(refusedFor(fast).find("field 'velocity' [300, 0, 0] is faster than 50 m/s"), std::string::npos);
+  Json goal = telemetry("r-where", 1);
+  goal["goal"] = {0.0, 0.0, -1.0e6};
+  EXPECT_NE(refusedFor(goal).find("field 'goal'"), std::string::npos);
+  const Json plan{{"type", "plan"}, {"robot", "r-where"}, {"seq", 1}, {"t", 0.0}, {"reason", "initial"},
+                  {"path", {{1, 0, 1}, {1e5, 0, 1}}}, {"labels", {"A"}}};
+  EXPECT_NE(refusedFor(plan).find("field 'path[1]'"), std::string::npos);
+  const Json track{{"type", "obstacles"}, {"robot", "r-where"}, {"seq", 1}, {"t", 0.0},
+                   {"tracks", {{{"id", "v"}, {"position", {3, 0, 1}}, {"velocity", {0, 0, 0}}, {"radius", 1e4}}}}};
+  EXPECT_NE(refusedFor(track).find("field 'tracks[0].radius' must be in [0, 100] m"), std::string::npos);
+  const Json event{{"type", "event"}, {"robot", "r-where"}, {"seq", 1}, {"t", 0.0}, {"kind", "roof_fall"},
+                   {"center", {-1e5, 0, 1}}, {"radius", 1.0}};
+  EXPECT_NE(refusedFor(event).find("field 'center'"), std::string::npos);
+  Json padded = telemetry("r-where", 1);
+  padded["note"] = std::string(5000, 'n');
+  EXPECT_NE(refusedFor(padded).find("a telemetry message of 5"), std::string::npos);
+  // Nothing of them was stored; the same seq inside the mine is.
+  EXPECT_EQ(stored("r-where"), 0u);
+  robot.send(telemetry("r-where", 1));
+  EXPECT_EQ(robot.recv()["type"], "ack");
+  EXPECT_EQ(stored("r-where"), 1u);
+}
+
+TEST_F(ServerTest, ARobotsTimeNeverGoesBackOnOneConnection) {
+  {
+    WsClient robot(port(), "/ws/robot");
+    robot.hello("r-clock");
+    Json m = telemetry("r-clock", 1);
+    m["t"] = 5.0;
+    robot.send(m);
+    EXPECT_EQ(robot.recv()["type"], "ack");
+    m = telemetry("r-clock", 2);
+    m["t"] = 5.0;  // the same period (a plan and its telemetry share t)
+    robot.send(m);
+    EXPECT_EQ(robot.recv()["type"], "ack");
+    m = telemetry("r-clock", 3);
+    m["t"] = 4.0;
+    robot.send(m);
+    const Json e = robot.recv();
+    EXPECT_EQ(e["type"], "error");
+    EXPECT_EQ(e.value("seq", 0), 3);
+    EXPECT_NE(e.value("reason", "").find("is before t 5"), std::string::npos) << e.dump();
+    // The refused message did not move the clock: seq 3 at t 5.5 is fine, and a last-bit
+    // rounding back (t_k + dt against (k + 1) dt) is not going back.
+    m["t"] = 5.5;
+    robot.send(m);
+    EXPECT_EQ(robot.recv()["type"], "ack");
+    m = telemetry("r-clock", 4);
+    m["t"] = 5.5 - 1e-12;
+    robot.send(m);
+    EXPECT_EQ(robot.recv()["type"], "ack");
+    // A resend of a stored seq is acknowledged whatever its t.
+    m = telemetry("r-clock", 1);
+    m["t"] = 5.0;
+    robot.send(m);
+    EXPECT_EQ(robot.recv()["type"], "ack");
+  }
+  // A new connection (a new run) may start its clock again.
+  WsClient again(port(), "/ws/robot");
+  EXPECT_EQ(again.hello("r-clock"), 4);
+  Json m = telemetry("r-clock", 5);
+  m["t"] = 0.0;
+  again.send(m);
+  EXPECT_EQ(again.recv()["type"], "ack");
+  EXPECT_EQ(stored("r-clock"), 5u);
+}
+
+// A second centre on the fixture's database, with its own options (a quota small enough to
+// reach in a test).
+class SideServer {
+ public:
+  SideServer(const map::LoadedMap& loaded, const map::DistanceField& field, const std::string& url,
+             const ServerOptions& options) {
+    StatusOr<std::unique_ptr<Store>> store = Store::open(url);
+    EXPECT_TRUE(store.ok()) << store.status().toString();
+    if (!store.ok()) return;
+    store_ = std::move(*store);
+    StatusOr<std::unique_ptr<Server>> server = Server::create(loaded, field, *store_, options);
+    EXPECT_TRUE(server.ok()) << server.status().toString();
+    if (!server.ok()) return;
+    server_ = std::move(*server);
+    thread_ = std::thread([this] { (void)server_->run(); });
+  }
+  ~SideServer() {
+    if (!server_) return;
+    server_->stop();
+    thread_.join();
+  }
+  bool ok() const { return server_ != nullptr; }
+  unsigned short port() const { return server_->port(); }
+
+ private:
+  std::unique_ptr<Store> store_;
+  std::unique_ptr<Server> server_;
+  std::thread thread_;
+};
+
+TEST_F(ServerTest, ARobotOverItsStoredQuotaIsRefusedAndTheQuotaSurvivesARestart) {
+  ServerOptions o;
+  o.port = 0;
+  o.token = kToken;
+  o.map_hash = kHash;
+  o.quota.stored_bytes = std::int64_t{1} << 20;
+  // Plans of about 135 KB: about 7 fit in 1 MiB.
+  Json path = Json::array();
+  for (int i = 0; i < 4000; ++i) path.push_back({5.0 + 1e-3 * i, 0.123456789, 1.123456789});
+  auto plan = [&](std::int64_t seq) {
+    return Json{{"type", "plan"}, {"robot", "r-quota"}, {"seq", seq}, {"t", 0.1 * seq}, {"reason", "replan"},
+                {"path", path}, {"labels", Json::array()}};
+  };
+  // How many fit: the bodies' sizes differ by a few bytes (seq and t).
+  std::int64_t fit = 0, total = 0;
+  while (total + static_cast<std::int64_t>(plan(fit + 1).dump().size()) <= (std::int64_t{1} << 20))
+    total += static_cast<std::int64_t>(plan(++fit).dump().size());
+  ASSERT_GE(fit, 5);
+  {
+    SideServer side(*loaded_, *field_, databaseUrl(), o);
+    ASSERT_TRUE(side.ok());
+    WsClient robot(side.port(), "/ws/robot");
+    EXPECT_EQ(robot.hello("r-quota"), 0);
+    for (std::int64_t seq = 1; seq <= fit; ++seq) {
+      robot.send(plan(seq));
+      ASSERT_EQ(robot.recv()["type"], "ack") << seq;
+    }
+    robot.send(plan(fit + 1));
+    const Json e = robot.recv();
+    EXPECT_EQ(e["type"], "error");
+    EXPECT_NE(e.value("reason", "").find("quota of 1048576 (adit serve --robot-store-quota)"), std::string::npos)
+        << e.dump();
+    // A resend of a stored one is still acknowledged.
+    robot.send(plan(1));
+    EXPECT_EQ(robot.recv()["type"], "ack");
+  }
+  // Restarted, the centre reads what the robot has stored: still over.
+  SideServer side(*loaded_, *field_, databaseUrl(), o);
+  ASSERT_TRUE(side.ok());
+  WsClient robot(side.port(), "/ws/robot");
+  EXPECT_EQ(robot.hello("r-quota"), fit);
+  robot.send(plan(fit + 1));
+  EXPECT_EQ(robot.recv()["type"], "error");
+  // The fixture's centre, with the default quota, stores it.
+  WsClient other(port(), "/ws/robot");
+  EXPECT_EQ(other.hello("r-quota"), fit);
+  other.send(plan(fit + 1));
+  EXPECT_EQ(other.recv()["type"], "ack");
+}
+
+TEST_F(ServerTest, ARobotOverItsRateIsSlowedAndLosesNothing) {
+  ServerOptions o;
+  o.port = 0;
+  o.token = kToken;
+  o.map_hash = kHash;
+  o.quota.messages_per_s = 200.0;
+  o.quota.burst_messages = 20.0;
+  SideServer side(*loaded_, *field_, databaseUrl(), o);
+  ASSERT_TRUE(side.ok());
+  WsClient robot(side.port(), "/ws/robot");
+  robot.hello("r-rate");
+  // 220 messages at once: the 200 beyond the burst take at least 1 s at 200 a second. (Only the
+  // lower bound is asserted: a loaded machine is slower, never faster.)
+  const int n = 220;
+  const auto start = std::chrono::steady_clock::now();
+  for (int seq = 1; seq <= n; ++seq) robot.send(telemetry("r-rate", seq));
+  int acks = 0;
+  while (acks < n) {
+    const Json a = robot.recv();
+    ASSERT_EQ(a["type"], "ack") << a.dump();
+    ++acks;
+  }
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_GE(took, 0.9) << "200 messages beyond the burst at 200/s";
+  // All stored, in order, none lost.
+  const Reply h = get("/api/history?robot=r-rate&limit=1000");
+  ASSERT_EQ(h.status, 200);
+  ASSERT_EQ(h.json().size(), static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) EXPECT_EQ(h.json()[static_cast<std::size_t>(i)]["seq"], i + 1);
+
+  // The bytes: 6 plans of about 135 KB at 256 KiB/s with a burst of one message take >= 1.5 s.
+  ServerOptions b = o;
+  b.quota.messages_per_s = 1000.0;
+  b.quota.burst_messages = 1000.0;
+  b.quota.bytes_per_s = 256.0 * 1024;
+  b.quota.burst_bytes = double(kMaxMessageBytes);
+  SideServer slow(*loaded_, *field_, databaseUrl(), b);
+  ASSERT_TRUE(slow.ok());
+  WsClient big(slow.port(), "/ws/robot");
+  big.hello("r-bandwidth");
+  Json path = Json::array();
+  for (int i = 0; i < 4000; ++i) path.push_back({5.0 + 1e-3 * i, 0.123456789, 1.123456789});
+  // The wait after a message is for the next one: the last one's ack comes before its wait.
+  std::size_t bytes = 0, last = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int seq = 1; seq <= 6; ++seq) {
+    const std::string text = Json{{"type", "plan"}, {"robot", "r-bandwidth"}, {"seq", seq}, {"t", 0.1 * seq},
+                                  {"reason", "replan"}, {"path", path}, {"labels", Json::array()}}
+                                 .dump();
+    bytes += text.size();
+    last = text.size();
+    big.send(text);
+  }
+  for (int k = 0; k < 6; ++k) ASSERT_EQ(big.recv()["type"], "ack");
+  const double took_bytes = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double expected = (double(bytes - last) - double(kMaxMessageBytes)) / (256.0 * 1024) - 0.1;
+  EXPECT_GE(took_bytes, expected) << bytes << " bytes";
 }
 
 // Runs last in the suite (gtest keeps the file's order): a restarted centre resumes from the

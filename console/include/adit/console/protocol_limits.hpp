@@ -12,6 +12,10 @@ namespace adit::console {
 
 /// Maximum size of one message (WebSocket frame or HTTP body).
 inline constexpr std::size_t kMaxMessageBytes = 256 * 1024;
+/// Size of one telemetry, event or command_result message: an honest one is under 500 bytes
+/// (only plans and obstacles carry lists). A larger one is refused: it would be stored and
+/// pushed to every viewer at the robot's rate.
+inline constexpr std::size_t kMaxSmallMessageBytes = 4096;
 /// Points in one path or obstacle list.
 inline constexpr std::size_t kMaxPoints = 10000;
 /// Messages a viewer may have waiting before the oldest telemetry is dropped.
@@ -38,6 +42,15 @@ inline constexpr double kMaxCoordinate = 1e7;
 inline constexpr std::size_t kMaxHistoryBytes = std::size_t{8} << 20;
 /// Largest robot radius a hello may give [m]: a larger one would make every goal unreachable.
 inline constexpr double kMaxRobotRadius = 10.0;
+/// How far outside the served map's bounds a robot may place a point it reports (its pose, goal,
+/// path, rock, tracks, an event's centre) [m]: localisation drifts a little past a surveyed
+/// face, a point 10 m beyond it is not in this mine.
+inline constexpr double kMapBoundsMargin = 10.0;
+/// Fastest velocity a robot may report, its own or a tracked obstacle's (the norm) [m/s]: a mine
+/// vehicle drives at most 10, a drone flies at most 20.
+inline constexpr double kMaxReportedSpeed = 50.0;
+/// Largest radius a robot may report for a tracked obstacle or an event [m].
+inline constexpr double kMaxReportedRadius = 100.0;
 /// Shortest robot token (`adit serve --robot-tokens`): as the operator token's 16 characters.
 inline constexpr std::size_t kMinTokenLength = 16;
 

@@ -34,6 +34,26 @@
 
 namespace adit::console {
 
+/// What one robot may send and keep (console/doc/protocol.md, "Quotas"). Rates are enforced by
+/// reading the robot's connection no faster than they allow: a robot over its rate is slowed
+/// (TCP pushes back, its link's outbox holds what it sends meanwhile), nothing it sent is lost.
+/// Stored bytes are a hard limit: past it a message is refused with an error naming the quota,
+/// so a robot (or a stolen credential) cannot fill the centre's disk.
+struct RobotQuota {
+  /// Sustained: a robot at 50 Hz sends about 60 messages a second with its plans; a live run
+  /// at 40 times real time about 450.
+  double messages_per_s = 1000.0;
+  double burst_messages = 10000.0;  ///< an outbox's resend after a reconnection (10,000 by default)
+  /// Sustained: an honest robot sends about 30 KB/s, with a full plan (about 180 KB) now and then.
+  double bytes_per_s = 1.0 * (1 << 20);
+  /// Small: what a burst writes at once delays every robot's messages behind it (8 MiB: 1.2 s at
+  /// the 99th percentile under attack, 2 MiB: 90 ms). A resent outbox of 5 MB takes 3 s.
+  double burst_bytes = 2.0 * (1 << 20);
+  std::int64_t stored_bytes = std::int64_t{4} << 30;  ///< message bodies kept per robot: 57 h at 50 Hz
+
+  Status validate() const;
+};
+
 struct ServerOptions {
   std::string address = "127.0.0.1";  ///< loopback unless told otherwise
   unsigned short port = 8080;         ///< 0: any free port (see Server::port())
@@ -56,6 +76,8 @@ struct ServerOptions {
   /// Bytes one viewer may have queued (kMaxViewerQueueBytes; at least 1 MiB). Tests lower it to
   /// reach the limit with less traffic.
   std::size_t viewer_queue_bytes = kMaxViewerQueueBytes;
+  /// Per robot id (`--robot-rate`, `--robot-bandwidth`, `--robot-store-quota`).
+  RobotQuota quota;
 
   Status validate() const;
 };
