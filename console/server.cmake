@@ -19,8 +19,14 @@ add_custom_command(OUTPUT ${ADIT_CONSOLE_WEB_CPP}
   DEPENDS ${ADIT_CONSOLE_WEB} ${CMAKE_CURRENT_SOURCE_DIR}/embed_web.cmake
   COMMENT "Embedding the console's page" VERBATIM)
 
+# server.cpp: options and the Server's life; transport.cpp: connections; routes.cpp: HTTP;
+# robot_stream.cpp: what robots send; writer.cpp: the database thread (server_impl.hpp: their state).
 target_sources(adit_console PRIVATE
   src/server.cpp
+  src/transport.cpp
+  src/routes.cpp
+  src/robot_stream.cpp
+  src/writer.cpp
   src/protocol.cpp
   src/mesh.cpp
   ${ADIT_CONSOLE_WEB_CPP})
