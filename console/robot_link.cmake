@@ -4,5 +4,5 @@
 find_package(Boost 1.74 REQUIRED)
 find_package(Threads REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
-target_sources(adit_console PRIVATE ${CMAKE_CURRENT_LIST_DIR}/src/robot_link.cpp)
+target_sources(adit_console PRIVATE ${CMAKE_CURRENT_LIST_DIR}/src/robot_link.cpp ${CMAKE_CURRENT_LIST_DIR}/src/messages.cpp)
 target_link_libraries(adit_console PRIVATE Boost::headers Threads::Threads nlohmann_json::nlohmann_json)

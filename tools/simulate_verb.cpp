@@ -74,9 +74,6 @@ struct SimulateArgs {
   std::string live_token_file;
 };
 
-using Json = nlohmann::ordered_json;
-
-Json vecJson(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
 
 // `--live`: the navigated run drives the operations console (console/doc/protocol.md) through a
 // RobotLink: telemetry every --live-period of mission time, the expected path on every (re)plan,
@@ -123,12 +120,13 @@ class LiveConsole final : public fusion::NavigatedObserver {
   void roofFall(const local::ScenarioEvent& e) override {
     // A fall between two periods is sensed at the next: sent then (t never goes back, as the
     // console requires), with the moment it happened in `at`.
-    send({{"type", "event"},
-          {"t", std::max(e.t_s, sent_t_)},
-          {"at", e.t_s},
-          {"kind", e.type},
-          {"center", vecJson(e.center)},
-          {"radius", e.radius_m}});
+    console::Event m;
+    m.t = e.t_s;
+    m.at = e.t_s;
+    m.kind = e.type;
+    m.center = e.center;
+    m.radius = e.radius_m;
+    send(m);
   }
 
   void afterCycle(double t_s, const fusion::Navigator& nav, const fusion::NavigatorCycle& c,
@@ -174,10 +172,11 @@ class LiveConsole final : public fusion::NavigatedObserver {
  private:
   // Every message's t is at least the last one's: the console refuses a clock that goes back,
   // and the navigator's t_k + dt and the next period's t differ in the last bit.
-  void send(Json j) {
-    sent_t_ = std::max(sent_t_, j["t"].get<double>());
-    j["t"] = sent_t_;
-    const StatusOr<std::uint64_t> s = link_.send(j.dump());
+  template <class Message>
+  void send(Message m) {
+    sent_t_ = std::max(sent_t_, m.t);
+    m.t = sent_t_;
+    const StatusOr<std::uint64_t> s = link_.send(m);
     if (!s.ok() && !quiet_) std::fprintf(stderr, "adit: live: %s\n", s.status().message().c_str());
   }
   void answer(std::int64_t id, const std::string& result, const std::string& reason, double t) {
@@ -191,40 +190,36 @@ class LiveConsole final : public fusion::NavigatedObserver {
   }
 
   void sendPlan(double t, const map::Polyline& path, const char* reason) {
-    Json pts = Json::array(), labels = Json::array();
-    for (const Vec3& p : path.points) pts.push_back(vecJson(p));
+    console::Plan m;
+    m.t = t;
+    m.reason = reason;
+    m.path = path.points;
     // labels[i] names path[i + 1]: the break points A, B, ... between the start and the goal.
-    for (std::size_t i = 0; i + 2 < path.points.size(); ++i) labels.push_back(breakPointLabel(i));
-    send({{"type", "plan"}, {"t", t}, {"reason", reason}, {"path", pts}, {"labels", labels}});
+    for (std::size_t i = 0; i + 2 < path.points.size(); ++i) m.labels.push_back(breakPointLabel(i));
+    send(m);
   }
 
   void sendTelemetry(double t, const fusion::Navigator& nav, const local::RobotState& state, const char* status,
                      const std::optional<Vec3>& subgoal, double clearance) {
-    send({{"type", "telemetry"},
-          {"t", t},
-          {"pose", vecJson(state.position)},
-          {"velocity", vecJson(state.velocity)},
-          {"status", status},
-          {"goal", vecJson(nav.goal())},
-          {"subgoal", subgoal ? vecJson(*subgoal) : Json(nullptr)},
-          {"min_clearance", std::isfinite(clearance) ? Json(clearance) : Json(nullptr)}});
+    console::Telemetry m;
+    m.t = t;
+    m.pose = state.position;
+    m.velocity = state.velocity;
+    m.status = status;
+    m.goal = nav.goal();
+    m.subgoal = subgoal;
+    if (std::isfinite(clearance)) m.min_clearance = clearance;
+    send(m);
   }
 
   void sendObstacles(double t, const std::vector<map::MovingObstacle>& tracks) {
-    constexpr std::size_t kMaxPoints = 10000;  // protocol.md's limit per list
-    std::size_t from = 0;
-    do {
-      Json rock = Json::array(), tr = Json::array();
-      for (std::size_t i = from; i < fresh_rock_.size() && i < from + kMaxPoints; ++i) rock.push_back(vecJson(fresh_rock_[i]));
-      if (from == 0)
-        for (std::size_t i = 0; i < tracks.size() && i < kMaxPoints; ++i)
-          tr.push_back({{"id", "v" + std::to_string(i + 1)},
-                        {"position", vecJson(tracks[i].position)},
-                        {"velocity", vecJson(tracks[i].velocity)},
-                        {"radius", tracks[i].shape.boundingRadius()}});
-      send({{"type", "obstacles"}, {"t", t}, {"rock", rock}, {"tracks", tr}});
-      from += kMaxPoints;
-    } while (from < fresh_rock_.size());
+    console::Obstacles m;
+    m.t = t;
+    m.rock = std::move(fresh_rock_);
+    for (std::size_t i = 0; i < tracks.size(); ++i)
+      m.tracks.push_back({"v" + std::to_string(i + 1), tracks[i].position, tracks[i].velocity,
+                          tracks[i].shape.boundingRadius()});
+    for (console::Obstacles& part : console::splitObstacles(m)) send(std::move(part));
     fresh_rock_.clear();
   }
 

@@ -678,6 +678,72 @@ TEST_F(ServerTest, TheRobotLinkAuthenticatesAndSaysWhyTheCentreRefusedIt) {
   EXPECT_NE(other.status().message().find("credential is robot 'r-own'"), std::string::npos) << other.status().message();
 }
 
+TEST(Messages, ObstaclesAreSplitAtTheProtocolsListLimitWithTheTracksFirst) {
+  Obstacles m;
+  m.t = 2.5;
+  for (int i = 0; i < 25000; ++i) m.rock.push_back({0.2 * (i % 100), 0.0, 1.0});
+  m.tracks.push_back({"v1", {3, 0, 1}, {0.5, 0, 0}, 1.0});
+  const std::vector<Obstacles> parts = splitObstacles(m);
+  ASSERT_EQ(parts.size(), 3u);
+  EXPECT_EQ(parts[0].rock.size(), kMaxPoints);
+  EXPECT_EQ(parts[1].rock.size(), kMaxPoints);
+  EXPECT_EQ(parts[2].rock.size(), 5000u);
+  EXPECT_EQ(parts[0].tracks.size(), 1u);
+  EXPECT_TRUE(parts[1].tracks.empty() && parts[2].tracks.empty());
+  EXPECT_EQ(parts[2].rock.back(), m.rock.back());
+  EXPECT_EQ(splitObstacles(Obstacles{}).size(), 1u);  // tracks alone, or nothing new: one message
+}
+
+// The typed messages a robot's code sends (messages.hpp) are what the centre accepts and stores.
+TEST_F(ServerTest, TheTypedMessagesOfARobotAreStoredAsSent) {
+  RobotHello hello;
+  hello.robot = "r-typed";
+  hello.map = "junction";
+  hello.map_hash = kHash;
+  LinkOptions options;
+  options.token = kToken;
+  StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect("ws://127.0.0.1:" + std::to_string(port()), hello, options);
+  ASSERT_TRUE(link.ok()) << link.status().message();
+  Plan plan;
+  plan.path = {{1, 0, 1}, {6, 0, 1}, {12, 0, 1}};
+  plan.labels = {"A"};
+  ASSERT_TRUE((*link)->send(plan).ok());
+  Telemetry telemetry;
+  telemetry.t = 0.1;
+  telemetry.pose = {1.5, 0, 1};
+  telemetry.velocity = {0.5, 0, 0};
+  telemetry.goal = map::Vec3(12, 0, 1);
+  telemetry.min_clearance = 1.25;
+  ASSERT_TRUE((*link)->send(telemetry).ok());
+  Obstacles obstacles;
+  obstacles.t = 0.2;
+  obstacles.rock = {{6, 1.4, 1}};
+  obstacles.tracks.push_back({"v1", {9, 0, 1}, {-0.5, 0, 0}, 0.8});
+  ASSERT_TRUE((*link)->send(obstacles).ok());
+  Event event;
+  event.t = 0.3;
+  event.at = 0.25;
+  event.kind = "roof_fall";
+  event.center = map::Vec3(6, 0, 1);
+  event.radius = 1.5;
+  ASSERT_TRUE((*link)->send(event).ok());
+  ASSERT_TRUE((*link)->flush(10.0));
+  EXPECT_TRUE((*link)->stats().last_error.empty()) << (*link)->stats().last_error;
+  const Json h = get("/api/history?robot=r-typed").json();
+  ASSERT_EQ(h.size(), 4u) << h.dump();
+  EXPECT_EQ(h[0]["type"], "plan");
+  EXPECT_EQ(h[0]["labels"], Json({"A"}));
+  EXPECT_EQ(h[1]["type"], "telemetry");
+  EXPECT_EQ(h[1]["status"], "following");
+  EXPECT_EQ(h[1]["subgoal"], nullptr);
+  EXPECT_EQ(h[1]["min_clearance"], 1.25);
+  EXPECT_EQ(h[2]["tracks"][0]["id"], "v1");
+  EXPECT_EQ(h[2]["rock"], Json::array({Json::array({6, 1.4, 1})}));
+  EXPECT_EQ(h[3]["kind"], "roof_fall");
+  EXPECT_EQ(h[3]["at"], 0.25);
+  EXPECT_EQ(h[3]["radius"], 1.5);
+}
+
 TEST_F(ServerTest, ASecondConnectionOfARobotReplacesTheFirstAndGetsItsCommands) {
   WsClient first(port(), "/ws/robot");
   first.hello("r-twice");

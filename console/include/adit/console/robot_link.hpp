@@ -25,7 +25,7 @@
 /// may be called from any one other thread.
 ///
 ///   StatusOr<std::unique_ptr<RobotLink>> link = RobotLink::connect("ws://127.0.0.1:8080", hello);
-///   (*link)->send(telemetry);                      // JSON object; robot and seq are filled in
+///   (*link)->send(telemetry);                      // a Telemetry (messages.hpp) or a JSON object text; robot and seq are filled in
 ///   for (const ReceivedCommand& c : (*link)->pollCommands()) (*link)->answer(c.id, "accepted", "", t);
 ///   (*link)->flush(5.0);                           // wait for the acks before exiting
 
@@ -36,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "adit/console/messages.hpp"
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
 
@@ -104,6 +105,11 @@ class RobotLink {
   /// returns its seq. Refuses text that is not a JSON object with a string "type". May block
   /// while the outbox is full of messages that are never dropped (see the file comment).
   StatusOr<std::uint64_t> send(const std::string& json_object);
+  /// The protocol's typed messages (messages.hpp), sent as their toJson().
+  StatusOr<std::uint64_t> send(const Telemetry& m) { return send(toJson(m)); }
+  StatusOr<std::uint64_t> send(const Plan& m) { return send(toJson(m)); }
+  StatusOr<std::uint64_t> send(const Obstacles& m) { return send(toJson(m)); }
+  StatusOr<std::uint64_t> send(const Event& m) { return send(toJson(m)); }
   /// The commands received since the last call, in arrival order, each once.
   std::vector<ReceivedCommand> pollCommands();
   /// Sends command_result for `command_id` and stores it as that command's answer.
