@@ -311,6 +311,13 @@ StatusOr<CommandRequest> parseCommandRequest(const Json& j) {
   ADIT_RETURN_IF_ERROR(requireFinite(j));
   CommandRequest c;
   ADIT_ASSIGN_OR_RETURN(c.robot, robotField(j));
+  ADIT_ASSIGN_OR_RETURN(static_cast<CommandArgs&>(c), parseCommandArgs(j));
+  return c;
+}
+
+StatusOr<CommandArgs> parseCommandArgs(const Json& j) {
+  ADIT_RETURN_IF_ERROR(requireFinite(j));
+  CommandArgs c;
   ADIT_ASSIGN_OR_RETURN(c.kind, stringField(j, "kind"));
   if (c.kind == "goal") {
     ADIT_ASSIGN_OR_RETURN(map::Vec3 goal, pointField(j, "goal"));

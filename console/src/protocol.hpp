@@ -56,13 +56,21 @@ struct CommandResult {
 };
 CommandResult commandResultOf(const Json& j);
 
-/// An operator's POST /api/commands body. `http_status` is the answer when it is refused.
-struct CommandRequest {
-  std::string robot;
-  std::string kind;
+/// An operator command's arguments: its kind and what the kind needs. One parser for both ends:
+/// the centre reads them from POST /api/commands (parseCommandRequest), the robot from the
+/// centre's `command` (RobotLink's parseCommand); each then checks the ranges it knows (the
+/// centre the map and the robot's radius, the robot its own limits).
+struct CommandArgs {
+  std::string kind;  ///< pause | resume | goal | block | reopen | manual | release
   std::optional<map::Vec3> goal;
   std::string roadway;
   std::optional<map::Vec3> velocity;
+};
+StatusOr<CommandArgs> parseCommandArgs(const Json& j);
+
+/// An operator's POST /api/commands body.
+struct CommandRequest : CommandArgs {
+  std::string robot;
 };
 StatusOr<CommandRequest> parseCommandRequest(const Json& j);
 

@@ -19,6 +19,7 @@
 
 #include "adit/console/protocol_limits.hpp"
 #include "adit/map/map_io.hpp"
+#include "protocol.hpp"
 
 namespace adit::console {
 
@@ -29,26 +30,6 @@ using tcp = net::ip::tcp;
 using json = nlohmann::ordered_json;
 
 namespace {
-
-bool validRobotId(const std::string& id) {
-  if (id.empty() || id.size() > 64) return false;
-  return std::all_of(id.begin(), id.end(), [](char c) {
-    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '-';
-  });
-}
-
-// [x, y, z] of finite numbers within +-max_abs, or nothing. The centre is trusted no more than any
-// other input: a velocity of 1e308 is not a command a robot executes.
-std::optional<map::Vec3> vec3(const json& j, double max_abs) {
-  if (!j.is_array() || j.size() != 3) return std::nullopt;
-  map::Vec3 v;
-  for (int i = 0; i < 3; ++i) {
-    if (!j[std::size_t(i)].is_number()) return std::nullopt;
-    v[i] = j[std::size_t(i)].get<double>();
-    if (!std::isfinite(v[i]) || std::abs(v[i]) > max_abs) return std::nullopt;
-  }
-  return v;
-}
 
 struct Url {
   std::string host, port, path;
@@ -76,7 +57,7 @@ StatusOr<Url> parseUrl(const std::string& url) {
 }  // namespace
 
 Status RobotHello::validate() const {
-  if (!validRobotId(robot)) return invalidArgument("robot id '" + robot + "': must be 1-64 characters of [A-Za-z0-9_.-]");
+  if (!protocol::validRobotId(robot)) return invalidArgument("robot id '" + robot + "': must be 1-64 characters of [A-Za-z0-9_.-]");
   if (map.empty()) return invalidArgument("hello: map name is empty");
   if (map_hash.empty()) return invalidArgument("hello: map hash is empty");
   if (!std::isfinite(radius_m) || radius_m <= 0.0) return invalidArgument("hello: radius must be finite and > 0");
@@ -93,24 +74,24 @@ StatusOr<ReceivedCommand> parseCommand(const std::string& text) {
       j["command_id"].get<std::uint64_t>() > static_cast<std::uint64_t>(kMaxSeq))
     return invalidArgument("command: command_id must be an integer in 1..9007199254740991 (2^53 - 1)");
   c.id = j["command_id"].get<std::int64_t>();
-  if (!j.contains("kind") || !j["kind"].is_string()) return invalidArgument("command " + std::to_string(c.id) + ": kind missing");
-  c.kind = j["kind"].get<std::string>();
   if (j.contains("operator") && j["operator"].is_string()) c.operator_name = j["operator"].get<std::string>();
-  const std::string where = "command " + std::to_string(c.id) + " (" + c.kind + "): ";
-  if (c.kind == "goal") {
-    c.goal = j.contains("goal") ? vec3(j["goal"], kMaxCoordinate) : std::nullopt;
-    if (!c.goal) return invalidArgument(where + "goal must be [x, y, z] of finite numbers within +-1e7 m");
-  } else if (c.kind == "manual") {
-    c.velocity = j.contains("velocity") ? vec3(j["velocity"], kMaxManualSpeed) : std::nullopt;
-    if (!c.velocity || c.velocity->norm() > kMaxManualSpeed)
-      return invalidArgument(where + "velocity must be [vx, vy, vz] of finite numbers, at most 2 m/s");
-  } else if (c.kind == "block" || c.kind == "reopen") {
-    if (!j.contains("roadway") || !j["roadway"].is_string() || j["roadway"].get<std::string>().empty())
-      return invalidArgument(where + "roadway must be a non-empty string");
-    c.roadway = j["roadway"].get<std::string>();
-  } else if (c.kind != "pause" && c.kind != "resume" && c.kind != "release") {
-    return invalidArgument(where + "unknown kind (pause, resume, goal, block, reopen, manual, release)");
-  }
+  // The same parser as the centre's for the operator's request; then this robot's own limits
+  // (the centre is trusted no more than any other input: a velocity of 1e308 is not a command a
+  // robot executes).
+  const std::string kind = j.contains("kind") && j["kind"].is_string() ? j["kind"].get<std::string>() : "?";
+  const std::string where = "command " + std::to_string(c.id) + " (" + kind + "): ";
+  StatusOr<protocol::CommandArgs> args = protocol::parseCommandArgs(j);
+  if (!args.ok()) return invalidArgument(where + args.status().message());
+  c.kind = args->kind;
+  c.goal = args->goal;
+  c.velocity = args->velocity;
+  c.roadway = args->roadway;
+  if (c.goal && !(c.goal->cwiseAbs().maxCoeff() <= kMaxCoordinate))
+    return invalidArgument(where + "goal must be [x, y, z] of finite numbers within +-1e7 m");
+  if (c.velocity && !(c.velocity->norm() <= kMaxManualSpeed))
+    return invalidArgument(where + "velocity must be [vx, vy, vz] of finite numbers, at most 2 m/s");
+  if ((c.kind == "block" || c.kind == "reopen") && c.roadway.empty())
+    return invalidArgument(where + "roadway must be a non-empty string");
   return c;
 }
 

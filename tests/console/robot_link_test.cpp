@@ -363,7 +363,7 @@ TEST(RobotLink, AMalformedCommandIsRefusedWithTheReason) {
   ASSERT_EQ(results.size(), 2u);
   EXPECT_EQ(results[0]["result"], "refused");
   EXPECT_NE(results[0]["reason"].get<std::string>().find("velocity"), std::string::npos);
-  EXPECT_NE(results[1]["reason"].get<std::string>().find("unknown kind"), std::string::npos);
+  EXPECT_NE(results[1]["reason"].get<std::string>().find("unknown command kind"), std::string::npos);
 }
 
 // The centre's numbers are checked like any input: a manual velocity beyond the protocol's
