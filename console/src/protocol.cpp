@@ -161,9 +161,9 @@ std::string pointText(const map::Vec3& p) {
   return buf;
 }
 
-// The point at `v` (already checked to be [x, y, z] numbers by parseRobotMessage) inside `box`.
+// The point at `v` inside `box`.
 Status pointWithin(const Json& v, const std::string& name, const map::Aabb& box) {
-  const map::Vec3 p(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+  ADIT_ASSIGN_OR_RETURN(const map::Vec3 p, pointOf(v, name));
   if (box.contains(p)) return Status::okStatus();
   return refuse("field '" + name + "' " + pointText(p) + " is outside the map (bounds " + pointText(box.min) + " to " +
                 pointText(box.max) + ", " + std::to_string(int(kMapBoundsMargin)) + " m margin included)");
@@ -186,7 +186,7 @@ Status listWithin(const Json& j, const char* key, const map::Aabb& box) {
 Status speedAtMost(const Json& j, const char* key, const std::string& name) {
   auto it = j.find(key);
   if (it == j.end() || it->is_null()) return Status::okStatus();
-  const map::Vec3 v((*it)[0].get<double>(), (*it)[1].get<double>(), (*it)[2].get<double>());
+  ADIT_ASSIGN_OR_RETURN(const map::Vec3 v, pointOf(*it, name));
   if (v.norm() <= kMaxReportedSpeed) return Status::okStatus();
   return refuse("field '" + name + "' " + pointText(v) + " is faster than " + std::to_string(int(kMaxReportedSpeed)) +
                 " m/s");
