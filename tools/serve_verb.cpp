@@ -33,7 +33,7 @@ struct ServeArgs {
   std::vector<std::string> allow_origins;
   double mesh_cell = 0.0;
   double robot_rate = console::RobotQuota{}.messages_per_s;
-  std::string robot_bandwidth = "1M", robot_store_quota = "4G";
+  std::string robot_bandwidth = "1M", robot_store_quota = "4G", viewer_queue = "32M";
   bool quiet = false;
 };
 
@@ -84,6 +84,10 @@ int runServe(const ServeArgs& args) {
   if (!stored.ok()) return report(invalidArgument("--robot-store-quota: " + stored.status().message()));
   if (*stored > std::uint64_t{1} << 50) return report(invalidArgument("--robot-store-quota: at most 1024T"));
   options.quota.stored_bytes = static_cast<std::int64_t>(*stored);
+  StatusOr<std::uint64_t> viewer_queue = map::parseByteSize(args.viewer_queue);
+  if (!viewer_queue.ok()) return report(invalidArgument("--viewer-queue: " + viewer_queue.status().message()));
+  if (*viewer_queue > std::uint64_t{1} << 40) return report(invalidArgument("--viewer-queue: at most 1T"));
+  options.viewer_queue_bytes = static_cast<std::size_t>(*viewer_queue);
   StatusOr<std::string> hash = map::fileContentHash(args.map);
   if (!hash.ok()) return report(hash.status());
   options.map_hash = *hash;
@@ -148,6 +152,10 @@ void registerServeVerb(CLI::App& app, int* rc) {
   cmd->add_option("--robot-store-quota", args->robot_store_quota,
                   "Message bytes the database keeps per robot; past it the robot's new messages are refused "
                   "(K, M, G suffixes)")
+      ->capture_default_str();
+  cmd->add_option("--viewer-queue", args->viewer_queue,
+                  "Bytes queued for one viewer, its snapshot included (K, M, G suffixes): a viewer too slow for "
+                  "what cannot be dropped is closed (1013)")
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", args->quiet, "No progress bar");
   cmd->callback([args, rc] { *rc = runServe(*args); });

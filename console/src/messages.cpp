@@ -53,6 +53,12 @@ std::string toJson(const Event& m) {
   return j.dump();
 }
 
+std::string toJson(const CommandResult& m) {
+  return Json{{"type", "command_result"}, {"t", m.t}, {"command_id", m.command_id}, {"result", m.result},
+              {"reason", m.reason}}
+      .dump();
+}
+
 std::vector<Obstacles> splitObstacles(const Obstacles& m) {
   std::vector<Obstacles> out;
   std::size_t from = 0;

@@ -66,21 +66,56 @@ StatusOr<map::Vec3> pointField(const Json& j, const char* key) {
   return pointOf(*it, key);
 }
 
-Status optionalPointField(const Json& j, const char* key) {
+// An absent or null field leaves `out` empty.
+Status optionalPointField(const Json& j, const char* key, std::optional<map::Vec3>* out) {
   auto it = j.find(key);
   if (it == j.end() || it->is_null()) return Status::okStatus();
-  return pointOf(*it, key).status();
+  ADIT_ASSIGN_OR_RETURN(*out, pointOf(*it, key));
+  return Status::okStatus();
 }
 
-Status pointList(const Json& j, const char* key, bool required) {
+Status optionalNumberField(const Json& j, const char* key, const std::string& name, std::optional<double>* out) {
+  auto it = j.find(key);
+  if (it == j.end() || it->is_null()) return Status::okStatus();
+  if (!it->is_number()) return refuse("field '" + name + "' must be a number");
+  *out = it->get<double>();
+  return Status::okStatus();
+}
+
+// Names, labels and kinds are words, not payloads: an attacker's megabyte "label" is refused.
+constexpr std::size_t kMaxWordLength = 64;
+
+Status wordOf(const Json& v, const std::string& name, std::string* out) {
+  if (!v.is_string()) return refuse("field '" + name + "' must be a string");
+  *out = v.get<std::string>();
+  if (out->size() > kMaxWordLength)
+    return refuse("field '" + name + "' is longer than " + std::to_string(kMaxWordLength) + " characters");
+  return Status::okStatus();
+}
+
+Status wordField(const Json& j, const char* key, std::string* out) {
+  auto it = j.find(key);
+  if (it == j.end()) return refuse(std::string("missing field '") + key + "'");
+  return wordOf(*it, key, out);
+}
+
+Status listSize(const Json& v, const char* key, const char* what) {
+  if (!v.is_array()) return refuse(std::string("field '") + key + "' must be a list of " + what);
+  if (v.size() > kMaxPoints)
+    return refuse(std::string("field '") + key + "' has " + std::to_string(v.size()) + " " + what + ", more than " +
+                  std::to_string(kMaxPoints));
+  return Status::okStatus();
+}
+
+Status pointList(const Json& j, const char* key, bool required, std::vector<map::Vec3>* out) {
   auto it = j.find(key);
   if (it == j.end()) return required ? refuse(std::string("missing field '") + key + "'") : Status::okStatus();
-  if (!it->is_array()) return refuse(std::string("field '") + key + "' must be a list of points");
-  if (it->size() > kMaxPoints)
-    return refuse(std::string("field '") + key + "' has " + std::to_string(it->size()) + " points, more than " +
-                  std::to_string(kMaxPoints));
-  for (std::size_t i = 0; i < it->size(); ++i)
-    ADIT_RETURN_IF_ERROR(pointOf((*it)[i], std::string(key) + "[" + std::to_string(i) + "]").status());
+  ADIT_RETURN_IF_ERROR(listSize(*it, key, "points"));
+  out->reserve(it->size());
+  for (std::size_t i = 0; i < it->size(); ++i) {
+    ADIT_ASSIGN_OR_RETURN(map::Vec3 p, pointOf((*it)[i], std::string(key) + "[" + std::to_string(i) + "]"));
+    out->push_back(p);
+  }
   return Status::okStatus();
 }
 
@@ -96,63 +131,87 @@ bool oneOf(const std::string& s, std::initializer_list<const char*> values) {
   return false;
 }
 
-Status checkTelemetry(const Json& j, RobotMessage* m) {
-  ADIT_ASSIGN_OR_RETURN(map::Vec3 pose, pointField(j, "pose"));
-  ADIT_ASSIGN_OR_RETURN(map::Vec3 vel, pointField(j, "velocity"));
-  ADIT_ASSIGN_OR_RETURN(std::string status, stringField(j, "status"));
-  if (!oneOf(status, {"following", "yielding", "detouring", "stuck", "replanning", "no_route", "paused", "manual",
-                      "arrived", "collision"}))
-    return refuse("unknown status '" + status + "'");
-  ADIT_RETURN_IF_ERROR(optionalPointField(j, "goal"));
-  ADIT_RETURN_IF_ERROR(optionalPointField(j, "subgoal"));
-  if (j.contains("min_clearance") && !j["min_clearance"].is_number() && !j["min_clearance"].is_null())
-    return refuse("field 'min_clearance' must be a number");
-  m->pose = RobotMessage::Pose{pose.x(), pose.y(), pose.z(), vel.x(), vel.y(), vel.z(), status};
-  return Status::okStatus();
+StatusOr<Telemetry> readTelemetry(const Json& j, double t) {
+  Telemetry m;
+  m.t = t;
+  ADIT_ASSIGN_OR_RETURN(m.pose, pointField(j, "pose"));
+  ADIT_ASSIGN_OR_RETURN(m.velocity, pointField(j, "velocity"));
+  ADIT_RETURN_IF_ERROR(wordField(j, "status", &m.status));
+  if (!oneOf(m.status, {"following", "yielding", "detouring", "stuck", "replanning", "no_route", "paused", "manual",
+                        "arrived", "collision"}))
+    return refuse("unknown status '" + m.status + "'");
+  ADIT_RETURN_IF_ERROR(optionalPointField(j, "goal", &m.goal));
+  ADIT_RETURN_IF_ERROR(optionalPointField(j, "subgoal", &m.subgoal));
+  ADIT_RETURN_IF_ERROR(optionalNumberField(j, "min_clearance", "min_clearance", &m.min_clearance));
+  return m;
 }
 
-Status checkPlan(const Json& j) {
-  ADIT_RETURN_IF_ERROR(stringField(j, "reason").status());
-  ADIT_RETURN_IF_ERROR(pointList(j, "path", true));
-  if (j.contains("labels")) {
-    const Json& labels = j["labels"];
-    if (!labels.is_array() || labels.size() > kMaxPoints) return refuse("field 'labels' must be a list of strings");
-    for (const Json& l : labels)
-      if (!l.is_string()) return refuse("field 'labels' must be a list of strings");
+StatusOr<Plan> readPlan(const Json& j, double t) {
+  Plan m;
+  m.t = t;
+  ADIT_RETURN_IF_ERROR(wordField(j, "reason", &m.reason));
+  ADIT_RETURN_IF_ERROR(pointList(j, "path", true, &m.path));
+  if (auto labels = j.find("labels"); labels != j.end()) {
+    ADIT_RETURN_IF_ERROR(listSize(*labels, "labels", "strings"));
+    m.labels.resize(labels->size());
+    for (std::size_t i = 0; i < labels->size(); ++i)
+      ADIT_RETURN_IF_ERROR(wordOf((*labels)[i], "labels[" + std::to_string(i) + "]", &m.labels[i]));
   }
-  return Status::okStatus();
+  return m;
 }
 
-Status checkObstacles(const Json& j) {
-  ADIT_RETURN_IF_ERROR(pointList(j, "rock", false));
-  auto it = j.find("tracks");
-  if (it == j.end()) return Status::okStatus();
-  if (!it->is_array() || it->size() > kMaxPoints) return refuse("field 'tracks' must be a list of tracks");
-  for (const Json& track : *it) {
-    if (!track.is_object()) return refuse("field 'tracks' must be a list of objects");
-    ADIT_RETURN_IF_ERROR(pointField(track, "position").status());
-    ADIT_RETURN_IF_ERROR(optionalPointField(track, "velocity"));
-    if (track.contains("radius") && !track["radius"].is_number()) return refuse("track 'radius' must be a number");
+StatusOr<Obstacles> readObstacles(const Json& j, double t) {
+  Obstacles m;
+  m.t = t;
+  ADIT_RETURN_IF_ERROR(pointList(j, "rock", false, &m.rock));
+  auto tracks = j.find("tracks");
+  if (tracks == j.end()) return m;
+  ADIT_RETURN_IF_ERROR(listSize(*tracks, "tracks", "tracks"));
+  m.tracks.resize(tracks->size());
+  for (std::size_t i = 0; i < tracks->size(); ++i) {
+    const Json& track = (*tracks)[i];
+    const std::string name = "tracks[" + std::to_string(i) + "]";
+    if (!track.is_object()) return refuse("field '" + name + "' must be an object");
+    TrackReport& r = m.tracks[i];
+    if (auto id = track.find("id"); id != track.end()) ADIT_RETURN_IF_ERROR(wordOf(*id, name + ".id", &r.id));
+    auto position = track.find("position");
+    if (position == track.end()) return refuse("missing field '" + name + ".position'");
+    ADIT_ASSIGN_OR_RETURN(r.position, pointOf(*position, name + ".position"));
+    if (auto v = track.find("velocity"); v != track.end() && !v->is_null()) {
+      ADIT_ASSIGN_OR_RETURN(r.velocity, pointOf(*v, name + ".velocity"));
+    }
+    std::optional<double> radius;
+    ADIT_RETURN_IF_ERROR(optionalNumberField(track, "radius", name + ".radius", &radius));
+    r.radius = radius.value_or(0.0);
   }
-  return Status::okStatus();
+  return m;
 }
 
-Status checkEvent(const Json& j) {
-  ADIT_RETURN_IF_ERROR(stringField(j, "kind").status());
-  ADIT_RETURN_IF_ERROR(optionalPointField(j, "center"));
-  if (j.contains("radius") && !j["radius"].is_number()) return refuse("field 'radius' must be a number");
-  return Status::okStatus();
+StatusOr<Event> readEvent(const Json& j, double t) {
+  Event m;
+  m.t = t;
+  ADIT_RETURN_IF_ERROR(wordField(j, "kind", &m.kind));
+  ADIT_RETURN_IF_ERROR(optionalNumberField(j, "at", "at", &m.at));
+  ADIT_RETURN_IF_ERROR(optionalPointField(j, "center", &m.center));
+  ADIT_RETURN_IF_ERROR(optionalNumberField(j, "radius", "radius", &m.radius));
+  return m;
 }
 
-Status checkCommandResult(const Json& j) {
+StatusOr<CommandResult> readCommandResult(const Json& j, double t) {
+  CommandResult m;
+  m.t = t;
   auto id = j.find("command_id");
   if (id == j.end()) return refuse("missing field 'command_id'");
-  if (!id->is_number_integer() || id->get<std::int64_t>() < 1)
-    return refuse("field 'command_id' must be a positive integer");
-  ADIT_ASSIGN_OR_RETURN(std::string result, stringField(j, "result"));
-  if (!oneOf(result, {"accepted", "refused", "executed"})) return refuse("unknown result '" + result + "'");
-  if (j.contains("reason") && !j["reason"].is_string()) return refuse("field 'reason' must be a string");
-  return Status::okStatus();
+  if (!id->is_number_integer() || id->get<std::int64_t>() < 1 || id->get<std::int64_t>() > kMaxSeq)
+    return refuse("field 'command_id' must be an integer in 1..9007199254740991 (2^53 - 1)");
+  m.command_id = id->get<std::int64_t>();
+  ADIT_ASSIGN_OR_RETURN(m.result, stringField(j, "result"));
+  if (!oneOf(m.result, {"accepted", "refused", "executed"})) return refuse("unknown result '" + m.result + "'");
+  if (auto reason = j.find("reason"); reason != j.end()) {
+    if (!reason->is_string()) return refuse("field 'reason' must be a string");
+    m.reason = reason->get<std::string>();
+  }
+  return m;
 }
 
 std::string pointText(const map::Vec3& p) {
@@ -161,44 +220,58 @@ std::string pointText(const map::Vec3& p) {
   return buf;
 }
 
-// The point at `v` inside `box`.
-Status pointWithin(const Json& v, const std::string& name, const map::Aabb& box) {
-  ADIT_ASSIGN_OR_RETURN(const map::Vec3 p, pointOf(v, name));
+Status pointWithin(const map::Vec3& p, const std::string& name, const map::Aabb& box) {
   if (box.contains(p)) return Status::okStatus();
   return refuse("field '" + name + "' " + pointText(p) + " is outside the map (bounds " + pointText(box.min) + " to " +
                 pointText(box.max) + ", " + std::to_string(int(kMapBoundsMargin)) + " m margin included)");
 }
 
-Status optionalPointWithin(const Json& j, const char* key, const map::Aabb& box) {
-  auto it = j.find(key);
-  if (it == j.end() || it->is_null()) return Status::okStatus();
-  return pointWithin(*it, key, box);
+Status optionalPointWithin(const std::optional<map::Vec3>& p, const char* name, const map::Aabb& box) {
+  return p ? pointWithin(*p, name, box) : Status::okStatus();
 }
 
-Status listWithin(const Json& j, const char* key, const map::Aabb& box) {
-  auto it = j.find(key);
-  if (it == j.end()) return Status::okStatus();
-  for (std::size_t i = 0; i < it->size(); ++i)
-    ADIT_RETURN_IF_ERROR(pointWithin((*it)[i], std::string(key) + "[" + std::to_string(i) + "]", box));
+Status listWithin(const std::vector<map::Vec3>& ps, const char* key, const map::Aabb& box) {
+  for (std::size_t i = 0; i < ps.size(); ++i)
+    ADIT_RETURN_IF_ERROR(pointWithin(ps[i], std::string(key) + "[" + std::to_string(i) + "]", box));
   return Status::okStatus();
 }
 
-Status speedAtMost(const Json& j, const char* key, const std::string& name) {
-  auto it = j.find(key);
-  if (it == j.end() || it->is_null()) return Status::okStatus();
-  ADIT_ASSIGN_OR_RETURN(const map::Vec3 v, pointOf(*it, name));
+Status speedAtMost(const map::Vec3& v, const std::string& name) {
   if (v.norm() <= kMaxReportedSpeed) return Status::okStatus();
   return refuse("field '" + name + "' " + pointText(v) + " is faster than " + std::to_string(int(kMaxReportedSpeed)) +
                 " m/s");
 }
 
-Status radiusWithin(const Json& j, const std::string& name) {
-  auto it = j.find("radius");
-  if (it == j.end()) return Status::okStatus();
-  const double r = it->get<double>();
+Status radiusWithin(double r, const std::string& name) {
   if (r >= 0.0 && r <= kMaxReportedRadius) return Status::okStatus();
   return refuse("field '" + name + "' must be in [0, " + std::to_string(int(kMaxReportedRadius)) + "] m");
 }
+
+struct WithinVisitor {
+  const map::Aabb& box;
+  Status operator()(const Telemetry& m) const {
+    ADIT_RETURN_IF_ERROR(pointWithin(m.pose, "pose", box));
+    ADIT_RETURN_IF_ERROR(speedAtMost(m.velocity, "velocity"));
+    ADIT_RETURN_IF_ERROR(optionalPointWithin(m.goal, "goal", box));
+    return optionalPointWithin(m.subgoal, "subgoal", box);
+  }
+  Status operator()(const Plan& m) const { return listWithin(m.path, "path", box); }
+  Status operator()(const Obstacles& m) const {
+    ADIT_RETURN_IF_ERROR(listWithin(m.rock, "rock", box));
+    for (std::size_t i = 0; i < m.tracks.size(); ++i) {
+      const std::string name = "tracks[" + std::to_string(i) + "]";
+      ADIT_RETURN_IF_ERROR(pointWithin(m.tracks[i].position, name + ".position", box));
+      ADIT_RETURN_IF_ERROR(speedAtMost(m.tracks[i].velocity, name + ".velocity"));
+      ADIT_RETURN_IF_ERROR(radiusWithin(m.tracks[i].radius, name + ".radius"));
+    }
+    return Status::okStatus();
+  }
+  Status operator()(const Event& m) const {
+    ADIT_RETURN_IF_ERROR(optionalPointWithin(m.center, "center", box));
+    return m.radius ? radiusWithin(*m.radius, "radius") : Status::okStatus();
+  }
+  Status operator()(const CommandResult&) const { return Status::okStatus(); }
+};
 
 }  // namespace
 
@@ -209,31 +282,7 @@ Status checkSize(const std::string& type, std::size_t bytes) {
   return Status::okStatus();
 }
 
-Status checkWithin(const Json& j, const map::Aabb& box) {
-  const std::string type = j.value("type", "");
-  if (type == "telemetry") {
-    ADIT_RETURN_IF_ERROR(pointWithin(j["pose"], "pose", box));
-    ADIT_RETURN_IF_ERROR(speedAtMost(j, "velocity", "velocity"));
-    ADIT_RETURN_IF_ERROR(optionalPointWithin(j, "goal", box));
-    ADIT_RETURN_IF_ERROR(optionalPointWithin(j, "subgoal", box));
-  } else if (type == "plan") {
-    ADIT_RETURN_IF_ERROR(listWithin(j, "path", box));
-  } else if (type == "obstacles") {
-    ADIT_RETURN_IF_ERROR(listWithin(j, "rock", box));
-    if (auto tracks = j.find("tracks"); tracks != j.end())
-      for (std::size_t i = 0; i < tracks->size(); ++i) {
-        const Json& track = (*tracks)[i];
-        const std::string name = "tracks[" + std::to_string(i) + "]";
-        ADIT_RETURN_IF_ERROR(pointWithin(track["position"], name + ".position", box));
-        ADIT_RETURN_IF_ERROR(speedAtMost(track, "velocity", name + ".velocity"));
-        ADIT_RETURN_IF_ERROR(radiusWithin(track, name + ".radius"));
-      }
-  } else if (type == "event") {
-    ADIT_RETURN_IF_ERROR(optionalPointWithin(j, "center", box));
-    ADIT_RETURN_IF_ERROR(radiusWithin(j, "radius"));
-  }
-  return Status::okStatus();
-}
+Status checkWithin(const Body& body, const map::Aabb& box) { return std::visit(WithinVisitor{box}, body); }
 
 bool validRobotId(const std::string& id) {
   if (id.empty() || id.size() > 64) return false;
@@ -272,9 +321,33 @@ StatusOr<Hello> parseHello(const Json& j) {
   return h;
 }
 
-StatusOr<RobotMessage> parseRobotMessage(const Json& j) {
+template <class T>
+StatusOr<Body> asBody(StatusOr<T> message) {
+  if (!message.ok()) return message.status();
+  return Body(std::move(message).value());
+}
+
+const char* typeOf(const Body& body) {
+  static constexpr const char* kNames[] = {"telemetry", "plan", "obstacles", "event", "command_result"};
+  return kNames[body.index()];
+}
+
+StatusOr<Body> parseBody(const Json& j) {
   ADIT_RETURN_IF_ERROR(requireFinite(j));
-  RobotMessage m;
+  ADIT_ASSIGN_OR_RETURN(const std::string type, stringField(j, "type"));
+  ADIT_ASSIGN_OR_RETURN(const double t, numberField(j, "t"));
+  if (type == "telemetry") return asBody(readTelemetry(j, t));
+  if (type == "plan") return asBody(readPlan(j, t));
+  if (type == "obstacles") return asBody(readObstacles(j, t));
+  if (type == "event") return asBody(readEvent(j, t));
+  if (type == "command_result") return asBody(readCommandResult(j, t));
+  return refuse("unknown message type '" + type + "'");
+}
+
+StatusOr<RobotFrame> parseRobotMessage(const Json& j) {
+  ADIT_RETURN_IF_ERROR(requireFinite(j));
+  RobotFrame f;
+  RobotMessage& m = f.message;
   ADIT_ASSIGN_OR_RETURN(m.type, stringField(j, "type"));
   ADIT_ASSIGN_OR_RETURN(m.robot, robotField(j));
   auto seq = j.find("seq");
@@ -282,29 +355,12 @@ StatusOr<RobotMessage> parseRobotMessage(const Json& j) {
   if (!seq->is_number_integer() || seq->get<std::int64_t>() < 1 || seq->get<std::int64_t>() > kMaxSeq)
     return refuse("field 'seq' must be an integer in 1..9007199254740991 (2^53 - 1)");
   m.seq = seq->get<std::int64_t>();
-  ADIT_ASSIGN_OR_RETURN(m.t, numberField(j, "t"));
-  if (m.type == "telemetry") {
-    ADIT_RETURN_IF_ERROR(checkTelemetry(j, &m));
-  } else if (m.type == "plan") {
-    ADIT_RETURN_IF_ERROR(checkPlan(j));
-  } else if (m.type == "obstacles") {
-    ADIT_RETURN_IF_ERROR(checkObstacles(j));
-  } else if (m.type == "event") {
-    ADIT_RETURN_IF_ERROR(checkEvent(j));
-  } else if (m.type == "command_result") {
-    ADIT_RETURN_IF_ERROR(checkCommandResult(j));
-  } else {
-    return refuse("unknown message type '" + m.type + "'");
-  }
-  return m;
-}
-
-CommandResult commandResultOf(const Json& j) {
-  CommandResult r;
-  r.command_id = j["command_id"].get<std::int64_t>();
-  r.status = *parseCommandStatus(j["result"].get<std::string>());
-  r.reason = j.value("reason", std::string());
-  return r;
+  ADIT_ASSIGN_OR_RETURN(f.body, parseBody(j));
+  m.t = std::visit([](const auto& b) { return b.t; }, f.body);
+  if (const auto* tm = std::get_if<Telemetry>(&f.body))
+    m.pose = RobotMessage::Pose{tm->pose.x(),     tm->pose.y(),     tm->pose.z(), tm->velocity.x(),
+                                tm->velocity.y(), tm->velocity.z(), tm->status};
+  return f;
 }
 
 StatusOr<CommandRequest> parseCommandRequest(const Json& j) {

@@ -8,9 +8,11 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <variant>
 
 #include <nlohmann/json.hpp>
 
+#include "adit/console/messages.hpp"
 #include "adit/console/store.hpp"
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
@@ -35,26 +37,32 @@ struct Hello {
 };
 StatusOr<Hello> parseHello(const Json& j);
 
-/// A robot → centre message after hello (telemetry, plan, obstacles, event, command_result):
-/// type, robot, seq >= 1, finite t and every type's fields, point lists <= kMaxPoints, every
-/// number finite. `out.body` is left to the caller (the text as received).
-StatusOr<RobotMessage> parseRobotMessage(const Json& j);
+/// A robot → centre message's body as its type (messages.hpp).
+using Body = std::variant<Telemetry, Plan, Obstacles, Event, CommandResult>;
+/// "telemetry", "plan", "obstacles", "event" or "command_result".
+const char* typeOf(const Body& body);
+
+/// The one parser of a robot → centre message (robot and seq aside), used by both ends: the robot
+/// link reads what it is asked to send with it before queueing, the centre what arrives. `type`, a
+/// finite `t` and every field of the type: numbers finite, points [x, y, z], lists at most
+/// kMaxPoints, statuses and results from their sets, names and labels at most 64 characters.
+StatusOr<Body> parseBody(const Json& j);
+
+/// What the centre reads from a robot after hello: parseBody, plus robot and seq >= 1 in range.
+/// `message` is the store's row (its `body` left to the caller: the text as received).
+struct RobotFrame {
+  RobotMessage message;
+  Body body;
+};
+StatusOr<RobotFrame> parseRobotMessage(const Json& j);
 
 /// A telemetry, event or command_result message over kMaxSmallMessageBytes is refused.
 Status checkSize(const std::string& type, std::size_t bytes);
 
-/// The message's points within `box` (the served map's bounds inflated by kMapBoundsMargin), its
-/// speeds at most kMaxReportedSpeed and radii in [0, kMaxReportedRadius] (after
-/// parseRobotMessage accepted it): a refusal names the field and the value.
-Status checkWithin(const Json& j, const map::Aabb& box);
-
-/// command_result's fields (after parseRobotMessage accepted it).
-struct CommandResult {
-  std::int64_t command_id = 0;
-  CommandStatus status = CommandStatus::kAccepted;
-  std::string reason;
-};
-CommandResult commandResultOf(const Json& j);
+/// What only the centre knows: the message's points within `box` (the served map's bounds
+/// inflated by kMapBoundsMargin), its speeds at most kMaxReportedSpeed and radii in
+/// [0, kMaxReportedRadius]. A refusal names the field and the value.
+Status checkWithin(const Body& body, const map::Aabb& box);
 
 /// An operator command's arguments: its kind and what the kind needs. One parser for both ends:
 /// the centre reads them from POST /api/commands (parseCommandRequest), the robot from the

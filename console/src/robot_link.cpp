@@ -289,9 +289,11 @@ struct RobotLink::Impl {
         // Refused here, so the centre does not resend it forever (an id is needed to answer).
         if (j.contains("command_id") && j["command_id"].is_number_integer()) {
           const std::int64_t id = j["command_id"].get<std::int64_t>();
-          json r{{"type", "command_result"}, {"t", 0.0}, {"command_id", id}, {"result", "refused"},
-                 {"reason", c.status().message()}};
-          if (received.insert(id).second) answers[id] = r.dump();
+          CommandResult r;
+          r.command_id = id;
+          r.result = "refused";
+          r.reason = c.status().message().substr(0, 512);  // within the centre's size limit
+          if (received.insert(id).second) answers[id] = toJson(r);
           enqueueLocked(json::parse(answers[id]), false);
         }
         return;
@@ -409,10 +411,16 @@ StatusOr<std::unique_ptr<RobotLink>> RobotLink::connect(const std::string& url, 
 }
 
 StatusOr<std::uint64_t> RobotLink::send(const std::string& json_object) {
-  json j = json::parse(json_object, nullptr, false);
-  if (!j.is_object() || !j.contains("type") || !j["type"].is_string())
-    return invalidArgument("link: a message must be a JSON object with a string \"type\"");
-  const bool droppable = j["type"] == "telemetry";
+  // The centre's own parser: what it would refuse is refused here, before it takes a seq and
+  // a place in the outbox, with the words the centre would use.
+  StatusOr<protocol::Json> parsed = protocol::parseObject(json_object);
+  if (!parsed.ok()) return invalidArgument("link: " + parsed.status().message());
+  StatusOr<protocol::Body> body = protocol::parseBody(*parsed);
+  if (!body.ok()) return invalidArgument("link: " + body.status().message());
+  json j = json::parse(json_object);  // in the robot's field order, for the outbox
+  if (Status size = protocol::checkSize(protocol::typeOf(*body), json_object.size()); !size.ok())
+    return invalidArgument("link: " + size.message());
+  const bool droppable = std::holds_alternative<Telemetry>(*body);
   Impl& m = *impl_;
   std::unique_lock lock(m.mu);
   while (m.outbox.size() >= m.options.outbox_limit && !m.stopping) {
@@ -444,14 +452,21 @@ std::vector<ReceivedCommand> RobotLink::pollCommands() {
 Status RobotLink::answer(std::int64_t command_id, const std::string& result, const std::string& reason, double t_s) {
   if (result != "accepted" && result != "refused" && result != "executed")
     return invalidArgument("command_result: result '" + result + "' is not accepted, refused or executed");
-  json j{{"type", "command_result"}, {"t", std::isfinite(t_s) ? t_s : 0.0}, {"command_id", command_id},
-         {"result", result}, {"reason", reason}};
+  CommandResult r;
+  r.t = std::isfinite(t_s) ? t_s : 0.0;
+  r.command_id = command_id;
+  r.result = result;
+  r.reason = reason;
+  const std::string text = toJson(r);
+  // Checked before it is kept as the command's answer: a refused answer is not remembered.
+  if (Status s = protocol::parseBody(protocol::Json::parse(text)).status(); !s.ok()) return invalidArgument("link: " + s.message());
+  if (Status s = protocol::checkSize("command_result", text.size()); !s.ok()) return invalidArgument("link: " + s.message());
   {
     std::lock_guard lock(impl_->mu);
-    impl_->answers[command_id] = j.dump();
+    impl_->answers[command_id] = text;
     impl_->received.insert(command_id);
   }
-  return send(j.dump()).status();
+  return send(text).status();
 }
 
 bool RobotLink::flush(double timeout_s) {

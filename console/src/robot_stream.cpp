@@ -139,21 +139,21 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
     session.refuse("send hello first", seq);
     return;
   }
-  StatusOr<RobotMessage> message = protocol::parseRobotMessage(j);
-  if (!message.ok()) {
-    session.refuse(message.status().message(), seq);
+  StatusOr<protocol::RobotFrame> frame = protocol::parseRobotMessage(j);
+  if (!frame.ok()) {
+    session.refuse(frame.status().message(), seq);
     return;
   }
+  RobotMessage* message = &frame->message;
   if (message->robot != session.robotId()) {
     session.refuse("unknown robot '" + message->robot + "' (this connection is '" + session.robotId() + "')", seq);
     return;
   }
   std::optional<Command> command;
-  if (message->type == "command_result") {
-    const protocol::CommandResult r = protocol::commandResultOf(j);
-    StatusOr<std::optional<Command>> c = store->command(r.command_id);
+  if (const auto* r = std::get_if<CommandResult>(&frame->body)) {
+    StatusOr<std::optional<Command>> c = store->command(r->command_id);
     if (c.ok() && (!*c || (*c)->robot != message->robot)) {
-      session.refuse("unknown command_id " + std::to_string(r.command_id) + " for robot " + message->robot, seq);
+      session.refuse("unknown command_id " + std::to_string(r->command_id) + " for robot " + message->robot, seq);
       return;
     }
     if (c.ok()) command = **c;
@@ -173,7 +173,7 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
     session.refuse(size.message(), seq);
     return;
   }
-  if (Status within = protocol::checkWithin(j, bounds); !within.ok()) {
+  if (Status within = protocol::checkWithin(frame->body, bounds); !within.ok()) {
     session.refuse(within.message(), seq);
     return;
   }
@@ -208,6 +208,7 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
   }
   p.session = session.shared_from_this();
   p.message = std::move(*message);
+  p.body = std::move(frame->body);
   p.json = j;
   p.command = std::move(command);
   {

@@ -116,7 +116,8 @@ struct PendingMessage {
   Mode mode = Mode::kBatch;  // kExact: seq <= stored_seq, maybe a resend; kAckOnly: a copy of one in flight
   std::weak_ptr<WsSession> session;
   RobotMessage message;
-  Json json;
+  protocol::Body body;  // message as its type
+  Json json;            // and as received, for viewers
   std::optional<Command> command;  // for command_result
   bool fresh = false;              // set by the writer
 };

@@ -80,10 +80,11 @@ void Server::Impl::finish(std::vector<PendingMessage> done, const Status& status
     if (p.command) {
       // A robot answers a command it got again with its stored result: never step back
       // (executed stays executed when an `accepted` repeat arrives).
-      const protocol::CommandResult r = protocol::commandResultOf(stored);
+      const auto& r = std::get<CommandResult>(p.body);
+      const CommandStatus result = *parseCommandStatus(r.result);
       Command now = *p.command;  // its state when the result was queued; re-read, results may batch
       if (auto current = store->command(now.command_id); current.ok() && *current) now = **current;
-      if (static_cast<int>(r.status) >= static_cast<int>(now.status)) setCommandStatus(now, r.status, r.reason);
+      if (static_cast<int>(result) >= static_cast<int>(now.status)) setCommandStatus(now, result, r.reason);
     }
   }
 }

@@ -1,13 +1,23 @@
 # SPDX-License-Identifier: BSD-3-Clause
-# The console's server (issue 11): API tests in-process against a real SQLite store, Beast clients
-# as robots, viewers and operators.
+# The console's server (issue 11): API tests against a real SQLite store, Beast clients as robots,
+# viewers and operators; in-process, and (ServerTest) against the real `adit serve`.
 find_package(Boost 1.74 REQUIRED)
 find_package(Threads REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
 add_executable(adit_console_server_tests console/server_test.cpp)
 target_link_libraries(adit_console_server_tests PRIVATE adit::console adit_test_support Boost::headers Threads::Threads
                       nlohmann_json::nlohmann_json GTest::gtest_main adit_warnings)
+target_compile_definitions(adit_console_server_tests PRIVATE ADIT_CONSOLE_TEST_DATA="${CMAKE_CURRENT_SOURCE_DIR}/console/data")
+target_include_directories(adit_console_server_tests PRIVATE ${PROJECT_SOURCE_DIR}/console/src)  # protocol.hpp
 gtest_discover_tests(adit_console_server_tests PROPERTIES LABELS unit TIMEOUT 120 DISCOVERY_TIMEOUT 60)
+# The same tests against `adit serve` as a child process, its options given as flags: what the
+# attacks of issue 17 meet is the program an operator runs.
+if(ADIT_BUILD_TOOLS)
+  add_dependencies(adit_console_server_tests adit)
+  gtest_discover_tests(adit_console_server_tests TEST_PREFIX "serve/" TEST_FILTER "ServerTest.*"
+                       DISCOVERY_TIMEOUT 60
+                       PROPERTIES LABELS cli TIMEOUT 180 ENVIRONMENT ADIT_TEST_SERVE=${PROJECT_BINARY_DIR}/bin/adit)
+endif()
 # The same API tests against PostgreSQL, on the store's throw-away server (tests/console/store.cmake).
 if(ADIT_PG_INITDB AND ADIT_PG_CTL AND DEFINED _pg_state)
   gtest_discover_tests(adit_console_server_tests TEST_PREFIX "postgresql/" TEST_FILTER "ServerTest.*"
@@ -82,4 +92,7 @@ if(ADIT_BUILD_TOOLS)
   adit_serve_cli_test(zero_bandwidth 2 "--robot-bandwidth: memory size '0'" --map ${_small} --robot-bandwidth 0)
   adit_serve_cli_test(tiny_store_quota 2 "--robot-store-quota must be at least 1 MiB" --map ${_small}
                       --robot-store-quota 100k)
+  adit_serve_cli_test(tiny_viewer_queue 2 "a viewer's queue must hold at least 1 MiB" --map ${_small}
+                      --viewer-queue 100k)
+  adit_serve_cli_test(bad_viewer_queue 2 "--viewer-queue: " --map ${_small} --viewer-queue lots)
 endif()

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // The console's protocol messages as an attacker sends them (issue 17). Byte 0 picks the reader,
 // the rest is the message text:
-//   0  a robot's frame on /ws/robot: parseObject, then parseHello or parseRobotMessage (and
-//      commandResultOf for a command_result), as the server reads it;
+//   0  a robot's frame on /ws/robot: parseObject, then parseHello or parseRobotMessage, as the
+//      server reads it; what it accepts is written again by toJson and must read back the same;
 //   1  an operator's POST /api/commands body: parseCommandRequest;
 //   2  a centre's frame on the robot's side: parseCommand (console::RobotLink).
 // What a reader accepts must be in the protocol's ranges (protocol_limits.hpp): a seq in
@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <string>
+#include <variant>
 
 #include "adit/console/protocol_limits.hpp"
 #include "adit/console/robot_link.hpp"
@@ -36,15 +37,20 @@ void robotFrame(const std::string& text) {
     if (!protocol::validRobotId(h->robot) || !(h->radius > 0.0) || h->radius > kMaxRobotRadius) std::abort();
     return;
   }
-  adit::StatusOr<RobotMessage> m = protocol::parseRobotMessage(*j);
-  if (!m.ok()) return;
-  if (m->seq < 1 || m->seq > kMaxSeq || !std::isfinite(m->t) || !protocol::validRobotId(m->robot)) std::abort();
-  if (m->pose) {
-    const RobotMessage::Pose& p = *m->pose;
+  adit::StatusOr<protocol::RobotFrame> f = protocol::parseRobotMessage(*j);
+  if (!f.ok()) return;
+  const RobotMessage& m = f->message;
+  if (m.seq < 1 || m.seq > kMaxSeq || !std::isfinite(m.t) || !protocol::validRobotId(m.robot)) std::abort();
+  if (m.pose) {
+    const RobotMessage::Pose& p = *m.pose;
     for (double v : {p.x, p.y, p.z, p.vx, p.vy, p.vz})
       if (!std::isfinite(v)) std::abort();
   }
-  if (m->type == "command_result") (void)protocol::commandResultOf(*j);
+  // Both ends' one parser: what it accepted, written by the robot's toJson, reads back as itself.
+  const auto write = [](const protocol::Body& b) { return std::visit([](const auto& m) { return toJson(m); }, b); };
+  const std::string again = write(f->body);
+  adit::StatusOr<protocol::Body> back = protocol::parseBody(protocol::Json::parse(again));
+  if (!back.ok() || write(*back) != again) std::abort();
 }
 
 void operatorBody(const std::string& text) {

@@ -4,15 +4,17 @@
 /// The robot → centre messages of the console's protocol (console/doc/protocol.md) as types, for
 /// any robot that links adit::console: fill one in and RobotLink::send() it. Their JSON is written
 /// here once (toJson), so the simulator (`adit simulate --live`), a robot's own code and the tests
-/// cannot drift from the protocol. `robot` and `seq` are the link's to fill in. The centre checks
-/// what arrives against the same fields and the limits both ends share (protocol_limits.hpp):
-/// finite numbers, points inside the map, at most kMaxPoints per list, a clock that never goes
-/// back.
+/// cannot drift from the protocol. `robot` and `seq` are the link's to fill in. Both ends read a
+/// message back with the same parser (one per type): RobotLink::send() refuses what the centre would
+/// refuse before it is queued, and the centre checks what arrives with it, then against what only
+/// it knows (protocol_limits.hpp): points inside the map, speeds and radii in range, a clock that
+/// never goes back.
 ///
 ///   Telemetry m;
 ///   m.t = t; m.pose = position; m.velocity = velocity; m.status = "following";
 ///   link->send(m);
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -66,11 +68,20 @@ struct Event {
   std::optional<double> radius;
 };
 
+/// A robot's answer to an operator command (RobotLink::answer() sends it).
+struct CommandResult {
+  double t = 0.0;
+  std::int64_t command_id = 0;       ///< 1 .. kMaxSeq
+  std::string result = "accepted";   ///< accepted | refused | executed
+  std::string reason;
+};
+
 /// Each message's JSON object text, without robot and seq.
 std::string toJson(const Telemetry& m);
 std::string toJson(const Plan& m);
 std::string toJson(const Obstacles& m);
 std::string toJson(const Event& m);
+std::string toJson(const CommandResult& m);
 
 /// `m` as messages of at most kMaxPoints rock points and tracks each, in order (the tracks go
 /// with the first); one message when it fits.

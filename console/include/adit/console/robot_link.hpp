@@ -102,7 +102,9 @@ class RobotLink {
   RobotLink& operator=(const RobotLink&) = delete;
 
   /// Queues a message (a JSON object text with "type"; "robot" and "seq" are set here) and
-  /// returns its seq. Refuses text that is not a JSON object with a string "type". May block
+  /// returns its seq. Refuses, before it takes a seq, what the centre would refuse: the centre's own
+  /// parser reads it (not a JSON object, an unknown type, a missing or malformed field, a small
+  /// message over 4 KiB; the message names it, e.g. "link: unknown status 'dancing'"). May block
   /// while the outbox is full of messages that are never dropped (see the file comment).
   StatusOr<std::uint64_t> send(const std::string& json_object);
   /// The protocol's typed messages (messages.hpp), sent as their toJson().
