@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 # Installs the build tree into a scratch prefix, configures and builds the consumer project
 # against it, and runs it. Arguments: BUILD_DIR, SOURCE_DIR (the consumer), WORK_DIR, GENERATOR,
-# CONSUMER_FLAGS (compile and link flags the installed tree was built with, e.g. the sanitizers).
+# CONSUMER_FLAGS (compile and link flags the installed tree was built with, e.g. the sanitizers),
+# MAP (the map the Navigator consumer replans on).
 file(REMOVE_RECURSE ${WORK_DIR})
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -15,4 +16,5 @@ run(${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build -G ${GENERATOR} -DCMA
     "-DCMAKE_EXE_LINKER_FLAGS=${CONSUMER_FLAGS}")
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run(${WORK_DIR}/build/consumer)
-message(STATUS "installed adit: find_package + adit::local consumer built and ran")
+run(${WORK_DIR}/build/navigator_consumer ${MAP})
+message(STATUS "installed adit: find_package, the adit::local and adit::fusion consumers built and ran")

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 /// @file
-/// Randomized navigated scenarios for `adit simulate --batch` (issue 8). makeBatchScenario()
+/// Randomized navigated scenarios for `adit simulate --batch`. makeBatchScenario()
 /// turns (batch seed, run index) into one scenario on a surveyed map: start and goal on roadway
 /// centrelines (1.6 m above the floor, at least min_separation_m apart), 0..max_moving_obstacles
 /// vehicles driving along roadways, and with roof_fall_probability a roof fall on a roadway

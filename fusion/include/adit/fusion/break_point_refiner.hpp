@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 /// @file
-/// Break-point refinement (Tian 2016 §2.3 applied to the global layer's expected path; see
-/// ../shared/spec/algorithms.md §1.4): all interior vertices of a polyline move jointly under the
-/// genetic trust-region method to make the path shorter while it keeps away from rock.
+/// Break-point refinement (Tian 2016 §2.3 applied to the global layer's expected path): all
+/// interior vertices of a polyline move jointly under the genetic trust-region method to make the
+/// path shorter while it keeps away from rock.
 ///
 /// Objective (stated, not tuned to any paper's numbers):
 ///   U(z) = L(z) + w · Σ_segments ∫ φ(c(s)) ds,   φ(c) = ½ (1/c − 1/ρ0)² for c < ρ0, else 0,

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 /// @file
-/// The genetic trust-region method of Tian, Gao & Zhang 2016 (§2.3, eqs. 14–17; see
-/// ../shared/spec/algorithms.md §1.4), as written: a trust-region model with a BFGS Hessian, the
+/// The genetic trust-region method of Tian, Gao & Zhang 2016 (§2.3, eqs. 14–17), as
+/// written: a trust-region model with a BFGS Hessian, the
 /// ratio test and the radius bands, and — when the trust region stagnates — a genetic search in a
 /// neighbourhood of the iterate whose better point restarts the trust region. The paper uses it to
 /// place sub-goals in an annulus around the robot and the break points of the expected path; here

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 /// @file
-/// The scenario simulator for runs that need the Navigator (issue 8): `expected_path: plan`,
+/// The scenario simulator for runs that need the Navigator: `expected_path: plan`,
 /// `robot.sensor_range` and `events` (roof falls). It keeps two worlds apart:
 ///
 /// - the TRUE world: the scenario's map as loaded into the local::Environment, plus every roof
@@ -73,7 +73,7 @@ struct BelievedWorld {
 };
 
 /// Watches, and may steer, a navigated run while it goes: the live link to the operations console
-/// (issue 11, `adit simulate --live`) is one. Every hook runs on the simulation's thread, between
+/// (`adit simulate --live`) is one. Every hook runs on the simulation's thread, between
 /// control periods. With an observer the run goes on through kPaused and kManual (the operator
 /// holds or drives the robot); it still ends in arrival (at the navigator's goal, which the
 /// operator may have changed), no_route, stuck, collision or t_max.

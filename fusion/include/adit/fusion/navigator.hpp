@@ -160,7 +160,7 @@ class Navigator {
   NavigatorCycle cycleWithScan(double t_s, const local::RobotState& state, const SensorScan& scan,
                        const std::vector<map::MovingObstacle>& tracks, double dt_s);
 
-  // Operator commands (issue 11; console/doc/protocol.md). Call them between cycles, from the
+  // Operator commands (the operations console's, adit::console). Call them between cycles, from the
   // cycle's thread; the ones that replan do it at once from the position of the last cycle (or
   // plan()'s start) and take the exclusive lock.
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 /// @file
-/// Per-period sub-goal selection of Tian 2016 §2.3 (../shared/spec/algorithms.md §1.4): each
+/// Per-period sub-goal selection of Tian 2016 §2.3: each
 /// control period t0 the robot aims at a sub-goal in the annulus
 /// R ∈ [inner_ratio · v_max · t0, v_max · t0] around it (inner_ratio 3/5 by default; the paper's
 /// text also says 2/3).

@@ -117,7 +117,7 @@ class LocalPlanner {
   }
   void clearSubgoal() { has_subgoal_ = false; }
 
-  /// The operator's override (Guo 2022 §1, issue 11): until clearOverride(), step() takes
+  /// The operator's override (Guo 2022 §1; the operations console's `manual` command): until clearOverride(), step() takes
   /// `velocity` as the set-point in place of the attraction, and the progress monitor, the
   /// escapes and the arrival test rest (a robot driven by hand is neither stuck nor arrived).
   /// The local layer still keeps the robot safe: repulsion from moving obstacles and their

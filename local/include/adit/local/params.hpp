@@ -4,7 +4,7 @@
 /// Parameters of the local layer: one struct per potential-field model with the paper's values as
 /// defaults (and a named preset), the robot's limits, the progress monitor, and LocalParams that
 /// bundles them with the selected Method. Every struct has validate(), whose message names the
-/// field, the value and the rule. The formulas are restated in ../shared/spec/algorithms.md §1-4.
+/// field, the value and the rule. The formulas are the papers', cited at each field.
 ///
 ///   LocalParams p = LocalParams::preset(Method::kTian2016);
 ///   p.robot.v_max_mps = 1.0;

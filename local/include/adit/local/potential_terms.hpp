@@ -3,7 +3,8 @@
 /// @file
 /// The attraction and repulsion terms of the four papers as pure functions (no state, no
 /// allocation), so that tests can hold each force against a numerical gradient of its potential
-/// and the fusion layer can minimise the same potential. Formulas: ../shared/spec/algorithms.md.
+/// and the fusion layer can minimise the same potential. Formulas: the papers' equations,
+/// cited at each term (Tian 2016, Wang 2014, Guo 2022).
 ///
 /// Each term returns its potential U and the gradients of U with respect to the robot's position
 /// q, its (relative) velocity v and its (relative) acceleration a. The force is -(dq + dv + da)

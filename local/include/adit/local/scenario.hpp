@@ -2,7 +2,7 @@
 #pragma once
 /// @file
 /// A simulation scenario: the YAML schema of `adit simulate` as a struct, and its loader. The
-/// schema (issue 7) is fixed; fields marked "extension" are additions.
+/// schema is fixed; fields marked "extension" are additions.
 ///
 ///   map: ../district.bt          # optional: relative to the working directory, else to this file
 ///   start: [0, 0, 0]
@@ -50,7 +50,7 @@ struct NamedObstacle {
   map::MovingObstacle obstacle;  ///< position/velocity/acceleration at t = 0
 };
 
-/// Something that happens to the true world during the run (issue 8). Only `roof_fall`: at t_s the
+/// Something that happens to the true world during the run. Only `roof_fall`: at t_s the
 /// ball becomes rock; the robot learns it only through its sensor.
 struct ScenarioEvent {
   double t_s = 0.0;
@@ -59,7 +59,7 @@ struct ScenarioEvent {
   double radius_m = 1.0;
 };
 
-/// How the robot picks what it steers at (issue 8). kNone: the current break point of the
+/// How the robot picks what it steers at. kNone: the current break point of the
 /// expected path; kGaTrustRegion: every subgoal_period_s the point of the annulus around the robot
 /// that minimises the potential (adit::fusion::selectSubgoal; local does not depend on fusion).
 enum class SubgoalMode { kNone, kGaTrustRegion };

@@ -57,7 +57,7 @@ class Environment {
   std::unique_ptr<Impl> impl_;
 };
 
-/// kNoRoute (issue 8, the navigator's runs): every roadway to the goal is sealed; the robot stopped.
+/// kNoRoute (the navigator's runs): every roadway to the goal is sealed; the robot stopped.
 enum class Outcome { kArrived, kCollision, kStuck, kTimeout, kNoRoute };
 const char* outcomeName(Outcome o);
 
