@@ -36,7 +36,7 @@ PKGS=(cmake g++ make pkg-config
       libboost1.74-dev
       libgtest-dev libgmock-dev libbenchmark-dev
       libopen3d-dev libassimp-dev libdxflib-dev libpugixml-dev
-      libsqlite3-dev libpqxx-dev libjs-three libssl-dev)
+      libsqlite3-dev libpqxx-dev libjs-three libssl-dev doxygen)
 # What only the test suite needs: headless Chromium for the pages' browser tests; slurm-wlm and
 # munge for the campaign test's throw-away one-node Slurm cluster (tests/tools/campaign_slurm.sh
 # starts its own daemons, never the system's); PostgreSQL's server for the console store's

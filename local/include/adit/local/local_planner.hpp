@@ -15,6 +15,7 @@
 /// (zero set-points, status kRefused, a message). kArrived only when the centre is within
 /// MonitorParams::arrival_tolerance_m of the path's last point.
 ///
+/// @code
 ///   World world;  world.field = &field;                 // rock (optional: open space without)
 ///   StatusOr<LocalPlanner> planner = LocalPlanner::create(LocalParams::preset(Method::kTian2016), world);
 ///   for (;;) {                                           // every control period
@@ -23,6 +24,7 @@
 ///     if (c.status == StepStatus::kStuck) replan();
 ///     sendSetPoints(c.velocity, c.acceleration);
 ///   }
+/// @endcode
 
 #include <array>
 #include <cstddef>
