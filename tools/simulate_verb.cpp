@@ -605,8 +605,9 @@ int run(const SimulateArgs& a) {
       return report(s);
   }
   if (!a.quiet)
-    std::fprintf(stderr, "adit: simulating %s with %s (sub-goals: %s)\n", sc->name.c_str(), methodName(sc->params.method),
-                 subgoalModeName(sc->subgoal_mode));
+    std::fprintf(stderr, "adit: simulating %s with %s (sub-goals: %s) %s%s\n", sc->name.c_str(),
+                 methodName(sc->params.method), subgoalModeName(sc->subgoal_mode), sc->map_path ? "on " : "in open space",
+                 sc->map_path ? sc->map_path->c_str() : "");
   StatusOr<Environment> env = Environment::load(*sc);
   if (!env.ok()) return report(env.status());
   std::optional<fusion::NavigatedRun> nav;

@@ -193,9 +193,15 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
 
   if (const YAML::Node m = root["map"]) {
     const std::string p = m.as<std::string>();
+    // Relative to the scenario's own folder first, so that a scenario means the same map from
+    // wherever it is run; the working directory only when the scenario's folder has no such file
+    // (scripts written when that came first).
     fs::path resolved = p;
-    if (!fs::exists(resolved) && fs::path(p).is_relative()) resolved = fs::path(r.file()).parent_path() / p;
-    if (!fs::exists(resolved)) r.fail(m, "map", "no such file '" + p + "' (relative to the working directory or to the scenario)");
+    if (fs::path(p).is_relative()) {
+      const fs::path beside = fs::path(r.file()).parent_path() / p;
+      if (fs::exists(beside) || !fs::exists(resolved)) resolved = beside.lexically_normal();
+    }
+    if (!fs::exists(resolved)) r.fail(m, "map", "no such file '" + p + "' (relative to the scenario, or to the working directory)");
     s.map_path = resolved.string();
   }
   for (const char* k : {"start", "goal"})

@@ -2,7 +2,10 @@
 // The scenario loader: the schema, defaults, and errors that name the field.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <limits>
+#include <unistd.h>
 
 #include "adit/local/scenario.hpp"
 #include "adit/local/simulator.hpp"
@@ -33,6 +36,36 @@ TEST(Scenario, ParsesTheIssueExample) {
   ASSERT_EQ(s->moving_obstacles.size(), 1u);
   EXPECT_EQ(s->moving_obstacles[0].obstacle.acceleration, Vec3(0.036, 0.16, 0));
   EXPECT_EQ(s->name, "good");
+}
+
+// A relative `map:` means the file beside the scenario, whatever the working directory holds; the
+// working directory only when the scenario's folder has no such file.
+TEST(Scenario, ARelativeMapIsTheOneBesideTheScenario) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("adit_scenario_map_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "scenarios");
+  std::ofstream(dir / "scenarios" / "m.yaml") << "beside\n";
+  std::ofstream(dir / "m.yaml") << "in the working directory\n";
+  std::ofstream(dir / "only_here.yaml") << "only in the working directory\n";
+  const fs::path cwd = fs::current_path();
+  fs::current_path(dir);
+  const std::string file = (dir / "scenarios" / "s.yaml").string();
+  StatusOr<Scenario> beside = parseScenario(std::string(kGood) + "map: m.yaml\n", file);
+  StatusOr<Scenario> fallback = parseScenario(std::string(kGood) + "map: only_here.yaml\n", file);
+  StatusOr<Scenario> missing = parseScenario(std::string(kGood) + "map: nowhere.yaml\n", file);
+  fs::current_path(cwd);
+  ASSERT_TRUE(beside.ok()) << beside.status().message();
+  ASSERT_TRUE(beside->map_path);
+  EXPECT_EQ(fs::path(*beside->map_path), dir / "scenarios" / "m.yaml");
+  ASSERT_TRUE(fallback.ok()) << fallback.status().message();
+  ASSERT_TRUE(fallback->map_path);
+  EXPECT_EQ(fs::path(*fallback->map_path), fs::path("only_here.yaml"));
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.status().message().find("no such file 'nowhere.yaml' (relative to the scenario, or to the working directory)"),
+            std::string::npos)
+      << missing.status().message();
+  fs::remove_all(dir);
 }
 
 void expectError(const std::string& text, const std::string& needle) {

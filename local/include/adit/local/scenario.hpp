@@ -4,7 +4,7 @@
 /// A simulation scenario: the YAML schema of `adit simulate` as a struct, and its loader. The
 /// schema is fixed; fields marked "extension" are additions.
 ///
-///   map: ../district.bt          # optional: relative to the working directory, else to this file
+///   map: ../district.bt          # optional: relative to this file (else to the working directory)
 ///   start: [0, 0, 0]
 ///   goal: [14, 14, 0]
 ///   expected_path: [[0,0,0], [4.9,5,0], [10.8,6.2,0], [14,14,0]]   # optional: straight line
