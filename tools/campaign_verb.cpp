@@ -453,7 +453,7 @@ void registerCampaignVerb(CLI::App& app, int* rc) {
       "Merge every shard of a campaign into one report (JSON on stdout or --out); exit 2 on missing, "
       "duplicate or foreign shards, 1 if a scenario errored or an arrival collided");
   mg->add_option("INPUTS", args->inputs, "Campaign directories or shard JSON files")->required();
-  mg->add_option("--out", args->report, "Write the report here (atomically) instead of stdout");
+  mg->add_option("-o,--out", args->report, "Write the report here (atomically) instead of stdout");
   mg->add_option("--csv", args->csv, "Also write every shard's rows, sorted by index, into this CSV");
   mg->add_option("--html", args->html,
                  "Also write the report as a page (.html, offline): outcomes, success rate by scenario feature, "

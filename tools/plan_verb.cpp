@@ -182,7 +182,7 @@ void registerPlanVerb(CLI::App& app, int* rc) {
   cmd->add_option("--max-slope", a->max_slope, "Ground mode: steepest floor the robot climbs [deg]")->capture_default_str();
   cmd->add_option("--unknown", a->unknown, "Unknown space counts as: rock (default) or free")->capture_default_str()
       ->check(CLI::IsMember({"rock", "free"}));
-  cmd->add_option("--out", a->out, "Write the result to a .json or .csv file (default: JSON on stdout)");
+  cmd->add_option("-o,--out", a->out, "Write the result to a .json or .csv file (default: JSON on stdout)");
   cmd->add_option("--picture", a->picture, "Draw the map, path, break points and side profile (.png/.svg)");
   cmd->add_flag("--refine", a->refine,
                 "Refine the break points jointly (genetic trust region): minimise length + --clearance-weight x\n"

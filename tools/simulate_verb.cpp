@@ -782,7 +782,7 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
       "Run a scenario (YAML) through the local planner. JSON on stdout or --out; exit 0 arrived, "
       "1 collision/stuck/timeout/no_route, 2 bad scenario");
   cmd->add_option("SCENARIO", args->scenario, "Scenario file (.yaml); with --batch, optional: its robot and method");
-  cmd->add_option("--out", args->out, "Write the JSON (with --batch: the summary) here instead of stdout (atomically)");
+  cmd->add_option("-o,--out", args->out, "Write the JSON (with --batch: the summary) here instead of stdout (atomically)");
   cmd->add_option("--batch", args->batch,
                   "Run N randomized navigated scenarios on --map (start/goal on the roadways, vehicles, roof "
                   "falls); JSON summary; exit 1 if a run errored or an arrival collided");

@@ -151,6 +151,13 @@ Status writeThrough(const std::string& path, const fs::path& target,
 }  // namespace
 
 Status writeFileAtomically(const std::string& path, const std::function<bool(std::ostream&)>& write) {
+  // A device or pipe is asked of the kernel first: /dev/stdout on a pipe links to
+  // "/proc/self/fd/pipe:[N]", which is no path to resolve, but opening /dev/stdout works.
+  {
+    std::error_code ec;
+    const fs::file_type type = fs::status(path, ec).type();
+    if (!ec && (type == fs::file_type::character || type == fs::file_type::fifo)) return writeThrough(path, path, write);
+  }
   StatusOr<fs::path> resolved = resolveSymlinks(path);
   if (!resolved.ok()) return resolved.status();
   const fs::path target = *resolved;

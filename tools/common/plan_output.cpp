@@ -75,7 +75,14 @@ StatusOr<PlanFormat> planFormatFromPath(const std::string& path) {
   for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".json") return PlanFormat::kJson;
   if (ext == ".csv") return PlanFormat::kCsv;
-  return invalidArgument("--out " + path + ": expected a .json or .csv file");
+  // A device or a pipe (/dev/null, /dev/stdout, a FIFO a script reads) has no extension to go by:
+  // it gets what stdout would, JSON.
+  std::error_code ec;
+  const auto type = std::filesystem::status(path, ec).type();
+  if (!ec && (type == std::filesystem::file_type::character || type == std::filesystem::file_type::fifo))
+    return PlanFormat::kJson;
+  if (path.rfind("/dev/", 0) == 0) return PlanFormat::kJson;  // /dev/stdout redirected to a file
+  return invalidArgument("--out " + path + ": expected a .json or .csv file (or a device or FIFO, written as JSON)");
 }
 
 std::string breakPointLabel(std::size_t index) {
