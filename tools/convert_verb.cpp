@@ -18,6 +18,7 @@
 #include "adit/map/readers/dxf.hpp"
 #include "adit/map/readers/import.hpp"
 #include "adit/map/readers/ros_map.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
 #include "common/points_csv.hpp"
@@ -167,7 +168,7 @@ void addConvertOptions(CLI::App* cmd, ConvertArgs* a) {
   cmd->add_option("--hull-cell", a->hull_cell, "Hull test on lines this thick [m] (default: one voxel); "
                                                "raise it for sparse scans");
   cmd->add_option("--max-ray", a->max_ray, "With --trajectory: ignore points farther than this from every pose [m]");
-  cmd->add_option("--max-memory-mb", a->max_memory_mb, "Refuse imports whose working grid exceeds this (default 4096)");
+  cmd->add_option("--max-memory-mb", a->max_memory_mb, "Deprecated: --max-memory SIZE (kept for old scripts; warns)");
   cmd->add_option("--max-points", a->max_points, "Refuse files announcing more points (default 5e8)");
   cmd->add_option("--sections", a->sections, "DXF centrelines: YAML of cross-sections by layer (survey schema: "
                                              "sections: {LAYER: {shape: arch, width: 5, wall_height: 3}})");
@@ -197,8 +198,19 @@ int runImportConvert(const ConvertArgs& a) {
     if (!o.ok()) return report(o.status());
     requested_origin = *o;
   }
-  if (!(a.max_points >= 1) || !(a.max_memory_mb >= 1))
-    return report(invalidArgument("--max-points and --max-memory-mb must be >= 1"));
+  if (!(a.max_points >= 1)) return report(invalidArgument("--max-points must be >= 1"));
+  // One budget, --max-memory (default 4G here: the working grid of a scan is the import's size).
+  std::uint64_t max_memory_bytes = std::uint64_t{4} << 30;
+  if (a.max_memory_mb) {
+    if (!a.max_memory.empty()) return report(invalidArgument("give --max-memory or the old --max-memory-mb, not both"));
+    if (!(*a.max_memory_mb >= 1) || *a.max_memory_mb > 1e9) return report(invalidArgument("--max-memory-mb must be in 1..1e9"));
+    std::fprintf(stderr, "adit: warning: --max-memory-mb is deprecated; use --max-memory %.0fM\n", *a.max_memory_mb);
+    max_memory_bytes = std::uint64_t(*a.max_memory_mb * 1048576.0);
+  } else if (!a.max_memory.empty()) {
+    StatusOr<std::uint64_t> bytes = parseByteSize(a.max_memory);
+    if (!bytes.ok()) return report(invalidArgument("--max-memory: " + bytes.status().message()));
+    max_memory_bytes = *bytes;
+  }
   ProgressBar bar(a.quiet);
   const std::string ext = lowerExtension(a.in);
   const bool is_dxf = ext == ".dxf";
@@ -218,7 +230,7 @@ int runImportConvert(const ConvertArgs& a) {
   p.closing_radius_m = a.close;
   p.max_ray_m = a.max_ray;
   p.hull_cell_m = a.hull_cell;
-  p.max_memory_bytes = std::uint64_t(a.max_memory_mb * 1048576.0);
+  p.max_memory_bytes = max_memory_bytes;
   p.unknown_policy = *policy;
   std::optional<Vec3> seed_in;
   if (!a.seed.empty()) {

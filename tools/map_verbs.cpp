@@ -34,7 +34,7 @@ struct MapArgs {
   std::string path;
   std::string unknown = "rock";
   bool quiet = false;
-  std::string max_memory = "2G";
+  std::string max_memory;  // empty: 2G (budgetOf), 4G for an import (runImportConvert)
   std::string crop;
 };
 
@@ -44,7 +44,8 @@ void addMapArgs(CLI::App* cmd, MapArgs* a) {
       ->check(CLI::IsMember({"rock", "free"}));
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
   cmd->add_option("--max-memory", a->max_memory,
-                  "Refuse work estimated to need more memory than this (e.g. 512M, 8G; default 2G)");
+                  "Refuse work estimated to need more memory than this (e.g. 512M, 8G; default 2G, 4G for a "
+                  "scan or mesh import's working grid)");
   cmd->add_option("--crop", a->crop,
                   "Only the part of the map inside xmin,ymin,zmin,xmax,ymax,zmax (metres); a survey is cut "
                   "before it is voxelized");
@@ -52,7 +53,7 @@ void addMapArgs(CLI::App* cmd, MapArgs* a) {
 
 // --max-memory as a budget (also used by the verbs for what they build after loading).
 StatusOr<MemoryBudget> budgetOf(const MapArgs& a) {
-  StatusOr<std::uint64_t> bytes = parseByteSize(a.max_memory);
+  StatusOr<std::uint64_t> bytes = parseByteSize(a.max_memory.empty() ? std::string("2G") : a.max_memory);
   if (!bytes.ok()) return invalidArgument("--max-memory: " + bytes.status().message());
   return MemoryBudget{*bytes};
 }
@@ -159,6 +160,7 @@ int runConvert(const MapArgs& a, const std::string& out, ConvertArgs c) {
   c.out = out;
   c.unknown = a.unknown;
   c.quiet = a.quiet;
+  c.max_memory = a.max_memory;
   if (needsImport(c)) return runImportConvert(c);
   StatusOr<MapFormat> target = formatFromPath(out);
   if (!target.ok()) return report(target.status());

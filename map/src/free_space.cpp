@@ -115,7 +115,7 @@ class Grid {
       std::ostringstream os;
       os << "the input's box spans " << n[0] << " x " << n[1] << " x " << n[2] << " voxels; its brick table alone needs "
          << (table * 4 >> 20) << " MiB (budget " << (budget >> 20)
-         << " MiB): use a coarser --resolution, crop the input, or raise --max-memory-mb";
+         << " MiB): use a coarser --resolution, crop the input, or raise --max-memory";
       return outOfRange(os.str());
     }
     g.table_.assign(table, 0);
@@ -182,7 +182,7 @@ bool eachNeighbour(const Cell& c, Fn&& fn) {
 Status budgetError(const Grid& g, const char* stage) {
   std::ostringstream os;
   os << stage << ": the working grid reached its memory budget (" << (g.bytes() >> 20)
-     << " MiB); use a coarser --resolution, a smaller --max-wall-distance, or raise --max-memory-mb";
+     << " MiB); use a coarser --resolution, a smaller --max-wall-distance, or raise --max-memory";
   return outOfRange(os.str());
 }
 
