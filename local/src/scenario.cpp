@@ -372,6 +372,11 @@ Status Scenario::validate() const {
 StatusOr<Scenario> parseScenario(const std::string& text, const std::string& file) {
   try {
     const YAML::Node root = YAML::Load(text);
+    // A survey map handed over as a scenario would fail on its first key ("resolution: unknown
+    // field"); say what it is and what to do with it instead.
+    if (root.IsMap() && root["stations"] && root["roadways"] && !root["start"])
+      return invalidArgument(file + ": this is a survey map, not a scenario: name it as `map:` in a scenario, or plan on it "
+                                    "with `adit plan --map " + file + "`");
     return parse(root, Reader(file));
   } catch (const ScenarioError& e) {
     return e.status;

@@ -68,6 +68,14 @@ TEST(Scenario, ARelativeMapIsTheOneBesideTheScenario) {
   fs::remove_all(dir);
 }
 
+TEST(Scenario, ASurveyMapIsNamedAsSuchNotParsedAsAScenario) {
+  const StatusOr<Scenario> s = loadScenario(std::string(ADIT_MAPS_DIR) + "/scenarios/sealed_roadway_map.yaml");
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.status().message().find("sealed_roadway_map.yaml: this is a survey map, not a scenario"), std::string::npos)
+      << s.status().message();
+  EXPECT_NE(s.status().message().find("adit plan --map"), std::string::npos);
+}
+
 void expectError(const std::string& text, const std::string& needle) {
   StatusOr<Scenario> s = parseScenario(text, "bad.yaml");
   ASSERT_FALSE(s.ok()) << "accepted: " << text;
