@@ -89,7 +89,7 @@ Status wordOf(const Json& v, const std::string& name, std::string* out) {
   if (!v.is_string()) return refuse("field '" + name + "' must be a string");
   *out = v.get<std::string>();
   if (out->size() > kMaxWordLength)
-    return refuse("field '" + name + "' is longer than " + std::to_string(kMaxWordLength) + " characters");
+    return refuse("field '" + name + "' is longer than " + std::to_string(kMaxWordLength) + " bytes (UTF-8)");
   return Status::okStatus();
 }
 

@@ -45,7 +45,7 @@ const char* typeOf(const Body& body);
 /// The one parser of a robot → centre message (robot and seq aside), used by both ends: the robot
 /// link reads what it is asked to send with it before queueing, the centre what arrives. `type`, a
 /// finite `t` and every field of the type: numbers finite, points [x, y, z], lists at most
-/// kMaxPoints, statuses and results from their sets, names and labels at most 64 characters.
+/// kMaxPoints, statuses and results from their sets, names and labels at most 64 bytes.
 StatusOr<Body> parseBody(const Json& j);
 
 /// What the centre reads from a robot after hello: parseBody, plus robot and seq >= 1 in range.

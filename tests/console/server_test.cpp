@@ -936,7 +936,7 @@ TEST_F(ServerTest, TheTypedMessagesOfARobotAreStoredAsSent) {
   EXPECT_EQ(refused.status().message(), "link: unknown status 'dancing'");
   Plan long_label = plan;
   long_label.labels = {std::string(65, 'L')};
-  EXPECT_EQ((*link)->send(long_label).status().message(), "link: field 'labels[0]' is longer than 64 characters");
+  EXPECT_EQ((*link)->send(long_label).status().message(), "link: field 'labels[0]' is longer than 64 bytes (UTF-8)");
   Event no_kind = event;
   no_kind.kind = std::string(5000, 'k');  // also over the 4 KiB of a small message
   EXPECT_FALSE((*link)->send(no_kind).ok());
