@@ -14,6 +14,7 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/map_summary.hpp"
+#include "adit/map/readers/import.hpp"
 #include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
@@ -83,7 +84,53 @@ std::string fmtCount(std::uint64_t n) {
   return s;
 }
 
+// A scan or a mesh is not a voxel map yet: what the file itself holds (its points or triangles,
+// their bounds, a recorded viewpoint) and how to make it one.
+int runGeometryInfo(const MapArgs& a, bool json) {
+  StatusOr<Geometry> g = readGeometry(a.path);
+  if (!g.ok()) return report(g.status());
+  Aabb box;
+  for (const Vec3& p : g->points) {
+    box.min = box.min.cwiseMin(p);
+    box.max = box.max.cwiseMax(p);
+  }
+  const char* kind = g->isMesh() ? "mesh" : "point_cloud";
+  const std::string next = "adit map convert " + a.path + " OUT.bt --seed X,Y,Z (a point inside a roadway)" +
+                           (g->isMesh() ? "" : " or --trajectory POSES.csv");
+  if (json) {
+    nlohmann::ordered_json j;
+    j["file"] = a.path;
+    j["format"] = kind;
+    j[g->isMesh() ? "vertices" : "points"] = g->points.size();
+    j["triangles"] = g->triangles.size();
+    if (g->points.empty()) j["bounds"] = nullptr;
+    else j["bounds"] = {{"min", {box.min.x(), box.min.y(), box.min.z()}}, {"max", {box.max.x(), box.max.y(), box.max.z()}}};
+    j["viewpoint"] = g->viewpoint ? nlohmann::ordered_json({g->viewpoint->x(), g->viewpoint->y(), g->viewpoint->z()})
+                                  : nlohmann::ordered_json();
+    j["to_voxel_map"] = next;
+    std::cout << j.dump(2) << "\n";
+    return kExitOk;
+  }
+  std::printf("file         %s\n", a.path.c_str());
+  if (g->isMesh())
+    std::printf("mesh         %s vertices, %s triangles\n", fmtCount(g->points.size()).c_str(),
+                fmtCount(g->triangles.size()).c_str());
+  else
+    std::printf("point cloud  %s points\n", fmtCount(g->points.size()).c_str());
+  if (!g->points.empty()) {
+    const Vec3 size = box.size();
+    std::printf("bounds       x [%.2f, %.2f]  y [%.2f, %.2f]  z [%.2f, %.2f] m\n", box.min.x(), box.max.x(), box.min.y(),
+                box.max.y(), box.min.z(), box.max.z());
+    std::printf("size         %.1f x %.1f x %.1f m\n", size.x(), size.y(), size.z());
+  }
+  if (g->viewpoint)
+    std::printf("viewpoint    %.2f, %.2f, %.2f\n", g->viewpoint->x(), g->viewpoint->y(), g->viewpoint->z());
+  std::printf("voxel map    none yet: %s\n", next.c_str());
+  return kExitOk;
+}
+
 int runInfo(const MapArgs& a, bool json) {
+  if (isImportFormat(a.path)) return runGeometryInfo(a, json);
   ProgressBar bar(a.quiet);
   StatusOr<LoadedMap> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
@@ -257,7 +304,8 @@ void registerMapVerbs(CLI::App& app, int* rc) {
   {
     auto a = std::make_shared<MapArgs>();
     auto json = std::make_shared<bool>(false);
-    CLI::App* cmd = map->add_subcommand("info", "Resolution, bounds, free/occupied/unknown volumes, roadway length");
+    CLI::App* cmd = map->add_subcommand("info", "Resolution, bounds, free/occupied/unknown volumes, roadway length "
+                                                "(of a scan or mesh: its points, bounds and how to convert it)");
     addMapArgs(cmd, a.get());
     cmd->add_flag("--json", *json, "Machine-readable JSON on stdout");
     cmd->callback([=] { *rc = runInfo(*a, *json); });
@@ -270,6 +318,8 @@ void registerMapVerbs(CLI::App& app, int* rc) {
         "convert", "Convert a survey .yaml, a point cloud (.pcd .ply .xyz .csv .las) or a mesh (.stl .obj .ply .dae) "
                    "to an OctoMap .bt/.ot file");
     addMapArgs(cmd, a.get());
+    cmd->get_option("MAP")->description("Input: survey .yaml, OctoMap .bt/.ot, point cloud (.pcd .ply .xyz .csv .las), "
+                                        "mesh (.stl .obj .ply .dae), DXF centrelines or a ROS map_server .yaml");
     cmd->add_option("OUT", *out, "Output .bt or .ot (written atomically: never a half file)")->required();
     addConvertOptions(cmd, c.get());
     cmd->callback([=] { *rc = runConvert(*a, *out, *c); });
