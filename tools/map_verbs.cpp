@@ -90,10 +90,7 @@ int runGeometryInfo(const MapArgs& a, bool json) {
   StatusOr<Geometry> g = readGeometry(a.path);
   if (!g.ok()) return report(g.status());
   Aabb box;
-  for (const Vec3& p : g->points) {
-    box.min = box.min.cwiseMin(p);
-    box.max = box.max.cwiseMax(p);
-  }
+  for (const Vec3& p : g->points) box.extend(p);
   const char* kind = g->isMesh() ? "mesh" : "point_cloud";
   const std::string next = "adit map convert " + a.path + " OUT.bt --seed X,Y,Z (a point inside a roadway)" +
                            (g->isMesh() ? "" : " or --trajectory POSES.csv");

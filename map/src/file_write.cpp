@@ -139,9 +139,8 @@ bool runWriter(const std::function<bool(std::ostream&)>& write, std::ofstream& o
 
 // A character device or FIFO is written in place: replacing it with a regular file would destroy
 // it (and the reader of a FIFO would never see the data). Such a write cannot be atomic.
-Status writeThrough(const std::string& path, const fs::path& target,
-                    const std::function<bool(std::ostream&)>& write) {
-  std::ofstream out(target, std::ios::binary | std::ios::out);
+Status writeThrough(const std::string& path, const std::function<bool(std::ostream&)>& write) {
+  std::ofstream out(path, std::ios::binary | std::ios::out);
   if (!out) return invalidArgument(path + ": cannot open for writing: " + std::strerror(errno));
   std::string why;
   if (!runWriter(write, out, &why)) return internalError(path + ": " + why);
@@ -156,7 +155,7 @@ Status writeFileAtomically(const std::string& path, const std::function<bool(std
   {
     std::error_code ec;
     const fs::file_type type = fs::status(path, ec).type();
-    if (!ec && (type == fs::file_type::character || type == fs::file_type::fifo)) return writeThrough(path, path, write);
+    if (!ec && (type == fs::file_type::character || type == fs::file_type::fifo)) return writeThrough(path, write);
   }
   StatusOr<fs::path> resolved = resolveSymlinks(path);
   if (!resolved.ok()) return resolved.status();
@@ -170,9 +169,6 @@ Status writeFileAtomically(const std::string& path, const std::function<bool(std
       break;
     case fs::file_type::directory:
       return invalidArgument(shown + ": is a directory");
-    case fs::file_type::character:
-    case fs::file_type::fifo:
-      return writeThrough(path, target, write);
     case fs::file_type::block:
       return invalidArgument(shown + ": is a block device; adit does not write to block devices");
     case fs::file_type::socket:
