@@ -11,6 +11,7 @@
 #include <optional>
 #include <sstream>
 
+#include "adit/global/global_planner.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/map_summary.hpp"
@@ -18,6 +19,8 @@
 #include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
+#include "common/graph_output.hpp"
+#include "common/plan_output.hpp"
 #include "common/points_csv.hpp"
 #include "common/progress.hpp"
 #include "common/render_topview.hpp"
@@ -294,6 +297,90 @@ int runSlice(const MapArgs& a, const std::optional<double>& z, double band, doub
 
 }  // namespace
 
+struct GraphArgs {
+  std::string robot = "sphere:0.4", mode = "fly", out, picture;
+  double margin = 0.2, slice = 1.0;
+  bool json = false;
+};
+
+// The roadway network the planner routes on, as adit sees it for this robot.
+int runGraph(const MapArgs& a, const GraphArgs& g) {
+  if (isImportFormat(a.path))
+    return report(invalidArgument(a.path + " is a scan or a mesh, not a voxel map yet: adit map convert " + a.path +
+                                  " OUT.bt --seed X,Y,Z first"));
+  global::GlobalPlannerParams params;
+  StatusOr<RobotShape> robot = parseRobot(g.robot);
+  if (!robot.ok()) return report(invalidArgument("--robot: " + robot.status().message()));
+  params.robot = *robot;
+  StatusOr<global::PlanMode> mode = global::parsePlanMode(g.mode);
+  if (!mode.ok()) return report(invalidArgument("--mode: " + mode.status().message()));
+  params.mode = *mode;
+  params.safety_margin_m = g.margin;
+  params.skeleton_cell_m = g.slice;
+  if (Status s = params.validate(); !s.ok()) return report(s);
+  for (const std::string* f : {&g.out, &g.picture}) {
+    if (f->empty()) continue;
+    std::string ext = std::filesystem::path(*f).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    const bool ok = f == &g.out ? (ext == ".json" || ext == ".geojson" || ext == ".dxf") : (ext == ".png" || ext == ".svg");
+    if (!ok)
+      return report(invalidArgument((f == &g.out ? "--out " : "--picture ") + *f +
+                                    (f == &g.out ? ": expected a .json, .geojson or .dxf file" : ": expected a .png or .svg file")));
+  }
+  StatusOr<MemoryBudget> budget = budgetOf(a);
+  if (!budget.ok()) return report(budget.status());
+  if (!a.max_memory.empty()) params.max_graph_memory_bytes = budget->max_bytes;
+  ProgressBar bar(a.quiet);
+  StatusOr<LoadedMap> loaded = load(a, bar);
+  if (!loaded.ok()) return report(loaded.status());
+  StatusOr<DistanceField> field = DistanceField::build(loaded->map, bar.callback());
+  bar.finish();
+  if (!field.ok()) return report(field.status());
+  const SurveyNetwork* survey = loaded->survey ? &*loaded->survey : nullptr;
+  StatusOr<global::GlobalPlanner> planner = global::GlobalPlanner::create(loaded->map, *field, params, survey);
+  if (!planner.ok()) return report(planner.status());
+  const global::RoadwayGraph& graph = planner->graph();
+  GraphContext c;
+  c.map_path = a.path;
+  c.source = survey ? "survey" : "free_space";
+  c.robot = g.robot;
+  c.margin_m = g.margin;
+  c.required_clearance_m = planner->requiredClearance();
+  if (!g.out.empty()) {
+    if (Status s = writeGraph(graph, *field, c, g.out); !s.ok()) return report(s);
+  }
+  if (!g.picture.empty()) {
+    const std::string title = "Roadway graph of " + std::filesystem::path(a.path).filename().string() + " (" +
+                              (survey ? "survey" : "free space, " + g.robot) + ")";
+    if (Status s = drawGraph(loaded->map, graph, title, g.picture); !s.ok()) return report(s);
+  }
+  if (g.json) {
+    std::cout << graphJson(graph, *field, c).dump(2) << "\n";
+    return finishStdout(kExitOk);
+  }
+  int junctions = 0, ends = 0;
+  for (std::size_t n = 0; n < graph.nodes().size(); ++n) {
+    const std::string kind = nodeKind(graph, int(n));
+    junctions += kind == "junction";
+    ends += kind == "end";
+  }
+  std::printf("map          %s\n", a.path.c_str());
+  std::printf("graph        %s, for %s with %.2f m margin (clearance >= %.2f m)\n",
+              survey ? "the survey's roadways" : "the robot's free space", g.robot.c_str(), g.margin,
+              planner->requiredClearance());
+  std::printf("network      %zu edges, %.1f m; %d junctions, %d ends\n", graph.edges().size(), graph.totalLength(),
+              junctions, ends);
+  if (graph.fromFreeSpaceMap()) {
+    const global::FreeSpaceGraphInfo& i = graph.freeSpaceInfo();
+    std::printf("built        %s voxels in %llu connected part%s, %llu slice pieces, %llu short branches folded; "
+                "%.2f s, %.1f MiB\n",
+                fmtCount(i.voxels).c_str(), static_cast<unsigned long long>(i.regions), i.regions == 1 ? "" : "s",
+                static_cast<unsigned long long>(i.pieces), static_cast<unsigned long long>(i.folded_branches),
+                i.seconds, double(i.memory_bytes) / (1 << 20));
+  }
+  return finishStdout(kExitOk);
+}
+
 void registerMapVerbs(CLI::App& app, int* rc) {
   CLI::App* map = app.add_subcommand("map", "Inspect, convert, query and draw mine maps");
   map->require_subcommand(1);
@@ -355,6 +442,22 @@ void registerMapVerbs(CLI::App& app, int* rc) {
       if (zopt->count() > 0) zz = *z;
       *rc = runSlice(*a, zz, *band, *ppm, *out, *title);
     });
+  }
+  {
+    auto a = std::make_shared<MapArgs>();
+    auto g = std::make_shared<GraphArgs>();
+    CLI::App* cmd = map->add_subcommand(
+        "graph", "The roadway network adit routes on (the survey's, or built from the robot's free space): "
+                 "summary, JSON/GeoJSON/DXF and a picture");
+    addMapArgs(cmd, a.get());
+    cmd->add_option("--robot", g->robot, "sphere:r | capsule:r,len | box:x,y,z | cylinder:r,h  [m]")->capture_default_str();
+    cmd->add_option("--margin", g->margin, "Safety margin kept from rock beyond the robot [m]")->capture_default_str();
+    cmd->add_option("--mode", g->mode, "fly or ground")->capture_default_str();
+    cmd->add_option("--slice", g->slice, "Free-space graph: thickness of its geodesic slices [m]")->capture_default_str();
+    cmd->add_option("-o,--out", g->out, "Write the graph: .json, .geojson (LineStrings, map metres) or .dxf (3-D polylines)");
+    cmd->add_option("--picture", g->picture, "Top view of the graph over the map (.png or .svg)");
+    cmd->add_flag("--json", g->json, "The graph as JSON on stdout instead of the summary");
+    cmd->callback([=] { *rc = runGraph(*a, *g); });
   }
 }
 

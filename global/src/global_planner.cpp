@@ -302,6 +302,12 @@ std::vector<Vec3> subdivide(const RobotValidity& v, const std::vector<Vec3>& p, 
   return out;
 }
 
+double polylineLength(const std::vector<Vec3>& p) {
+  double sum = 0;
+  for (std::size_t i = 0; i + 1 < p.size(); ++i) sum += (p[i + 1] - p[i]).norm();
+  return sum;
+}
+
 Status validatePoints(const RobotValidity& v, const std::vector<Vec3>& p) {
   if (p.empty()) return invalidArgument("empty path");
   if (p.size() == 1 && !v.stateValid(p[0])) return invalidArgument("the single point " + fmt(p[0]) + " is not valid");
@@ -382,11 +388,14 @@ StatusOr<GlobalPlanner> GlobalPlanner::create(const map::OccupancyMap& map, cons
       ADIT_ASSIGN_OR_RETURN(impl->graph, RoadwayGraph::fromSurvey(*survey));
       impl->from_survey = true;
     } else {
+      FreeSpaceGraphOptions options;
+      options.slice_m = params.skeleton_cell_m;
+      options.max_memory_bytes = params.max_graph_memory_bytes;
       ADIT_ASSIGN_OR_RETURN(impl->graph, RoadwayGraph::fromFreeSpace(map, field,
-                                                                     impl->validity->requiredClearance(),
-                                                                     params.skeleton_cell_m));
+                                                                     impl->validity->requiredClearance(), options));
     }
-    impl->graph.refreshBlocked(field, impl->validity->requiredClearance());
+    // A free-space graph is built on this field: every passage is open by construction.
+    if (impl->from_survey) impl->graph.refreshBlocked(field, impl->validity->requiredClearance());
   }
   // Libraries do not print: OMPL's console output is off.
   ompl::msg::noOutputHandler();
@@ -410,6 +419,7 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
 
   // Route on the roadway graph; the corridor is where OMPL may go.
   std::unique_ptr<Corridor> corridor;
+  std::vector<Vec3> route_axis;  // start, the route's axis, goal: a path whenever it is valid
   const double res = field->resolution();
   if (params.use_roadway_graph) {
     EdgeFilter climbable;
@@ -440,6 +450,7 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     }
     result.route = route->roadways;
     result.route_edges = route->edges;
+    route_axis = route->axis.points;
     corridor = std::make_unique<Corridor>(*route, from_survey ? res : 0.5 * params.skeleton_cell_m);
   } else {
     corridor = std::make_unique<Corridor>(map->bounds());
@@ -488,6 +499,27 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
       if (!have_solution.exchange(true)) first_time = seconds(t0, Clock::now());
     });
 
+    // A search may find nothing in a long corridor (a whole mine, thousands of metres) though a
+    // path exists: the route's own axis is one whenever it is valid. Shortened with the same
+    // re-validated steps as a search's path, it is the first solution, and the answer when the
+    // search finds none or a longer one.
+    std::vector<Vec3> axis_path;
+    double axis_time = 0.0;
+    if (route_axis.size() >= 2 && validatePoints(val, route_axis).ok()) {
+      axis_path = route_axis;
+      auto accept = [&](std::vector<Vec3> candidate) {
+        if (candidate.size() >= 2 && candidate.front() == axis_path.front() &&
+            candidate.back() == axis_path.back() && validatePoints(val, candidate).ok())
+          axis_path = std::move(candidate);
+      };
+      accept(shortcut(val, axis_path));
+      accept(relax(val, subdivide(val, axis_path, 4.0), 40));
+      accept(shortcut(val, axis_path));
+      accept(relax(val, axis_path, 40));
+      accept(mergeCloseBreakPoints(val, axis_path, 3.0, 0.05));
+      axis_time = seconds(t0, Clock::now());
+    }
+
     ob::PlannerPtr planner;
     // Range: OMPL's default (a fifth of the bounds' extent). Measured on the district, shorter
     // steps (6 m, 20 m) made RRT* miss the 2 s budget more often; roadways are long and straight.
@@ -527,7 +559,11 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     result.time_limited = timed_out;
     result.iterations = iterations;
     const bool exact = status == ob::PlannerStatus::EXACT_SOLUTION;
-    if (!exact && status != ob::PlannerStatus::APPROXIMATE_SOLUTION) {
+    if (!exact && !axis_path.empty()) {
+      result.first_solution_time_s = axis_time;
+      result.from_route_axis = true;
+      result.path.points = axis_path;
+    } else if (!exact && status != ob::PlannerStatus::APPROXIMATE_SOLUTION) {
       result.outcome = GlobalPlanOutcome::kTimeout;
       std::ostringstream m;
       if (iteration_capped)
@@ -538,50 +574,56 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
       if (!result.route.empty()) m << " in the corridor of the route through " << result.route.size() << " roadways";
       result.message = m.str();
       return finish(result);
-    }
-    result.first_solution_time_s = first_time >= 0 ? first_time : seconds(t0, Clock::now());
-    auto path = pdef->getSolutionPath()->as<og::PathGeometric>();
-    og::PathGeometric work(*path);
-    result.ompl_vertices = work.getStateCount();
-    auto points = [](const og::PathGeometric& p) {
-      std::vector<Vec3> v;
-      for (std::size_t i = 0; i < p.getStateCount(); ++i) v.push_back(toVec(p.getState(i)));
-      return v;
-    };
-    std::vector<Vec3> best = points(work);
-    if (!exact) {
-      result.outcome = GlobalPlanOutcome::kApproximateSolution;
+    } else {
+      result.first_solution_time_s = first_time >= 0 ? first_time : seconds(t0, Clock::now());
+      auto path = pdef->getSolutionPath()->as<og::PathGeometric>();
+      og::PathGeometric work(*path);
+      result.ompl_vertices = work.getStateCount();
+      auto points = [](const og::PathGeometric& p) {
+        std::vector<Vec3> v;
+        for (std::size_t i = 0; i < p.getStateCount(); ++i) v.push_back(toVec(p.getState(i)));
+        return v;
+      };
+      std::vector<Vec3> best = points(work);
+      if (!exact) {
+        result.outcome = GlobalPlanOutcome::kApproximateSolution;
+        result.path.points = best;
+        result.length_m = result.path.length();
+        result.message = "only an approximate path (ending " + fmt(best.back()) + ", " +
+                         std::to_string((best.back() - goal).norm()) + " m short of the goal) " +
+                         (iteration_capped ? "in " + std::to_string(params.max_unsolved_iterations) + " iterations"
+                                           : std::string("within the budget"));
+        return finish(result);
+      }
+      Status raw_ok = validatePoints(val, best);
+      if (!raw_ok.ok()) {
+        // OMPL checks motions one at a time; a chain of short ones can still climb too steeply.
+        result.outcome = val.pathSlopeValid(best) ? GlobalPlanOutcome::kError : GlobalPlanOutcome::kNoPath;
+        result.message = "OMPL returned an invalid path: " + raw_ok.message();
+        return finish(result);
+      }
+      // Simplify, and keep each step's result only when every segment re-validates.
+      auto accept = [&](std::vector<Vec3> candidate) {
+        if (candidate.size() >= 2 && candidate.front() == best.front() && candidate.back() == best.back() &&
+            validatePoints(val, candidate).ok())
+          best = std::move(candidate);
+      };
+      og::PathSimplifier simplifier(si, pdef->getGoal(), pdef->getOptimizationObjective());
+      simplifier.reduceVertices(work);
+      simplifier.shortcutPath(work);
+      accept(points(work));
+      accept(shortcut(val, best));
+      accept(relax(val, subdivide(val, best, 4.0), 40));
+      accept(shortcut(val, best));
+      accept(relax(val, best, 40));
+      accept(mergeCloseBreakPoints(val, best, 3.0, 0.05));
       result.path.points = best;
-      result.length_m = result.path.length();
-      result.message = "only an approximate path (ending " + fmt(best.back()) + ", " +
-                       std::to_string((best.back() - goal).norm()) + " m short of the goal) " +
-                       (iteration_capped ? "in " + std::to_string(params.max_unsolved_iterations) + " iterations"
-                                         : std::string("within the budget"));
-      return finish(result);
+      if (!axis_path.empty() && polylineLength(axis_path) < polylineLength(best) - 1e-9) {
+        result.path.points = axis_path;
+        result.from_route_axis = true;
+      }
+      if (!axis_path.empty()) result.first_solution_time_s = std::min(result.first_solution_time_s, axis_time);
     }
-    Status raw_ok = validatePoints(val, best);
-    if (!raw_ok.ok()) {
-      // OMPL checks motions one at a time; a chain of short ones can still climb too steeply.
-      result.outcome = val.pathSlopeValid(best) ? GlobalPlanOutcome::kError : GlobalPlanOutcome::kNoPath;
-      result.message = "OMPL returned an invalid path: " + raw_ok.message();
-      return finish(result);
-    }
-    // Simplify, and keep each step's result only when every segment re-validates.
-    auto accept = [&](std::vector<Vec3> candidate) {
-      if (candidate.size() >= 2 && candidate.front() == best.front() && candidate.back() == best.back() &&
-          validatePoints(val, candidate).ok())
-        best = std::move(candidate);
-    };
-    og::PathSimplifier simplifier(si, pdef->getGoal(), pdef->getOptimizationObjective());
-    simplifier.reduceVertices(work);
-    simplifier.shortcutPath(work);
-    accept(points(work));
-    accept(shortcut(val, best));
-    accept(relax(val, subdivide(val, best, 4.0), 40));
-    accept(shortcut(val, best));
-    accept(relax(val, best, 40));
-    accept(mergeCloseBreakPoints(val, best, 3.0, 0.05));
-    result.path.points = best;
   } catch (const std::exception& e) {
     result.outcome = GlobalPlanOutcome::kError;
     result.message = std::string("OMPL failed: ") + e.what();
@@ -611,7 +653,10 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
   const std::size_t breaks = p.size() >= 2 ? p.size() - 2 : 0;
   m << std::fixed << "path of " << result.length_m << " m with " << breaks << " break point" << (breaks == 1 ? "" : "s");
   if (!result.route.empty()) m << " through " << result.route.size() << " roadway" << (result.route.size() > 1 ? "s" : "");
-  if (result.time_limited) m << "; the time budget cut the search short (result depends on timing)";
+  if (result.from_route_axis)
+    m << "; the route's axis, shortened (" << result.planner << " found "
+      << (result.ompl_vertices ? "a longer one" : "none within the budget") << ")";
+  else if (result.time_limited) m << "; the time budget cut the search short (result depends on timing)";
   result.message = m.str();
   return finish(result);
 }

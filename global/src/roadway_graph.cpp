@@ -10,6 +10,7 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "free_space_index.hpp"
 #include "geometry.hpp"
 
 namespace adit::global {
@@ -85,11 +86,38 @@ int RoadwayGraph::farthestAlongGraph(int from) const {
 }
 
 std::optional<std::pair<int, int>> RoadwayGraph::farthestEnds() const {
-  const std::vector<int> e = ends();
-  if (e.size() < 2 && !nodes_.empty()) {
-    // A free-space cell graph has no degree-1 nodes: take the ends of its longest shortest path
-    // instead (two sweeps of Dijkstra, exact on trees, close on roadway networks).
-    const int u = farthestAlongGraph(0);
+  if (nodes_.empty()) return std::nullopt;
+  // Only within the connected part with the most roadway: a scan has pockets of free space cut
+  // off from the roadways, and their ends are no place to send a robot.
+  std::vector<int> part(nodes_.size(), -1);
+  std::vector<double> part_length;
+  for (std::size_t s = 0; s < nodes_.size(); ++s) {
+    if (part[s] >= 0) continue;
+    const int id = int(part_length.size());
+    part_length.push_back(0.0);
+    std::vector<int> stack{int(s)};
+    part[s] = id;
+    while (!stack.empty()) {
+      const int n = stack.back();
+      stack.pop_back();
+      for (int e : incident_[std::size_t(n)]) {
+        const RoadwayEdge& edge = edges_[std::size_t(e)];
+        const int o = edge.from == n ? edge.to : edge.from;
+        if (edge.from == n) part_length[std::size_t(id)] += edge.length_m;
+        if (part[std::size_t(o)] < 0) part[std::size_t(o)] = id, stack.push_back(o);
+      }
+    }
+  }
+  const int main_part = int(std::max_element(part_length.begin(), part_length.end()) - part_length.begin());
+  std::vector<int> e;
+  for (int n : ends())
+    if (part[std::size_t(n)] == main_part) e.push_back(n);
+  if (e.size() < 2) {
+    // A part without two ends (a loop): the ends of its longest shortest path instead (two
+    // sweeps of Dijkstra, exact on trees, close on roadway networks).
+    int first = 0;
+    while (part[std::size_t(first)] != main_part) ++first;
+    const int u = farthestAlongGraph(first);
     const int v = farthestAlongGraph(u);
     if (u == v) return std::nullopt;
     return std::make_pair(u, v);
@@ -230,84 +258,6 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromSurvey(const map::SurveyNetwork& survey
   return g;
 }
 
-// ---- from the free space ----
-
-StatusOr<RoadwayGraph> RoadwayGraph::fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
-                                                   double required_clearance_m, double cell_m) {
-  if (!(cell_m > 0) || !std::isfinite(cell_m)) return invalidArgument("skeleton cell size must be > 0");
-  const Aabb bounds = map.bounds();
-  if (bounds.empty()) return failedPrecondition("the map has no free space to build a roadway graph from");
-  const double res = field.resolution();
-  const Eigen::Array3i dims = ((bounds.max - bounds.min) / cell_m).array().ceil().cast<int>().max(1);
-  using Cell = long long;
-  auto key = [&](int x, int y, int z) { return Cell(x) + dims.x() * (Cell(y) + Cell(dims.y()) * z); };
-  auto unkey = [&](Cell k) {
-    return std::array<int, 3>{int(k % dims.x()), int((k / dims.x()) % dims.y()), int(k / (Cell(dims.x()) * dims.y()))};
-  };
-  // Only cells that hold free space (rock under the map's policy elsewhere) are looked at.
-  std::vector<Cell> cells;
-  {
-    std::unordered_map<Cell, bool> seen;
-    map.forEachLeaf([&](const Vec3& c, double size, map::VoxelState state) {
-      if (state != map::VoxelState::kFree) return;
-      const Eigen::Array3i lo = ((c.array() - 0.5 * size - bounds.min.array()) / cell_m).floor().cast<int>().max(0);
-      const Eigen::Array3i hi =
-          ((c.array() + 0.5 * size - bounds.min.array()) / cell_m - 1e-9).floor().cast<int>().min(dims - 1);
-      for (int z = lo.z(); z <= hi.z(); ++z)
-        for (int y = lo.y(); y <= hi.y(); ++y)
-          for (int x = lo.x(); x <= hi.x(); ++x)
-            if (seen.emplace(key(x, y, z), true).second) cells.push_back(key(x, y, z));
-    });
-  }
-  std::sort(cells.begin(), cells.end());  // deterministic node order
-  // Samples per cell axis: about one per voxel, at most 3 (the field is 1-Lipschitz, so the best
-  // sample is within a sample spacing of the cell's true best).
-  const int n = std::clamp(int(std::round(cell_m / res)), 1, 3);
-  RoadwayGraph g;
-  std::unordered_map<Cell, int> node_of;
-  std::vector<double> clearance;
-  for (Cell k : cells) {
-    const auto [x, y, z] = unkey(k);
-    const Vec3 corner = bounds.min + cell_m * Vec3(x, y, z);
-    double best = -1;
-    Vec3 best_p;
-    for (int kk = 0; kk < n; ++kk)
-      for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i) {
-          const Vec3 p = corner + cell_m * Vec3((i + 0.5) / n, (j + 0.5) / n, (kk + 0.5) / n);
-          const double d = field.distance(p);
-          if (d > best) best = d, best_p = p;
-        }
-    if (best < required_clearance_m) continue;
-    node_of[k] = g.addNode(best_p, "cell-" + std::to_string(g.nodes_.size()));
-    clearance.push_back(best);
-  }
-  if (g.nodes_.empty())
-    return failedPrecondition("no free space with clearance >= " + std::to_string(required_clearance_m) + " m: no roadway graph");
-  static const std::array<std::array<int, 3>, 13> kHalfNeighbours = {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 0},
-    {1, -1, 0}, {1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1}, {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {1, -1, -1}}};
-  const double step = 0.5 * res;
-  for (Cell k : cells) {
-    auto it = node_of.find(k);
-    if (it == node_of.end()) continue;
-    const auto [x, y, z] = unkey(k);
-    for (const auto& d : kHalfNeighbours) {
-      const int nx = x + d[0], ny = y + d[1], nz = z + d[2];
-      if (nx < 0 || ny < 0 || nz < 0 || nx >= dims.x() || ny >= dims.y() || nz >= dims.z()) continue;
-      auto jt = node_of.find(key(nx, ny, nz));
-      if (jt == node_of.end()) continue;
-      const Vec3 a = g.nodes_[std::size_t(it->second)].position, b = g.nodes_[std::size_t(jt->second)].position;
-      if (!segmentClear(field, a, b, required_clearance_m, step)) continue;
-      Polyline axis;
-      axis.points = {a, b};
-      const double r = std::min(clearance[std::size_t(it->second)], clearance[std::size_t(jt->second)]) +
-                       cell_m * std::sqrt(3.0);
-      g.addEdge(it->second, jt->second, "passage", std::move(axis), r, 0.0);
-    }
-      }
-  return g;
-}
-
 // ---- blocking ----
 
 void RoadwayGraph::setBlocked(int edge, bool blocked, const std::string& reason) {
@@ -365,6 +315,10 @@ int RoadwayGraph::refreshBlocked(const map::DistanceField& field, double require
         continue;
       }
     }
+    if (free_space_) {
+      blocked += refreshFreeSpaceEdge(int(&e - edges_.data()), field, required_clearance_m);
+      continue;
+    }
     bool passable = true;
     Vec3 where = Vec3::Zero();
     double arc = 0, first_bad = 0, last_bad = 0;
@@ -406,6 +360,11 @@ int RoadwayGraph::refreshBlocked(const map::DistanceField& field, double require
 
 StatusOr<RoadwayGraph::Attachment> RoadwayGraph::attach(const Vec3& p, const char* what,
                                                         const EdgeFilter& usable) const {
+  if (free_space_) {
+    // The passage whose voxels hold the point, not the nearest axis (which may lie behind a wall).
+    StatusOr<Attachment> a = attachByVoxel(p, usable);
+    if (a.ok()) return a;
+  }
   Attachment best;
   best.distance = std::numeric_limits<double>::infinity();
   double best_excess = std::numeric_limits<double>::infinity();
@@ -591,6 +550,42 @@ StatusOr<Route> RoadwayGraph::route(const Vec3& start, const Vec3& goal, const E
   for (std::size_t i = 0; i + 1 < pts.size(); ++i) r.radius_m.push_back(seg_edge[i]->radius_m);
   r.length_m = r.axis.length();
   return r;
+}
+
+PassageMeasure measurePassage(const RoadwayEdge& edge, const map::DistanceField& field) {
+  PassageMeasure m;
+  const double res = field.resolution();
+  // Distance to rock along a horizontal ray, by sphere tracing on the field (never steps past rock).
+  auto reach = [&](const Vec3& from, const Vec3& dir) {
+    double t = 0;
+    for (int i = 0; i < 4096; ++i) {
+      const double d = field.distance(from + t * dir);
+      if (d < 0.5 * res) break;
+      t += std::max(d, 0.5 * res);
+    }
+    return t;
+  };
+  double lowest = std::numeric_limits<double>::infinity();
+  std::vector<double> widths;
+  for (std::size_t i = 0; i + 1 < edge.axis.points.size(); ++i) {
+    const Vec3 a = edge.axis.points[i], b = edge.axis.points[i + 1];
+    const double len = (b - a).norm();
+    const int n = std::max(1, int(std::ceil(len / res)));
+    Vec3 across(-(b - a).y(), (b - a).x(), 0.0);
+    const bool has_across = across.norm() > 1e-9;
+    if (has_across) across.normalize();
+    for (int k = 0; k <= n; ++k) {
+      const Vec3 c = a + (b - a) * (double(k) / n);
+      lowest = std::min(lowest, field.distance(c));
+      if (has_across) widths.push_back(reach(c, across) + reach(c, -across));
+    }
+  }
+  m.min_clearance_m = std::isfinite(lowest) ? lowest : 0.0;
+  if (!widths.empty()) {
+    std::nth_element(widths.begin(), widths.begin() + std::ptrdiff_t(widths.size() / 2), widths.end());
+    m.width_m = widths[widths.size() / 2];
+  }
+  return m;
 }
 
 }  // namespace adit::global

@@ -28,6 +28,17 @@ SurveyNetwork junctionNetwork(double resolution_m) {
   return net;
 }
 
+SurveyNetwork ladderNetwork(double resolution_m) {
+  SurveyNetwork net;
+  net.name = "ladder";
+  net.resolution_m = resolution_m;
+  net.stations = {{"A", Vec3(0, 0, 0)}, {"B", Vec3(30, 0, 0)}, {"C", Vec3(0, 16, 0)}, {"D", Vec3(30, 16, 0)}};
+  net.sections = {{"s", CrossSection::rectangle(4.0, 3.0)}};
+  net.roadways = {{"south", {"A", "B"}, "s"}, {"north", {"C", "D"}, "s"}, {"west", {"A", "C"}, "s"},
+                  {"east", {"B", "D"}, "s"}};
+  return net;
+}
+
 SurveyNetwork bentRoadway(const CrossSection& section, double resolution_m) {
   SurveyNetwork net;
   net.name = "bent";
@@ -78,6 +89,14 @@ std::vector<NamedNetwork> oracleRoadways(double straight_length_m) {
       {"bent_trapezoid", bentRoadway(CrossSection::trapezoid(4.0, 3.0, 3.0), 0.25)},
       {"junctions", junctionNetwork(0.25)},
   };
+}
+
+std::vector<map::Vec3> pointsInBox(const map::Aabb& box, double r) {
+  std::vector<map::Vec3> pts;
+  for (double x = box.min.x(); x <= box.max.x(); x += r)
+    for (double y = box.min.y(); y <= box.max.y(); y += r)
+      for (double z = box.min.z(); z <= box.max.z(); z += r) pts.emplace_back(x, y, z);
+  return pts;
 }
 
 map::OccupancyMap voxelizeOrFail(const SurveyNetwork& net) {

@@ -16,6 +16,9 @@ map::SurveyNetwork straightRoadway(const map::CrossSection& section, double leng
                                    double resolution_m = 0.2, double rise_m = 0.0);
 /// Two roadways meeting at a right angle (an L), plus a cross-cut making a T.
 map::SurveyNetwork junctionNetwork(double resolution_m = 0.2);
+/// Two parallel 30 m roadways 16 m apart joined by a cross-cut at each end: a loop, so that one
+/// branch can be blocked and the route go round by the other.
+map::SurveyNetwork ladderNetwork(double resolution_m = 0.2);
 /// A roadway with several bends and a gradient, stations given in the schema order.
 map::SurveyNetwork bentRoadway(const map::CrossSection& section, double resolution_m = 0.2);
 
@@ -34,6 +37,9 @@ struct NamedNetwork {
 /// The roadways every oracle test runs on: a straight rectangle, a sloped arch (both
 /// `straight_length_m` long), a bent trapezoid and a network of junctions.
 std::vector<NamedNetwork> oracleRoadways(double straight_length_m = 10.0);
+
+/// Points a voxel apart filling `box` (e.g. the voxels of a roof fall, for setVoxels).
+std::vector<map::Vec3> pointsInBox(const map::Aabb& box, double resolution_m);
 
 /// voxelize() that fails the current test on error.
 map::OccupancyMap voxelizeOrFail(const map::SurveyNetwork& net);

@@ -66,6 +66,9 @@ struct GlobalPlanResult {
   std::vector<std::string> route;    ///< roadways of the route, in order
   std::vector<int> route_edges;      ///< RoadwayGraph edge ids of the route
   bool time_limited = false;         ///< the time budget stopped the search (results may vary)
+  /// The search found no path within the budget and the path is the route's own axis, shortened
+  /// (valid and re-checked like any other, but not searched for the shortest).
+  bool from_route_axis = false;
   long iterations = 0;               ///< OMPL iterations (termination-condition checks) of the search
   std::size_t ompl_vertices = 0;     ///< vertices of OMPL's raw path
 

@@ -63,8 +63,11 @@ struct GlobalPlannerParams {
   /// Route on the RoadwayGraph and sample only its corridor (true), or plain OMPL over the
   /// map's whole bounding box (false: the baseline adit bench compares against).
   bool use_roadway_graph = true;
-  /// Cell edge of the free-space skeleton built for maps without a survey (.bt/.ot) [m].
+  /// Maps without a survey (scans, meshes, .bt/.ot): thickness of the geodesic slices the
+  /// free-space roadway graph is cut into [m] (RoadwayGraph::fromFreeSpace).
   double skeleton_cell_m = 1.0;
+  /// ... and the memory that graph may take to build; a larger map is refused up front.
+  std::uint64_t max_graph_memory_bytes = std::uint64_t(4) << 30;
 
   Status validate() const;
 };

@@ -9,8 +9,8 @@
 /// never sampled as a box. The fusion layer reroutes through the same graph.
 ///
 /// Built from the survey's centrelines and junctions when the map came from a survey YAML
-/// (fromSurvey: exact), or from the free space itself for .bt/.ot maps (fromFreeSpace: a coarse
-/// cell graph over the distance field, see its comment). Edges can be blocked, by hand or by
+/// (fromSurvey: exact), or from the robot's free space itself for maps without a survey (scans,
+/// meshes, .bt/.ot; fromFreeSpace: a Reeb graph of geodesic distance, see its comment). Edges can be blocked, by hand or by
 /// re-checking their corridors against the map after a change (a roof fall): routing then takes
 /// another roadway, or reports at once that start and goal are disconnected.
 ///
@@ -19,7 +19,9 @@
 ///   StatusOr<Route> r = g->route(start, goal);
 ///   if (!r.ok()) std::cerr << r.status().message();  // e.g. "... disconnected: ... blocked"
 
+#include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <utility>
 #include <string>
@@ -34,6 +36,7 @@
 namespace adit::global {
 
 using map::Vec3;
+struct FreeSpaceIndex;
 
 struct RoadwayNode {
   Vec3 position = Vec3::Zero();  ///< on the corridor axis (mid-height of the roadway)
@@ -64,6 +67,33 @@ struct Route {
   double length_m = 0.0;              ///< along the axis
 };
 
+/// Options of the free-space graph (RoadwayGraph::fromFreeSpace).
+struct FreeSpaceGraphOptions {
+  double slice_m = 1.0;  ///< thickness of the geodesic slices (the graph's resolution along a passage)
+  std::uint64_t max_memory_bytes = std::uint64_t(4) << 30;  ///< refuse maps whose graph needs more
+  map::ProgressFn progress;                                ///< optional
+};
+
+/// What building a free-space graph took.
+struct FreeSpaceGraphInfo {
+  std::uint64_t voxels = 0;       ///< voxels of the configuration space (clearance >= required)
+  std::uint64_t regions = 0;      ///< its connected parts
+  std::uint64_t pieces = 0;       ///< slices' connected pieces, before folding branches
+  std::uint64_t folded_branches = 0;
+  std::uint64_t memory_bytes = 0; ///< kept afterwards (the voxel -> piece locator)
+  std::uint64_t peak_bytes = 0;   ///< working memory during the build (estimate)
+  double seconds = 0.0;
+};
+
+/// What a surveyor checks of a passage: its narrowest clearance along the axis and its width
+/// (the median, over axis samples a voxel apart, of the horizontal distance between the ribs
+/// measured square to the axis).
+struct PassageMeasure {
+  double min_clearance_m = 0.0;
+  double width_m = 0.0;
+};
+PassageMeasure measurePassage(const RoadwayEdge& edge, const map::DistanceField& field);
+
 /// Which edges routing may use (e.g. only those a ground robot can climb). Empty = all unblocked.
 using EdgeFilter = std::function<bool(const RoadwayEdge&)>;
 
@@ -74,14 +104,27 @@ class RoadwayGraph {
   /// leaves a main, splits that segment into a junction.
   static StatusOr<RoadwayGraph> fromSurvey(const map::SurveyNetwork& survey);
 
-  /// From the free space, for maps without a survey: the free space (the map's free leaves) is
-  /// cut into cubic cells of `cell_m`; a cell becomes a node at its point of largest clearance when that clearance is at
-  /// least `required_clearance_m`, and neighbouring cells (26-connected) are joined when the
-  /// straight segment between their nodes keeps that clearance. Chains of cells are then merged
-  /// into edges between junctions and ends, so it is a skeleton of the roadways at cell
-  /// resolution. Every edge's roadway name is "passage-N".
+  /// From the free space, for maps without a survey: a roadway graph of the robot's free
+  /// configuration space (voxel centres whose clearance is >= `required_clearance_m`, joined
+  /// face to face), so two places are joined exactly when the robot can pass between them at
+  /// voxel resolution. Each connected part is sliced by geodesic distance from one of its far
+  /// ends (breadth-first, two sweeps) into slices of `options.slice_m`; the connected pieces of
+  /// each slice are the graph's pieces, and pieces that touch are joined: a Reeb graph of the
+  /// geodesic distance, which follows a roadway whatever its width, splits at junctions and
+  /// closes every loop of the map. Branches shorter than twice the clearance of the junction they
+  /// leave (wall niches, scan noise) are folded into it; chains of pieces become edges named
+  /// "passage-N" between junctions and ends, their axes through the pieces' points of largest
+  /// clearance, straightened where the line of sight holds. Refuses, before allocating, a map
+  /// whose graph would need more than `options.max_memory_bytes`.
   static StatusOr<RoadwayGraph> fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
-                                              double required_clearance_m, double cell_m);
+                                              double required_clearance_m, const FreeSpaceGraphOptions& options);
+  /// The same with default options and slices of `slice_m`.
+  static StatusOr<RoadwayGraph> fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
+                                              double required_clearance_m, double slice_m);
+
+  /// How the free-space graph was built (all zero for a survey graph).
+  const FreeSpaceGraphInfo& freeSpaceInfo() const { return info_; }
+  bool fromFreeSpaceMap() const { return free_space_ != nullptr; }
 
   const std::vector<RoadwayNode>& nodes() const { return nodes_; }
   const std::vector<RoadwayEdge>& edges() const { return edges_; }
@@ -128,6 +171,10 @@ class RoadwayGraph {
   std::vector<RoadwayNode> nodes_;
   std::vector<RoadwayEdge> edges_;
   std::vector<std::vector<int>> incident_;  ///< edges per node
+  std::shared_ptr<const FreeSpaceIndex> free_space_;  ///< voxel locator of a free-space graph
+  FreeSpaceGraphInfo info_;
+  StatusOr<Attachment> attachByVoxel(const Vec3& p, const EdgeFilter& usable) const;
+  bool refreshFreeSpaceEdge(int edge, const map::DistanceField& field, double required_clearance_m);
 };
 
 }  // namespace adit::global
