@@ -153,10 +153,20 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromSurvey(const map::SurveyNetwork& survey
   ADIT_RETURN_IF_ERROR(survey.validate());
   RoadwayGraph g;
   std::map<std::string, int> station_node;
-  auto nodeFor = [&](const std::string& name) {
+  // Stations at the same spot under different names are one node ("A=G").
+  std::map<std::string, std::string> same_as;
+  for (auto i = survey.stations.begin(); i != survey.stations.end(); ++i)
+    for (auto j = std::next(i); j != survey.stations.end(); ++j)
+      if ((i->second - j->second).norm() <= 1e-3 && !same_as.count(j->first))
+        same_as[j->first] = same_as.count(i->first) ? same_as[i->first] : i->first;
+  auto nodeFor = [&](const std::string& station) {
+    const std::string& name = same_as.count(station) ? same_as.at(station) : station;
     auto it = station_node.find(name);
     if (it != station_node.end()) return it->second;
-    const int id = g.addNode(survey.stations.at(name), name);  // floor for now, lifted below
+    std::string label = name;
+    for (const auto& [other, rep] : same_as)
+      if (rep == name) label += "=" + other;
+    const int id = g.addNode(survey.stations.at(name), label);  // floor for now, lifted below
     station_node[name] = id;
     return id;
   };
@@ -177,10 +187,48 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromSurvey(const map::SurveyNetwork& survey
   std::vector<std::vector<Stop>> stops(survey.roadways.size());
   std::vector<std::pair<int, int>> connectors;  // (station node, junction node)
   std::vector<std::string> connector_roadway;
+  std::vector<std::pair<std::string, std::string>> station_links;  // coincident stations
+  // Where two roadways' sections overlap, their free space is joined, and so must the graph be:
+  // a station of one inside the other's section (a gate road leaving a main between two main
+  // stations, or ending on its rib), two differently named stations at one spot, and crossings
+  // with no shared station. `meets` is true when points inside two roadways (not at their ends)
+  // are that close: in plan within the two half-widths, in height within the taller section.
+  auto meets = [&](std::size_t r, std::size_t q, const Vec3& a, const Vec3& b) {
+    const map::CrossSection& sr = survey.sections.at(survey.roadways[r].section);
+    const map::CrossSection& sq = survey.sections.at(survey.roadways[q].section);
+    return (a - b).head<2>().norm() <= 0.5 * (sr.maxWidth() + sq.maxWidth()) &&
+           std::abs(a.z() - b.z()) <= std::max(sr.height(), sq.height());
+  };
+  // Crossings: closest points of two segments of different roadways, both strictly between
+  // stations; one node shared by both roadways.
+  struct Crossing {
+    std::size_t segment;
+    double t;
+    Vec3 point;
+    int node;
+  };
+  std::vector<std::vector<Crossing>> crossings(survey.roadways.size());
+  for (std::size_t r = 0; r < survey.roadways.size(); ++r)
+    for (std::size_t q = r + 1; q < survey.roadways.size(); ++q) {
+      const map::SurveyRoadway& a = survey.roadways[r];
+      const map::SurveyRoadway& b = survey.roadways[q];
+      for (std::size_t i = 0; i + 1 < a.stations.size(); ++i)
+        for (std::size_t j = 0; j + 1 < b.stations.size(); ++j) {
+          const Vec3 a0 = survey.stations.at(a.stations[i]), a1 = survey.stations.at(a.stations[i + 1]);
+          const Vec3 b0 = survey.stations.at(b.stations[j]), b1 = survey.stations.at(b.stations[j + 1]);
+          const auto [t, u] = closestSegmentParameters(a0, a1, b0, b1);
+          const double margin_a = 1e-3 / std::max(1e-9, (a1 - a0).norm()), margin_b = 1e-3 / std::max(1e-9, (b1 - b0).norm());
+          if (t <= margin_a || t >= 1 - margin_a || u <= margin_b || u >= 1 - margin_b) continue;  // at a station
+          const Vec3 pa = a0 + t * (a1 - a0), pb = b0 + u * (b1 - b0);
+          if (!meets(r, q, pa, pb)) continue;
+          const int node = g.addNode(0.5 * (pa + pb), "junction-" + std::to_string(junction_count++));
+          crossings[r].push_back({i, t, pa, node});
+          crossings[q].push_back({j, u, pb, node});
+        }
+    }
   for (std::size_t r = 0; r < survey.roadways.size(); ++r) {
     const map::SurveyRoadway& road = survey.roadways[r];
     const map::CrossSection& section = survey.sections.at(road.section);
-    const double tolerance = 0.5 * section.maxWidth();
     std::vector<Junction> junctions;
     for (std::size_t q = 0; q < survey.roadways.size(); ++q) {
       if (q == r) continue;
@@ -190,9 +238,18 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromSurvey(const map::SurveyNetwork& survey
         for (std::size_t i = 0; i + 1 < road.stations.size(); ++i) {
           const Vec3 a = survey.stations.at(road.stations[i]), b = survey.stations.at(road.stations[i + 1]);
           const double t = segmentParameter(s, a, b);
-          if (t <= 1e-6 || t >= 1 - 1e-6) continue;  // at a station: shared stations join already
           const Vec3 p = a + t * (b - a);
-          if ((p - s).norm() > tolerance) continue;
+          // A station is a point of its roadway's centreline, and an end station its face: it
+          // joins this roadway when it lies within this section (its rib included).
+          if ((p - s).head<2>().norm() > 0.5 * (section.maxWidth() + survey.resolution_m) ||
+              std::abs(p.z() - s.z()) > section.height())
+            continue;
+          if (t <= 1e-6 || t >= 1 - 1e-6) {
+            // At one of this roadway's stations under another name: the two are one junction.
+            const std::string& here = road.stations[t <= 1e-6 ? i : i + 1];
+            station_links.emplace_back(here, name);
+            break;
+          }
           junctions.push_back({i, t, p, name});
           break;
         }
@@ -201,11 +258,24 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromSurvey(const map::SurveyNetwork& survey
     std::sort(junctions.begin(), junctions.end(), [](const Junction& x, const Junction& y) {
       return x.segment != y.segment ? x.segment < y.segment : x.t < y.t;
     });
-    std::size_t next = 0;
+    std::vector<Crossing>& cross = crossings[r];
+    std::sort(cross.begin(), cross.end(), [](const Crossing& x, const Crossing& y) {
+      return x.segment != y.segment ? x.segment < y.segment : x.t < y.t;
+    });
+    std::size_t next = 0, next_cross = 0;
     for (std::size_t i = 0; i < road.stations.size(); ++i) {
       stops[r].push_back({survey.stations.at(road.stations[i]), nodeFor(road.stations[i])});
-      for (; next < junctions.size() && junctions[next].segment == i; ++next) {
-        const Junction& j = junctions[next];
+      // This segment's junctions and crossings, in order along it.
+      while ((next < junctions.size() && junctions[next].segment == i) ||
+             (next_cross < cross.size() && cross[next_cross].segment == i)) {
+        const bool take_cross = next_cross < cross.size() && cross[next_cross].segment == i &&
+                                (next >= junctions.size() || junctions[next].segment != i || cross[next_cross].t < junctions[next].t);
+        if (take_cross) {
+          stops[r].push_back({cross[next_cross].point, cross[next_cross].node});
+          ++next_cross;
+          continue;
+        }
+        const Junction& j = junctions[next++];
         const int station = nodeFor(j.station);
         int node = station;
         if ((j.point - survey.stations.at(j.station)).norm() > 1e-3) {
@@ -221,6 +291,20 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromSurvey(const map::SurveyNetwork& survey
         stops[r].push_back({j.point, node});
       }
     }
+  }
+  // Differently named stations at one spot (or within each other's sections): a connector.
+  for (const auto& [a, b] : station_links) {
+    const int na = nodeFor(a), nb = nodeFor(b);
+    if (na == nb) continue;
+    bool have = false;
+    for (const auto& [x, y] : connectors) have |= (x == na && y == nb) || (x == nb && y == na);
+    if (have) continue;
+    connectors.emplace_back(na, nb);
+    for (const map::SurveyRoadway& other : survey.roadways)
+      if (std::find(other.stations.begin(), other.stations.end(), b) != other.stations.end()) {
+        connector_roadway.push_back(other.name + "|" + other.section);
+        break;
+      }
   }
 
   // Lift node positions from the floor to the mid-height of the tallest section meeting there.
