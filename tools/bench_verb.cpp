@@ -65,7 +65,8 @@ double quantile(std::vector<double> v, double q) {
   return i + 1 < v.size() ? v[i] + (pos - double(i)) * (v[i + 1] - v[i]) : v[i];
 }
 
-// Roadway-end pairs, farthest first.
+// Roadway-end pairs, farthest first; only pairs the graph connects (a scan's free space can fall
+// into several parts for the robot, and a pair across two of them has no path to measure).
 std::vector<std::pair<Vec3, Vec3>> problems(const global::GlobalPlanner& planner, int count) {
   const global::RoadwayGraph& g = planner.graph();
   const std::vector<int> ends = g.ends();
@@ -77,8 +78,10 @@ std::vector<std::pair<Vec3, Vec3>> problems(const global::GlobalPlanner& planner
   std::sort(pairs.begin(), pairs.end());
   std::vector<std::pair<Vec3, Vec3>> out;
   const double inset = 2.0 + planner.requiredClearance();
-  for (std::size_t k = 0; k < pairs.size() && int(out.size()) < count; ++k)
-    out.emplace_back(g.pointNearEnd(std::get<1>(pairs[k]), inset), g.pointNearEnd(std::get<2>(pairs[k]), inset));
+  for (std::size_t k = 0; k < pairs.size() && int(out.size()) < count; ++k) {
+    const Vec3 a = g.pointNearEnd(std::get<1>(pairs[k]), inset), b = g.pointNearEnd(std::get<2>(pairs[k]), inset);
+    if (g.route(a, b).ok()) out.emplace_back(a, b);
+  }
   return out;
 }
 
