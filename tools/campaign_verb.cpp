@@ -97,14 +97,14 @@ int runShard(const CampaignArgs& a) {
   id.generator = bp;
   id.adit_version = ADIT_VERSION;
   id.adit_commit = ADIT_COMMIT;
-  if (a.map.empty()) return report(invalidArgument("--map is required (a survey .yaml)"));
+  if (a.map.empty()) return report(invalidArgument("--map is required (a survey .yaml, or any voxel map)"));
   StatusOr<std::string> hash = map::fileContentHash(a.map);
   if (!hash.ok()) return report(hash.status());
   id.map_hash = *hash;
   StatusOr<BatchSetup> setup = loadBatchSetup("", a.map);
   if (!setup.ok()) return report(setup.status());
   // Bad generator ranges show in the first scenario: refuse them before forking.
-  if (StatusOr<local::Scenario> first = fusion::makeBatchScenario(setup->base, setup->survey, setup->truth, bp, k);
+  if (StatusOr<local::Scenario> first = fusion::makeBatchScenario(setup->base, setup->roadways, setup->truth, bp, k);
       !first.ok())
     return report(first.status());
   std::error_code ec;
@@ -432,7 +432,7 @@ void registerCampaignVerb(CLI::App& app, int* rc) {
       "run",
       "Run shard K of M of a campaign of N scenarios (indices i with i mod M == K): writes "
       "DIR/shard-K-of-M.csv and .json atomically; exit 1 if a scenario errored or an arrival collided");
-  run->add_option("--map", args->map, "The survey map (.yaml)")->required();
+  run->add_option("--map", args->map, "The map: a survey (.yaml), or a .bt/.ot (roadways from its free space)")->required();
   run->add_option("--scenarios", args->scenarios, "N: scenario indices 0..N-1")->required();
   run->add_option("--seed", args->seed, "Campaign seed (each scenario's seed derives from it and its index)");
   run->add_option("--shard", args->shard, "K/M: this shard (default 0/1: the whole campaign)");

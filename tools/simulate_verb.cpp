@@ -742,7 +742,7 @@ int runBatch(const SimulateArgs& a) {
   bp.max_separation_m = a.max_separation;
   if (Status s = bp.validate(); !s.ok()) return report(s);
   // Bad input shows in the first scenario: refuse it before forking.
-  if (StatusOr<Scenario> first = fusion::makeBatchScenario(setup->base, setup->survey, setup->truth, bp, 0); !first.ok())
+  if (StatusOr<Scenario> first = fusion::makeBatchScenario(setup->base, setup->roadways, setup->truth, bp, 0); !first.ok())
     return report(first.status());
   if (!a.quiet)
     std::fprintf(stderr, "adit: batch of %d runs on %s (seed %llu, %d workers)\n", a.batch, map_path.c_str(),
@@ -786,7 +786,7 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   cmd->add_option("--batch", args->batch,
                   "Run N randomized navigated scenarios on --map (start/goal on the roadways, vehicles, roof "
                   "falls); JSON summary; exit 1 if a run errored or an arrival collided");
-  cmd->add_option("--map", args->map, "With --batch: the survey map (.yaml)");
+  cmd->add_option("--map", args->map, "With --batch: the map (a survey .yaml, or a .bt/.ot: roadways from its free space)");
   cmd->add_option("--seed", args->seed, "With --batch: the batch seed (each run's seed derives from it and its index)");
   cmd->add_option("--first", args->first,
                   "With --batch: index of the first run (runs --first .. --first + N - 1; re-runs rows of a table)");

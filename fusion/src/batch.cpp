@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "adit/fusion/navigated_simulation.hpp"
+#include "adit/global/roadway_graph.hpp"
 #include "adit/map/distance_field.hpp"
 
 namespace adit::fusion {
@@ -27,14 +28,14 @@ struct Segment {
   double length;
 };
 
-// Every centreline segment of the survey, for drawing points uniformly along the roadways.
-std::vector<Segment> segments(const map::SurveyNetwork& survey) {
+// Every axis segment, for drawing points uniformly along the roadways.
+std::vector<Segment> segments(const BatchRoadways& roadways) {
   std::vector<Segment> out;
-  for (const map::SurveyRoadway& r : survey.roadways) {
-    const map::Polyline c = survey.centreline(r);
-    for (std::size_t i = 0; i + 1 < c.points.size(); ++i)
-      out.push_back({c.points[i], c.points[i + 1], (c.points[i + 1] - c.points[i]).norm()});
-  }
+  for (const map::Polyline& c : roadways.axes)
+    for (std::size_t i = 0; i + 1 < c.points.size(); ++i) {
+      const double len = (c.points[i + 1] - c.points[i]).norm();
+      if (len > 0) out.push_back({c.points[i], c.points[i + 1], len});
+    }
   return out;
 }
 
@@ -45,7 +46,7 @@ struct RoadwayPoint {
 
 class Drawer {
  public:
-  Drawer(const std::vector<Segment>& segs, std::uint64_t seed) : segs_(segs), rng_(seed) {
+  Drawer(const std::vector<Segment>& segs, const Vec3& lift, std::uint64_t seed) : segs_(segs), lift_(lift), rng_(seed) {
     std::vector<double> w;
     for (const Segment& s : segs) w.push_back(s.length);
     pick_ = std::discrete_distribution<std::size_t>(w.begin(), w.end());
@@ -53,13 +54,14 @@ class Drawer {
   RoadwayPoint point() {
     const Segment& s = segs_[pick_(rng_)];
     const double t = uniform(0.0, 1.0);
-    return {s.a + t * (s.b - s.a) + Vec3(0, 0, kCentreAboveFloorM), (s.b - s.a) / s.length};
+    return {s.a + t * (s.b - s.a) + lift_, (s.b - s.a) / s.length};
   }
   double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng_); }
   int integer(int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng_); }
 
  private:
   const std::vector<Segment>& segs_;
+  Vec3 lift_;
   std::mt19937_64 rng_;
   std::discrete_distribution<std::size_t> pick_;
 };
@@ -111,15 +113,57 @@ std::uint64_t batchRunSeed(std::uint64_t seed, int index) {
   return z ^ (z >> 31);
 }
 
+BatchRoadways BatchRoadways::fromSurvey(const map::SurveyNetwork& survey) {
+  BatchRoadways out;
+  out.source = "survey";
+  out.lift = Vec3(0, 0, kCentreAboveFloorM);
+  for (const map::SurveyRoadway& r : survey.roadways) {
+    out.axes.push_back(survey.centreline(r));
+    const auto section = survey.sections.find(r.section);
+    out.widths_m.push_back(section != survey.sections.end() ? 2.0 * section->second.halfWidthAt(kCentreAboveFloorM) : 0.0);
+  }
+  return out;
+}
+
+StatusOr<BatchRoadways> BatchRoadways::fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
+                                                     double clearance_m) {
+  ADIT_ASSIGN_OR_RETURN(const global::RoadwayGraph graph,
+                        global::RoadwayGraph::fromFreeSpace(map, field, clearance_m, 1.0));
+  BatchRoadways out;
+  out.source = "free_space";
+  for (const global::RoadwayEdge& e : graph.edges()) {
+    out.axes.push_back(e.axis);
+    out.widths_m.push_back(global::measurePassage(e, field).width_m);
+  }
+  return out;
+}
+
+double BatchRoadways::widthAt(const Vec3& p) const {
+  double best = std::numeric_limits<double>::infinity(), width = 0.0;
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    if (axes[i].empty()) continue;
+    const double d = (axes[i].nearestPoint(p) - p).norm();
+    if (d < best) best = d, width = widths_m[i];
+  }
+  return width;
+}
+
 StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const map::SurveyNetwork& survey,
+                                            const local::Environment& truth, const BatchParams& params, int index) {
+  return makeBatchScenario(base, BatchRoadways::fromSurvey(survey), truth, params, index);
+}
+
+StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const BatchRoadways& roadways,
                                             const local::Environment& truth, const BatchParams& params, int index) {
   ADIT_RETURN_IF_ERROR(params.validate());
   if (index < 0) return invalidArgument("batch: run index must be >= 0 (got " + std::to_string(index) + ")");
   if (!truth.field()) return invalidArgument(base.file + ": map: a batch needs a map");
-  const std::vector<Segment> segs = segments(survey);
-  if (segs.empty()) return invalidArgument(base.file + ": map: the survey has no roadway");
+  const std::vector<Segment> segs = segments(roadways);
+  if (segs.empty())
+    return invalidArgument(base.file + ": map: " +
+                           (roadways.source == "survey" ? "the survey has no roadway" : "the map has no passage for the robot"));
   const std::uint64_t run_seed = batchRunSeed(params.seed, index);
-  Drawer draw(segs, run_seed);
+  Drawer draw(segs, roadways.lift, run_seed);
   local::Scenario sc = base;
   if (params.robot_radius_max_m > 0.0 || params.robot_speed_max_mps > 0.0) {
     // A stream of its own: the draws below stay those of a run without robot ranges.
@@ -272,18 +316,7 @@ StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::
 }
 
 double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p) {
-  double best = std::numeric_limits<double>::infinity(), width = 0.0;
-  for (const map::SurveyRoadway& r : survey.roadways) {
-    const map::Polyline c = survey.centreline(r);
-    if (c.empty()) continue;
-    const double d = (c.nearestPoint(p) - p).norm();
-    const auto section = survey.sections.find(r.section);
-    if (d < best && section != survey.sections.end()) {
-      best = d;
-      width = 2.0 * section->second.halfWidthAt(kCentreAboveFloorM);
-    }
-  }
-  return width;
+  return BatchRoadways::fromSurvey(survey).widthAt(p);
 }
 
 BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index,

@@ -42,6 +42,26 @@ VoxelIndex voxelOf(const Vec3& p, double res) {
 // clearance (4); tiles of 8^3 are about half free in roadways (measured on the district: 51 %).
 constexpr double kBuildBytesPerFreeVoxel = 12.0 / 0.5 + 12.0;  // grids + queue
 
+// Greedy line-of-sight shortening with doubling steps: long straight passages cost O(log n)
+// checks per kept point instead of O(n).
+std::vector<Vec3> straightenAxis(const map::DistanceField& field, const std::vector<Vec3>& pts, double need) {
+  const double step = 0.5 * field.resolution();
+  std::vector<Vec3> out{pts.front()};
+  std::size_t i = 0;
+  while (i + 1 < pts.size()) {
+    std::size_t good = i + 1, stride = 1;
+    while (good + stride < pts.size() && segmentClear(field, pts[i], pts[good + stride], need, step))
+      good += stride, stride *= 2;
+    for (; stride > 1; stride /= 2)
+      if (good + stride / 2 < pts.size() && segmentClear(field, pts[i], pts[good + stride / 2], need, step))
+        good += stride / 2;
+    out.push_back(pts[good]);
+    i = good;
+  }
+  if (out.size() == 1) out.push_back(out.front());
+  return out;
+}
+
 }  // namespace
 
 StatusOr<RoadwayGraph> RoadwayGraph::fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
@@ -415,24 +435,7 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromFreeSpace(const map::OccupancyMap& map,
     }
     out->push_back(centre(b, res));  // not reached (cannot happen for touching pieces): straight
   };
-  // Greedy line-of-sight shortening with doubling steps: long straight passages cost
-  // O(log n) checks per kept point instead of O(n).
-  auto straighten = [&](const std::vector<Vec3>& pts) {
-    std::vector<Vec3> out{pts.front()};
-    std::size_t i = 0;
-    while (i + 1 < pts.size()) {
-      std::size_t good = i + 1, stride = 1;
-      while (good + stride < pts.size() && segmentClear(field, pts[i], pts[good + stride], required_clearance_m, step))
-        good += stride, stride *= 2;
-      for (; stride > 1; stride /= 2)
-        if (good + stride / 2 < pts.size() &&
-            segmentClear(field, pts[i], pts[good + stride / 2], required_clearance_m, step))
-          good += stride / 2;
-      out.push_back(pts[good]);
-      i = good;
-    }
-    return out;
-  };
+  auto straighten = [&](const std::vector<Vec3>& pts) { return straightenAxis(field, pts, required_clearance_m); };
 
   std::unordered_set<std::uint64_t> walked;  // directed (piece, next piece) already on an edge
   auto dkey = [](int a, int b) { return (std::uint64_t(std::uint32_t(a)) << 32) | std::uint32_t(b); };
@@ -557,53 +560,76 @@ bool RoadwayGraph::refreshFreeSpaceEdge(int edge, const map::DistanceField& fiel
   const double res = ix.resolution_m;
   RoadwayEdge& e = edges_[std::size_t(edge)];
   const std::vector<int>& chain = ix.edge_pieces[std::size_t(edge)];
-  // Flood fill through the edge's own pieces, over voxels that still have the clearance, from one
-  // end's piece; the pieces it reaches are open from that side.
-  auto reach = [&](int start_piece) {
+  // Flood fill through the edge's own pieces (both end pieces included) over voxels that still
+  // have the clearance, from the point of the end node (its piece's voxel of largest clearance),
+  // stepping only where the face between two voxels keeps it too (the planner moves
+  // continuously, not from centre to centre). It starts at the node's own voxel, not anywhere in
+  // the node's piece: a fall that cuts a junction in two must cut the passages on the far side
+  // of it from the node, or a route would cross the junction where no robot can.
+  auto key = [](const VoxelIndex& v) {
+    return (std::uint64_t(std::uint32_t(v.x) & 0x1fffff) << 42) | (std::uint64_t(std::uint32_t(v.y) & 0x1fffff) << 21) |
+           std::uint64_t(std::uint32_t(v.z) & 0x1fffff);
+  };
+  auto position = [&](int piece) {
+    for (std::size_t c = 0; c < chain.size(); ++c)
+      if (chain[c] == piece) return int(c);
+    return -1;
+  };
+  auto nodeVoxel = [&](int piece) { return voxelOf(ix.pieces[std::size_t(piece)].position, res); };
+  auto reach = [&](int start_piece, std::vector<Vec3>* path) {
     std::vector<char> reached(chain.size(), 0);
-    std::unordered_set<std::uint64_t> seen;
-    std::vector<VoxelIndex> open;
-    auto key = [](const VoxelIndex& v) {
-      return (std::uint64_t(std::uint32_t(v.x) & 0x1fffff) << 42) | (std::uint64_t(std::uint32_t(v.y) & 0x1fffff) << 21) |
-             std::uint64_t(std::uint32_t(v.z) & 0x1fffff);
-    };
-    auto position = [&](int piece) {
-      for (std::size_t c = 0; c < chain.size(); ++c)
-        if (chain[c] == piece) return int(c);
-      return -1;
-    };
-    const FreeSpaceIndex::Piece& s = ix.pieces[std::size_t(start_piece)];
-    for (int z = s.lo.z; z <= s.hi.z; ++z)
-      for (int y = s.lo.y; y <= s.hi.y; ++y)
-        for (int x = s.lo.x; x <= s.hi.x; ++x) {
-          const VoxelIndex v{x, y, z};
-          if (ix.piece.get(v) != start_piece || field.distance(centre(v, res)) < required_clearance_m) continue;
-          seen.insert(key(v));
-          open.push_back(v);
-        }
+    const VoxelIndex from = nodeVoxel(start_piece);
+    if (field.distance(centre(from, res)) < required_clearance_m) return std::make_pair(reached, false);
+    const VoxelIndex target = nodeVoxel(start_piece == chain.front() ? chain.back() : chain.front());
+    std::unordered_set<std::uint64_t> seen{key(from)};
+    std::vector<VoxelIndex> open{from};
+    std::vector<std::uint32_t> parent{0xffffffffu};
+    bool hit = false;
     for (std::size_t h = 0; h < open.size(); ++h) {
-      const int at = position(ix.piece.get(open[h]));
+      const VoxelIndex v = open[h];
+      if (v == target && !hit) {
+        hit = true;
+        if (path) {
+          for (std::uint32_t i = std::uint32_t(h); i != 0xffffffffu; i = parent[i]) path->push_back(centre(open[i], res));
+          std::reverse(path->begin(), path->end());
+        }
+      }
+      const int at = position(ix.piece.get(v));
       if (at >= 0) reached[std::size_t(at)] = 1;
       for (const VoxelIndex& f : kFaces) {
-        const VoxelIndex w = plus(open[h], f);
+        const VoxelIndex w = plus(v, f);
         const int c = ix.piece.get(w);
         if (c < 0 || position(c) < 0 || seen.count(key(w))) continue;
         if (field.distance(centre(w, res)) < required_clearance_m) continue;
+        if (field.distance(0.5 * (centre(v, res) + centre(w, res))) < required_clearance_m) continue;
         seen.insert(key(w));
         open.push_back(w);
+        parent.push_back(std::uint32_t(h));
       }
     }
-    return reached;
+    return std::make_pair(reached, hit);
   };
-  const std::vector<char> from_start = reach(chain.front());
-  const bool passable = from_start.back() != 0;
+  std::vector<Vec3> way;
+  const auto [from_start, passable] = reach(chain.front(), &way);
   e.blocked = !passable;
   if (passable) {
+    // Still open, perhaps only round the change (by another part of its pieces): where the axis
+    // lost its clearance, it now follows the way the flood found, so that the corridor the
+    // planner searches holds a path.
+    bool axis_clear = true;
+    for (std::size_t i = 0; axis_clear && i + 1 < e.axis.points.size(); ++i)
+      axis_clear = segmentClear(field, e.axis.points[i], e.axis.points[i + 1], required_clearance_m, 0.5 * res);
+    if (!axis_clear && way.size() >= 2) {
+      way.front() = e.axis.points.front();
+      way.back() = e.axis.points.back();
+      e.axis.points = straightenAxis(field, way, required_clearance_m);
+      e.length_m = e.axis.length();
+    }
     e.blocked_from_m = e.blocked_to_m = 0.0;
     e.blocked_reason.clear();
     return false;
   }
-  const std::vector<char> from_end = reach(chain.back());
+  const std::vector<char> from_end = reach(chain.back(), nullptr).first;
   auto arcOf = [&](std::size_t c) {
     if (c == 0) return 0.0;
     if (c + 1 == chain.size()) return e.length_m;

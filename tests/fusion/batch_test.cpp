@@ -265,3 +265,43 @@ TEST_F(BatchTest, RoadwayWidthIsTheNearestRoadwaysSection) {
 
 }  // namespace
 }  // namespace adit::fusion
+
+namespace adit::fusion {
+namespace {
+
+// A map without a survey (the bundled district as an octree): starts and goals are drawn on the
+// passages of its free-space roadway graph, with the robot's room, the same for the same seed.
+TEST(BatchOnAnyMap, StartsAndGoalsComeFromTheFreeSpaceGraph) {
+  const std::string bt = std::string(ADIT_MAPS_DIR) + "/district.bt";
+  StatusOr<local::Scenario> sc = local::parseScenario(
+      "map: " + bt +
+          "\nstart: [0, 0, 0]\ngoal: [1, 0, 0]\nexpected_path: plan\n"
+          "robot: {radius: 0.4, v_max: 1.0, a_max: 0.5, sensor_range: 8}\nmethod: tian2016\n"
+          "params: {rho0_m: 1.0}\ndt: 0.1\n",
+      "batch_any_map");
+  ASSERT_TRUE(sc.ok()) << sc.status().toString();
+  StatusOr<local::Environment> env = local::Environment::load(*sc);
+  ASSERT_TRUE(env.ok()) << env.status().toString();
+  StatusOr<BatchRoadways> roadways = BatchRoadways::fromFreeSpace(*env->map(), *env->field(), 0.8);
+  ASSERT_TRUE(roadways.ok()) << roadways.status().toString();
+  EXPECT_EQ(roadways->source, "free_space");
+  double length = 0;
+  for (const map::Polyline& a : roadways->axes) length += a.length();
+  EXPECT_GT(length, 1500.0);  // most of the district's 2.6 km of roadway
+  BatchParams p;
+  p.seed = 5;
+  for (int index = 0; index < 8; ++index) {
+    StatusOr<local::Scenario> a = makeBatchScenario(*sc, *roadways, *env, p, index);
+    StatusOr<local::Scenario> b = makeBatchScenario(*sc, *roadways, *env, p, index);
+    ASSERT_TRUE(a.ok()) << a.status().toString();
+    ASSERT_TRUE(b.ok());
+    EXPECT_EQ(a->start, b->start);
+    EXPECT_EQ(a->goal, b->goal);
+    EXPECT_GT(env->field()->distance(a->start), 0.8);
+    EXPECT_GT(env->field()->distance(a->goal), 0.8);
+    EXPECT_GT(roadways->widthAt(a->start), 2.0);
+  }
+}
+
+}  // namespace
+}  // namespace adit::fusion

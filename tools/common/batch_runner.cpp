@@ -73,10 +73,10 @@ std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) 
 }
 
 fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams& params, int index) {
-  StatusOr<local::Scenario> sc = fusion::makeBatchScenario(setup.base, setup.survey, setup.truth, params, index);
+  StatusOr<local::Scenario> sc = fusion::makeBatchScenario(setup.base, setup.roadways, setup.truth, params, index);
   if (sc.ok()) {
     fusion::BatchRunResult r = fusion::runBatchScenario(*sc, setup.truth, index, setup.believed.get());
-    r.roadway_width_m = fusion::roadwayWidthAt(setup.survey, sc->start);
+    r.roadway_width_m = setup.roadways.widthAt(sc->start);
     return r;
   }
   fusion::BatchRunResult r;
@@ -105,13 +105,21 @@ StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std:
   if (!scenario_file.empty() && !map.empty()) sc->map_path = map;
   if (!sc->map_path) return invalidArgument(sc->file + ": map: --batch needs a map");
   const std::string& map_path = *sc->map_path;
-  if (map_path.size() < 5 || map_path.substr(map_path.size() - 5) != ".yaml")
-    return invalidArgument(map_path + ": start and goal are drawn on the survey's roadways: the map must be a survey (.yaml)");
-  ADIT_ASSIGN_OR_RETURN(map::SurveyNetwork survey, map::loadSurvey(map_path));
   ADIT_ASSIGN_OR_RETURN(fusion::BelievedWorld loaded, fusion::BelievedWorld::load(map_path));
   auto believed = std::make_unique<const fusion::BelievedWorld>(std::move(loaded));
+  fusion::BatchRoadways roadways;
+  if (believed->loaded.survey) {
+    roadways = fusion::BatchRoadways::fromSurvey(*believed->loaded.survey);
+  } else {
+    // The passages the base robot fits through with room to spare (the generator's own test
+    // for a start or goal: clearance above radius + 0.4 m).
+    StatusOr<fusion::BatchRoadways> r =
+        fusion::BatchRoadways::fromFreeSpace(believed->loaded.map, believed->field, sc->params.robot.radius_m + 0.4);
+    if (!r.ok()) return invalidArgument(map_path + ": no roadways to draw starts and goals on: " + r.status().message());
+    roadways = std::move(r).value();
+  }
   ADIT_ASSIGN_OR_RETURN(local::Environment truth, local::Environment::borrow(believed->loaded.map, believed->field));
-  return BatchSetup{std::move(sc).value(), std::move(survey), std::move(believed), std::move(truth)};
+  return BatchSetup{std::move(sc).value(), std::move(roadways), std::move(believed), std::move(truth)};
 }
 
 StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& setup,
@@ -260,7 +268,7 @@ StatusOr<local::Scenario> replayScenario(const std::string& spec) {
     return invalidArgument(id.map + ": the map changed since the campaign (" + hash + ", recorded " + id.map_hash +
                            " in " + shard + ")");
   ADIT_ASSIGN_OR_RETURN(const BatchSetup setup, loadBatchSetup("", id.map));
-  return fusion::makeBatchScenario(setup.base, setup.survey, setup.truth, id.generator, int(index));
+  return fusion::makeBatchScenario(setup.base, setup.roadways, setup.truth, id.generator, int(index));
 }
 
 }  // namespace adit::tools

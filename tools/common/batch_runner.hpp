@@ -32,11 +32,12 @@
 
 namespace adit::tools {
 
-/// What every run of a batch shares: the base scenario (robot, method, params), the survey the
-/// starts and goals are drawn on, and the true world.
+/// What every run of a batch shares: the base scenario (robot, method, params), the roadways the
+/// starts and goals are drawn on (a survey's, or the free-space graph's of any other map), and
+/// the true world.
 struct BatchSetup {
   local::Scenario base;
-  map::SurveyNetwork survey;
+  fusion::BatchRoadways roadways;
   /// The robot's map at t = 0, loaded once; every run starts from a deep copy of it. The true
   /// world borrows its map and field: nothing writes them (heap-held, so the borrow survives a move).
   std::unique_ptr<const fusion::BelievedWorld> believed;
@@ -45,7 +46,8 @@ struct BatchSetup {
 
 /// The base scenario is `scenario_file` when given (its map replaced by `map` when both are
 /// given), else the district rescue robot (radius 0.4 m, v_max 1 m/s, sensor 8 m, tian2016) on
-/// `map`. The map must be a survey (.yaml). Errors name the file.
+/// `map`. A map without a survey (a scan or mesh converted to .bt, a .bt/.ot) has its roadways
+/// drawn from the free-space roadway graph for the base robot. Errors name the file.
 StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std::string& map);
 
 /// Runs scenario `indices` of the batch `params` on min(jobs, indices.size()) forked workers,

@@ -2,8 +2,9 @@
 #pragma once
 /// @file
 /// Randomized navigated scenarios for `adit simulate --batch`. makeBatchScenario()
-/// turns (batch seed, run index) into one scenario on a surveyed map: start and goal on roadway
-/// centrelines (1.6 m above the floor, at least min_separation_m apart), 0..max_moving_obstacles
+/// turns (batch seed, run index) into one scenario on a map: start and goal on roadway
+/// axes (a survey's centrelines 1.6 m above the floor, or the passages of the free-space roadway
+/// graph of a map without a survey; at least min_separation_m apart), 0..max_moving_obstacles
 /// vehicles driving along roadways, and with roof_fall_probability a roof fall on a roadway
 /// between them. Every random draw comes from a generator seeded by batchRunSeed(seed, index)
 /// alone, so a run does not depend on which worker runs it, nor in which order: the table is the
@@ -53,9 +54,29 @@ struct BatchParams {
 /// The run's own seed: a SplitMix64 of the batch seed and the index.
 std::uint64_t batchRunSeed(std::uint64_t seed, int index);
 
+/// Where a batch draws its starts, goals, vehicles and roof falls: the roadways' axes, each point
+/// drawn uniformly along their length and lifted by `lift` (to the robot's centre height), and
+/// their widths. From a survey: the centrelines, lifted 1.6 m above the floor. From any other map
+/// (a scan, a mesh, a .bt): the passages of the free-space roadway graph for a robot of
+/// `clearance_m` (global::RoadwayGraph::fromFreeSpace), whose axes already run where the robot fits.
+struct BatchRoadways {
+  std::vector<map::Polyline> axes;
+  std::vector<double> widths_m;  ///< per axis, at the robot's centre height
+  map::Vec3 lift = map::Vec3::Zero();
+  std::string source;            ///< "survey" or "free_space"
+  static BatchRoadways fromSurvey(const map::SurveyNetwork& survey);
+  static StatusOr<BatchRoadways> fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
+                                               double clearance_m);
+  /// The width of the roadway whose axis passes nearest to `p`; 0 without roadways.
+  double widthAt(const map::Vec3& p) const;
+};
+
 /// Scenario `index` of the batch: `base` gives the map, robot, method, params and dt; the rest is
 /// drawn. `truth` is the map loaded for `base` (start and goal must have the robot's clearance).
-/// Errors: bad params, a survey without roadways, no admissible start/goal pair in 1000 draws.
+/// Errors: bad params, a map without roadways, no admissible start/goal pair in 1000 draws.
+StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const BatchRoadways& roadways,
+                                            const local::Environment& truth, const BatchParams& params, int index);
+/// The same on a survey's roadways.
 StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const map::SurveyNetwork& survey,
                                             const local::Environment& truth, const BatchParams& params, int index);
 
