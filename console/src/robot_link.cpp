@@ -18,7 +18,7 @@
 #include <thread>
 
 #include "adit/console/protocol_limits.hpp"
-#include "adit/map/map_io.hpp"
+#include "adit/map/file_io.hpp"
 #include "protocol.hpp"
 
 namespace adit::console {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "adit/map/map_io.hpp"
+#include "adit/map/file_io.hpp"
 
 namespace adit::global {
 

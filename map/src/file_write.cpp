@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// writeFileAtomically: temporary file + rename for regular files, written through for character
+// readFile (bounded, regular files only) and writeFileAtomically: temporary file + rename for regular files, written through for character
 // devices and FIFOs, symlinks resolved to their target, and the temporary file removed when the
 // process is interrupted (SIGINT/SIGTERM) in the middle of a write.
 #include <fcntl.h>
@@ -16,7 +16,7 @@
 #include <mutex>
 #include <random>
 
-#include "adit/map/map_io.hpp"
+#include "adit/map/file_io.hpp"
 
 namespace adit::map {
 
@@ -213,6 +213,29 @@ Status writeFileAtomically(const std::string& path, const std::function<bool(std
     return internalError(shown + ": " + why + "; nothing was written");
   }
   return {};
+}
+
+StatusOr<std::string> readFile(const std::string& path, std::size_t max_bytes) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (st.type() == fs::file_type::not_found) return notFound(path + ": no such file");
+  if (ec) return notFound(path + ": cannot access: " + ec.message());
+  if (fs::is_directory(st)) return invalidArgument(path + ": is a directory, not a file");
+  // Opening a FIFO blocks until someone writes to it, and devices have no size: refuse both.
+  if (!fs::is_regular_file(st))
+    return invalidArgument(path + ": not a regular file (a device, FIFO or socket)");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return notFound(path + ": cannot open: " + std::strerror(errno));
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size < 0) return dataLoss(path + ": cannot determine the file size");
+  if (std::uint64_t(size) > max_bytes)
+    return invalidArgument(path + ": file is " + std::to_string(size) + " bytes, above the limit of " +
+                           std::to_string(max_bytes));
+  in.seekg(0);
+  std::string bytes(std::size_t(size), '\0');
+  if (size > 0 && !in.read(bytes.data(), size)) return dataLoss(path + ": read error");
+  return bytes;
 }
 
 }  // namespace adit::map

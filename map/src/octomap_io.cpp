@@ -209,29 +209,6 @@ StatusOr<MapFormat> formatFromPath(const std::string& path) {
                          "' (supported: .yaml/.yml survey network, .bt and .ot OctoMap)");
 }
 
-StatusOr<std::string> readFile(const std::string& path, std::size_t max_bytes) {
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (st.type() == fs::file_type::not_found) return notFound(path + ": no such file");
-  if (ec) return notFound(path + ": cannot access: " + ec.message());
-  if (fs::is_directory(st)) return invalidArgument(path + ": is a directory, not a file");
-  // Opening a FIFO blocks until someone writes to it, and devices have no size: refuse both.
-  if (!fs::is_regular_file(st))
-    return invalidArgument(path + ": not a regular file (a device, FIFO or socket)");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return notFound(path + ": cannot open: " + std::strerror(errno));
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  if (size < 0) return dataLoss(path + ": cannot determine the file size");
-  if (std::uint64_t(size) > max_bytes)
-    return invalidArgument(path + ": file is " + std::to_string(size) + " bytes, above the limit of " +
-                           std::to_string(max_bytes));
-  in.seekg(0);
-  std::string bytes(std::size_t(size), '\0');
-  if (size > 0 && !in.read(bytes.data(), size)) return dataLoss(path + ": read error");
-  return bytes;
-}
-
 StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string& name, UnknownPolicy policy,
                                     std::uint64_t max_memory_bytes) {
   StatusOr<Header> header = parseHeader(bytes, name);

@@ -7,7 +7,7 @@
 #include <set>
 #include <sstream>
 
-#include "adit/map/map_io.hpp"
+#include "adit/map/file_io.hpp"
 #include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 

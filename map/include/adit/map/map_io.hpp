@@ -14,6 +14,7 @@
 #include <ostream>
 #include <string>
 
+#include "adit/map/file_io.hpp"
 #include "adit/map/occupancy_map.hpp"
 #include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
@@ -59,19 +60,5 @@ StatusOr<OccupancyMap> parseOctomap(const std::string& bytes, const std::string&
 
 /// Writes .bt or .ot (by extension) atomically.
 Status writeOctomap(const OccupancyMap& map, const std::string& path);
-
-/// Calls `write` on a stream to a temporary file beside `path`, then renames it over `path`.
-/// If `write` returns false or throws, or the stream fails, the temporary file is removed and
-/// `path` is untouched. Writers never destroy what is not theirs:
-/// - a symbolic link is followed (through chains and to a dangling target) and its target is
-///   replaced, never the link itself; a replaced regular file keeps its permission bits;
-/// - a character device (/dev/null, a terminal) or a FIFO is written through in place, without a
-///   temporary file (such a write cannot be atomic); block devices and sockets are refused;
-/// - SIGINT, SIGTERM or SIGHUP during the write remove the temporary file, then the signal's
-///   previous disposition runs (the process still dies of it unless the application handles it).
-Status writeFileAtomically(const std::string& path, const std::function<bool(std::ostream&)>& write);
-
-/// Whole file into memory, with a clear error if it is missing, a directory or too large.
-StatusOr<std::string> readFile(const std::string& path, std::size_t max_bytes = std::size_t{1} << 32);
 
 }  // namespace adit::map
