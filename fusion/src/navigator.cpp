@@ -119,6 +119,26 @@ struct Navigator::Impl {
     return {};
   }
 
+  // The voxels an operator's block of roadway `name` makes rock: a survey roadway's middle
+  // cross-section, or, on a map without a survey, the middle slice of the free-space graph's
+  // passage of that name (passage-N, as `adit map graph` shows them).
+  StatusOr<std::vector<Vec3>> blockVoxels(const std::string& name) const {
+    if (loaded.survey) {
+      ADIT_ASSIGN_OR_RETURN(const map::SurveyRoadway* rw, roadway(name));
+      return middleSection(*rw);
+    }
+    const global::RoadwayGraph& g = global->graph();
+    for (std::size_t e = 0; e < g.edges().size(); ++e)
+      if (g.edges()[e].roadway == name) {
+        std::vector<Vec3> out;
+        for (const Vec3& p : g.passageSlice(int(e)))
+          if (loaded.map.state(p) == map::VoxelState::kFree) out.push_back(p);
+        return out;
+      }
+    return notFound("unknown passage '" + name + "' (the map has no survey: its roadways are the passages of the "
+                    "free-space graph, passage-1 to passage-" + std::to_string(g.edges().size()) + ")");
+  }
+
   // The survey roadway called `name`, or an error listing the known names.
   StatusOr<const map::SurveyRoadway*> roadway(const std::string& name) const {
     if (!loaded.survey) return failedPrecondition("roadway '" + name + "': the map has no survey, so no roadway names");
@@ -453,9 +473,8 @@ Status Navigator::setGoal(const Vec3& goal) {
 StatusOr<RoadwayBlockResult> Navigator::blockRoadway(const std::string& name) {
   Impl& m = *impl_;
   std::unique_lock lock(m.mutex);
-  ADIT_ASSIGN_OR_RETURN(const map::SurveyRoadway* rw, m.roadway(name));
   if (m.blocks.count(name)) return failedPrecondition("roadway '" + name + "' is already blocked");
-  std::vector<Vec3> voxels = m.middleSection(*rw);
+  ADIT_ASSIGN_OR_RETURN(std::vector<Vec3> voxels, m.blockVoxels(name));
   if (voxels.empty()) return failedPrecondition("roadway '" + name + "': its middle cross-section holds no free voxel");
   const double r = m.params.local.robot.radius_m, res = m.field->resolution();
   for (const Vec3& p : voxels)
@@ -481,8 +500,7 @@ StatusOr<RoadwayBlockResult> Navigator::blockRoadway(const std::string& name) {
 StatusOr<RoadwayBlockResult> Navigator::reopenRoadway(const std::string& name) {
   Impl& m = *impl_;
   std::unique_lock lock(m.mutex);
-  ADIT_ASSIGN_OR_RETURN(const map::SurveyRoadway* rw, m.roadway(name));
-  (void)rw;
+  if (m.loaded.survey) ADIT_RETURN_IF_ERROR(m.roadway(name).status());
   auto it = m.blocks.find(name);
   if (it == m.blocks.end()) return failedPrecondition("roadway '" + name + "' is not blocked");
   ADIT_RETURN_IF_ERROR(m.writeVoxels(it->second, map::VoxelState::kFree, map::VoxelState::kOccupied).status());

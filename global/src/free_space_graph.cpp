@@ -454,22 +454,33 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromFreeSpace(const map::OccupancyMap& map,
       }
       walked.insert(dkey(int(i), first));
       walked.insert(dkey(chain.back(), chain[chain.size() - 2]));
-      std::vector<Vec3> pts{pos[i]};
-      double radius = 0;
-      for (std::size_t c = 0; c < chain.size(); ++c) {
-        radius = std::max(radius, radiusOf(chain[c]));
-        if (c == 0) continue;
-        const Vec3 a = pos[std::size_t(chain[c - 1])], b = pos[std::size_t(chain[c])];
-        if (segmentClear(field, a, b, required_clearance_m, step)) pts.push_back(b);
-        else voxelPath(chain[c - 1], chain[c], &pts);
+      auto addChainEdge = [&](const std::vector<int>& part) {
+        std::vector<Vec3> pts{pos[std::size_t(part.front())]};
+        double radius = 0;
+        for (std::size_t c = 0; c < part.size(); ++c) {
+          radius = std::max(radius, radiusOf(part[c]));
+          if (c == 0) continue;
+          const Vec3 a = pos[std::size_t(part[c - 1])], b = pos[std::size_t(part[c])];
+          if (segmentClear(field, a, b, required_clearance_m, step)) pts.push_back(b);
+          else voxelPath(part[c - 1], part[c], &pts);
+        }
+        Polyline axis;
+        axis.points = straighten(pts);
+        const int from = index->pieces[std::size_t(part.front())].node, to = index->pieces[std::size_t(part.back())].node;
+        const int e = g.addEdge(from, to, "passage-" + std::to_string(g.edges_.size() + 1), std::move(axis), radius, 0.0);
+        index->edge_pieces.push_back(part);
+        for (std::size_t c = 1; c + 1 < part.size(); ++c) index->pieces[std::size_t(part[c])].edge = e;
+      };
+      if (chain.front() == chain.back() && chain.size() >= 5) {
+        // A loop back to its own node (a pure loop, or one hanging off a junction): two passages
+        // meeting at a node half way round, so that either side can be blocked and routed round.
+        const std::size_t half = chain.size() / 2;
+        makeNode(chain[half]);
+        addChainEdge(std::vector<int>(chain.begin(), chain.begin() + std::ptrdiff_t(half) + 1));
+        addChainEdge(std::vector<int>(chain.begin() + std::ptrdiff_t(half), chain.end()));
+      } else {
+        addChainEdge(chain);
       }
-      Polyline axis;
-      axis.points = straighten(pts);
-      if (axis.points.size() == 1) axis.points.push_back(axis.points.front());
-      const int from = index->pieces[i].node, to = index->pieces[std::size_t(chain.back())].node;
-      const int e = g.addEdge(from, to, "passage-" + std::to_string(g.edges_.size() + 1), std::move(axis), radius, 0.0);
-      index->edge_pieces.push_back(chain);
-      for (std::size_t c = 1; c + 1 < chain.size(); ++c) index->pieces[std::size_t(chain[c])].edge = e;
     }
   }
   // A part that is a single piece (a chamber smaller than a slice): one edge from the far end
@@ -648,6 +659,21 @@ bool RoadwayGraph::refreshFreeSpaceEdge(int edge, const map::DistanceField& fiel
     << where.y() << ", " << where.z() << ")";
   e.blocked_reason = m.str();
   return true;
+}
+
+std::vector<Vec3> RoadwayGraph::passageSlice(int edge) const {
+  std::vector<Vec3> out;
+  if (!free_space_ || edge < 0 || std::size_t(edge) >= free_space_->edge_pieces.size()) return out;
+  const FreeSpaceIndex& ix = *free_space_;
+  const std::vector<int>& chain = ix.edge_pieces[std::size_t(edge)];
+  if (chain.size() < 3) return out;  // only its two end pieces: nothing of its own to cut
+  const int piece = chain[chain.size() / 2];
+  const FreeSpaceIndex::Piece& p = ix.pieces[std::size_t(piece)];
+  for (int z = p.lo.z; z <= p.hi.z; ++z)
+    for (int y = p.lo.y; y <= p.hi.y; ++y)
+      for (int x = p.lo.x; x <= p.hi.x; ++x)
+        if (ix.piece.get({x, y, z}) == piece) out.push_back(centre({x, y, z}, ix.resolution_m));
+  return out;
 }
 
 }  // namespace adit::global

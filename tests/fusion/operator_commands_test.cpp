@@ -223,3 +223,65 @@ TEST(OperatorCommands, ManualDriveAtARibKeepsClearThenReleaseFollowsAgain) {
 
 }  // namespace
 }  // namespace adit::fusion
+
+namespace adit::fusion {
+namespace {
+
+// The same loop as an octree without its survey: the operator blocks a passage of the free-space
+// roadway graph by the name `adit map graph` shows, the robot goes round the loop, and the
+// reopen puts every voxel back.
+TEST(OperatorCommands, OnAMapWithoutASurveyAPassageOfTheFreeSpaceGraphIsBlockedAndReopened) {
+  auto make = [](const Vec3& goal) {
+    map::SurveyNetwork net = loop();
+    NavigatorParams p;
+    p.local.robot.radius_m = kRadius;
+    return Navigator::create(map::LoadedMap{test::voxelizeOrFail(net), std::nullopt}, p, goal);
+  };
+  StatusOr<Navigator> first = make(kGoal);
+  ASSERT_TRUE(first.ok()) << first.status().message();
+  // The loop is two passages meeting at two nodes (and perhaps a short stub in a corner); take
+  // the longest, and start and goal on it a fifth of its length in from each end, so that its
+  // middle lies between them.
+  const global::RoadwayGraph& g = first->globalPlanner().graph();
+  ASSERT_GE(g.edges().size(), 2u);
+  std::size_t longest = 0;
+  for (std::size_t k = 0; k < g.edges().size(); ++k)
+    if (g.edges()[k].length_m > g.edges()[longest].length_m) longest = k;
+  const global::RoadwayEdge& e = g.edges()[longest];
+  ASSERT_GT(e.length_m, 25.0);
+  auto along = [&](double f) {
+    double left = f * e.length_m;
+    for (std::size_t i = 0; i + 1 < e.axis.points.size(); ++i) {
+      const double len = (e.axis.points[i + 1] - e.axis.points[i]).norm();
+      if (len >= left) return Vec3(e.axis.points[i] + (e.axis.points[i + 1] - e.axis.points[i]) * (left / len));
+      left -= len;
+    }
+    return e.axis.points.back();
+  };
+  const Vec3 start = along(0.2), goal = along(0.8), middle = along(0.5);
+  const std::string name = e.roadway;
+  StatusOr<Navigator> made = make(goal);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  Navigator nav = std::move(made).value();
+  ASSERT_TRUE(nav.plan(start).ok());
+  ASSERT_TRUE(passesNear(nav.expectedPath(), middle, 1.5));
+  const double direct = nav.expectedPath().length();
+
+  const StatusOr<RoadwayBlockResult> unknown = nav.blockRoadway("south");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.status().message().find("passage-1 to passage-"), std::string::npos) << unknown.status().message();
+  const StatusOr<RoadwayBlockResult> b = nav.blockRoadway(name);
+  ASSERT_TRUE(b.ok()) << b.status().message();
+  EXPECT_GT(b->voxels, 100u);
+  EXPECT_TRUE(b->replanned);
+  EXPECT_FALSE(b->no_route) << b->message;
+  EXPECT_FALSE(passesNear(nav.expectedPath(), middle, 1.0)) << "the new path must not cross the block";
+  EXPECT_GT(nav.expectedPath().length(), direct + 10.0) << "round the loop by the other passage";
+  const StatusOr<RoadwayBlockResult> o = nav.reopenRoadway(name);
+  ASSERT_TRUE(o.ok()) << o.status().message();
+  EXPECT_EQ(o->voxels, b->voxels);
+  EXPECT_LT(nav.expectedPath().length(), direct + 1.0) << "the short way is open again";
+}
+
+}  // namespace
+}  // namespace adit::fusion

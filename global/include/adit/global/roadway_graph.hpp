@@ -122,6 +122,12 @@ class RoadwayGraph {
   static StatusOr<RoadwayGraph> fromFreeSpace(const map::OccupancyMap& map, const map::DistanceField& field,
                                               double required_clearance_m, double slice_m);
 
+  /// A free-space graph's passage cut across in its middle: the centres of the voxels of its
+  /// middle piece (a slice of the robot's free space across the passage, which every way along
+  /// the passage crosses). Making them rock blocks the passage for this robot, as an operator's
+  /// "block roadway" does on a survey. Empty for a survey graph or a passage of one piece.
+  std::vector<Vec3> passageSlice(int edge) const;
+
   /// How the free-space graph was built (all zero for a survey graph).
   const FreeSpaceGraphInfo& freeSpaceInfo() const { return info_; }
   bool fromFreeSpaceMap() const { return free_space_ != nullptr; }
