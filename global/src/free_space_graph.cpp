@@ -34,6 +34,11 @@ constexpr VoxelIndex kFaces[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, 
 
 VoxelIndex plus(const VoxelIndex& a, const VoxelIndex& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
 Vec3 centre(const VoxelIndex& v, double res) { return (Vec3(v.x, v.y, v.z) + Vec3::Constant(0.5)) * res; }
+// A voxel as one 63-bit key (21 bits per axis, OctoMap's 16-bit key range fits) for hash sets.
+std::uint64_t key(const VoxelIndex& v) {
+  return (std::uint64_t(std::uint32_t(v.x) & 0x1fffff) << 42) | (std::uint64_t(std::uint32_t(v.y) & 0x1fffff) << 21) |
+         std::uint64_t(std::uint32_t(v.z) & 0x1fffff);
+}
 VoxelIndex voxelOf(const Vec3& p, double res) {
   return {int(std::floor(p.x() / res)), int(std::floor(p.y() / res)), int(std::floor(p.z() / res))};
 }
@@ -411,10 +416,6 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromFreeSpace(const map::OccupancyMap& map,
     const VoxelIndex a = pieces[std::size_t(pa)].best, b = pieces[std::size_t(pb)].best;
     std::vector<VoxelIndex> open{a};
     std::unordered_map<std::uint64_t, std::uint32_t> parent;  // voxel key -> index into `open`
-    auto key = [](const VoxelIndex& v) {
-      return (std::uint64_t(std::uint32_t(v.x) & 0x1fffff) << 42) | (std::uint64_t(std::uint32_t(v.y) & 0x1fffff) << 21) |
-             std::uint64_t(std::uint32_t(v.z) & 0x1fffff);
-    };
     parent[key(a)] = 0xffffffffu;
     std::vector<std::uint32_t> from{0xffffffffu};
     for (std::size_t h = 0; h < open.size(); ++h) {
@@ -577,10 +578,6 @@ bool RoadwayGraph::refreshFreeSpaceEdge(int edge, const map::DistanceField& fiel
   // continuously, not from centre to centre). It starts at the node's own voxel, not anywhere in
   // the node's piece: a fall that cuts a junction in two must cut the passages on the far side
   // of it from the node, or a route would cross the junction where no robot can.
-  auto key = [](const VoxelIndex& v) {
-    return (std::uint64_t(std::uint32_t(v.x) & 0x1fffff) << 42) | (std::uint64_t(std::uint32_t(v.y) & 0x1fffff) << 21) |
-           std::uint64_t(std::uint32_t(v.z) & 0x1fffff);
-  };
   auto position = [&](int piece) {
     for (std::size_t c = 0; c < chain.size(); ++c)
       if (chain[c] == piece) return int(c);

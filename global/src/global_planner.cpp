@@ -302,10 +302,22 @@ std::vector<Vec3> subdivide(const RobotValidity& v, const std::vector<Vec3>& p, 
   return out;
 }
 
-double polylineLength(const std::vector<Vec3>& p) {
-  double sum = 0;
-  for (std::size_t i = 0; i + 1 < p.size(); ++i) sum += (p[i + 1] - p[i]).norm();
-  return sum;
+Status validatePoints(const RobotValidity& v, const std::vector<Vec3>& p);
+
+// adit's own shortening of a valid path (a search's, or the route's axis): shortcuts and
+// break-point relaxation, each step's result kept only when every segment re-validates.
+std::vector<Vec3> polish(const RobotValidity& v, std::vector<Vec3> best) {
+  auto accept = [&](std::vector<Vec3> candidate) {
+    if (candidate.size() >= 2 && candidate.front() == best.front() && candidate.back() == best.back() &&
+        validatePoints(v, candidate).ok())
+      best = std::move(candidate);
+  };
+  accept(shortcut(v, best));
+  accept(relax(v, subdivide(v, best, 4.0), 40));
+  accept(shortcut(v, best));
+  accept(relax(v, best, 40));
+  accept(mergeCloseBreakPoints(v, best, 3.0, 0.05));
+  return best;
 }
 
 Status validatePoints(const RobotValidity& v, const std::vector<Vec3>& p) {
@@ -506,17 +518,7 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     std::vector<Vec3> axis_path;
     double axis_time = 0.0;
     if (route_axis.size() >= 2 && validatePoints(val, route_axis).ok()) {
-      axis_path = route_axis;
-      auto accept = [&](std::vector<Vec3> candidate) {
-        if (candidate.size() >= 2 && candidate.front() == axis_path.front() &&
-            candidate.back() == axis_path.back() && validatePoints(val, candidate).ok())
-          axis_path = std::move(candidate);
-      };
-      accept(shortcut(val, axis_path));
-      accept(relax(val, subdivide(val, axis_path, 4.0), 40));
-      accept(shortcut(val, axis_path));
-      accept(relax(val, axis_path, 40));
-      accept(mergeCloseBreakPoints(val, axis_path, 3.0, 0.05));
+      axis_path = polish(val, route_axis);
       axis_time = seconds(t0, Clock::now());
     }
 
@@ -602,23 +604,17 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
         result.message = "OMPL returned an invalid path: " + raw_ok.message();
         return finish(result);
       }
-      // Simplify, and keep each step's result only when every segment re-validates.
-      auto accept = [&](std::vector<Vec3> candidate) {
-        if (candidate.size() >= 2 && candidate.front() == best.front() && candidate.back() == best.back() &&
-            validatePoints(val, candidate).ok())
-          best = std::move(candidate);
-      };
+      // OMPL's simplifier first, kept only when every segment re-validates, then adit's own.
       og::PathSimplifier simplifier(si, pdef->getGoal(), pdef->getOptimizationObjective());
       simplifier.reduceVertices(work);
       simplifier.shortcutPath(work);
-      accept(points(work));
-      accept(shortcut(val, best));
-      accept(relax(val, subdivide(val, best, 4.0), 40));
-      accept(shortcut(val, best));
-      accept(relax(val, best, 40));
-      accept(mergeCloseBreakPoints(val, best, 3.0, 0.05));
+      const std::vector<Vec3> simplified = points(work);
+      if (simplified.size() >= 2 && simplified.front() == best.front() && simplified.back() == best.back() &&
+          validatePoints(val, simplified).ok())
+        best = simplified;
+      best = polish(val, best);
       result.path.points = best;
-      if (!axis_path.empty() && polylineLength(axis_path) < polylineLength(best) - 1e-9) {
+      if (!axis_path.empty() && map::Polyline{axis_path}.length() < map::Polyline{best}.length() - 1e-9) {
         result.path.points = axis_path;
         result.from_route_axis = true;
       }
