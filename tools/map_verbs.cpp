@@ -315,6 +315,9 @@ int runGraph(const MapArgs& a, const GraphArgs& g) {
   StatusOr<global::PlanMode> mode = global::parsePlanMode(g.mode);
   if (!mode.ok()) return report(invalidArgument("--mode: " + mode.status().message()));
   params.mode = *mode;
+  if (!(std::isfinite(g.margin) && g.margin >= 0)) return report(invalidArgument("--margin must be >= 0 m"));
+  if (!(std::isfinite(g.slice) && g.slice > 0))
+    return report(invalidArgument("--slice must be > 0 m (the thickness of the graph's slices), got " + std::to_string(g.slice)));
   params.safety_margin_m = g.margin;
   params.skeleton_cell_m = g.slice;
   if (Status s = params.validate(); !s.ok()) return report(s);
