@@ -15,7 +15,6 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
-#include <unordered_map>
 #include <unordered_set>
 
 #include "adit/global/roadway_graph.hpp"
@@ -46,6 +45,38 @@ VoxelIndex voxelOf(const Vec3& p, double res) {
 // Working memory per voxel slot of the build: breadth-first depth and piece (4 + 4 bytes),
 // clearance (4); tiles of 8^3 are about half free in roadways (measured on the district: 51 %).
 constexpr double kBuildBytesPerFreeVoxel = 12.0 / 0.5 + 12.0;  // grids + queue
+
+// Breadth-first, face to face, from `from` over the voxels whose piece `allowed` accepts and
+// that `step_ok(v, w)` lets through; `visit(v)` sees every voxel reached. Returns the voxel
+// centres from `from` to `target` when it is reached (empty otherwise); with `stop_at_target`
+// the search ends there. One flood for the axes' detours round bends and for re-checking a
+// passage after the map changed.
+template <class Allowed, class StepOk, class Visit>
+std::vector<Vec3> floodPieces(const VoxelGrid<std::int32_t>& piece_of, double res, const VoxelIndex& from,
+                              const VoxelIndex& target, bool stop_at_target, Allowed allowed, StepOk step_ok,
+                              Visit visit) {
+  std::unordered_set<std::uint64_t> seen{key(from)};
+  std::vector<VoxelIndex> open{from};
+  std::vector<std::uint32_t> parent{0xffffffffu};
+  std::vector<Vec3> path;
+  for (std::size_t h = 0; h < open.size(); ++h) {
+    const VoxelIndex v = open[h];
+    visit(v);
+    if (v == target && path.empty()) {
+      for (std::uint32_t i = std::uint32_t(h); i != 0xffffffffu; i = parent[i]) path.push_back(centre(open[i], res));
+      std::reverse(path.begin(), path.end());
+      if (stop_at_target) break;
+    }
+    for (const VoxelIndex& f : kFaces) {
+      const VoxelIndex w = plus(v, f);
+      if (!allowed(piece_of.get(w)) || seen.count(key(w)) || !step_ok(v, w)) continue;
+      seen.insert(key(w));
+      open.push_back(w);
+      parent.push_back(std::uint32_t(h));
+    }
+  }
+  return path;
+}
 
 // Greedy line-of-sight shortening with doubling steps: long straight passages cost O(log n)
 // checks per kept point instead of O(n).
@@ -152,8 +183,8 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromFreeSpace(const map::OccupancyMap& map,
     return failedPrecondition(m.str());
   }
 
-  // 2. Each connected part: a breadth-first sweep from any voxel finds a far end, a second one
-  //    from there gives every voxel its depth; the pieces of each slice are flood-filled.
+  // 2. Each connected part: a breadth-first sweep from any voxel finds a far end, the geodesic
+  //    distance from there gives every voxel its depth; the pieces of each slice are flood-filled.
   const int slice = 10 * std::max(1, int(std::lround(options.slice_m / res)));  // chamfer units
   VoxelGrid<std::int32_t> piece_of = depth.sameShape<std::int32_t>(-1);
   struct PieceBuild {
@@ -413,28 +444,12 @@ StatusOr<RoadwayGraph> RoadwayGraph::fromFreeSpace(const map::OccupancyMap& map,
   // segment between their points loses clearance, e.g. round a bend.
   const double step = 0.5 * res;
   auto voxelPath = [&](int pa, int pb, std::vector<Vec3>* out) {
-    const VoxelIndex a = pieces[std::size_t(pa)].best, b = pieces[std::size_t(pb)].best;
-    std::vector<VoxelIndex> open{a};
-    std::unordered_map<std::uint64_t, std::uint32_t> parent;  // voxel key -> index into `open`
-    parent[key(a)] = 0xffffffffu;
-    std::vector<std::uint32_t> from{0xffffffffu};
-    for (std::size_t h = 0; h < open.size(); ++h) {
-      if (open[h] == b) {
-        std::vector<Vec3> rev;
-        for (std::uint32_t i = std::uint32_t(h); i != 0xffffffffu; i = from[i]) rev.push_back(centre(open[i], res));
-        out->insert(out->end(), rev.rbegin() + 1, rev.rend());  // a is already on the axis
-        return;
-      }
-      for (const VoxelIndex& f : kFaces) {
-        const VoxelIndex w = plus(open[h], f);
-        const int c = piece_of.get(w);
-        if (c != pa && c != pb) continue;
-        if (!parent.emplace(key(w), std::uint32_t(h)).second) continue;
-        open.push_back(w);
-        from.push_back(std::uint32_t(h));
-      }
-    }
-    out->push_back(centre(b, res));  // not reached (cannot happen for touching pieces): straight
+    const std::vector<Vec3> way = floodPieces(
+        piece_of, res, pieces[std::size_t(pa)].best, pieces[std::size_t(pb)].best, true,
+        [&](int c) { return c == pa || c == pb; }, [](const VoxelIndex&, const VoxelIndex&) { return true; },
+        [](const VoxelIndex&) {});
+    if (way.empty()) out->push_back(pos[std::size_t(pb)]);  // cannot happen for touching pieces: straight
+    else out->insert(out->end(), way.begin() + 1, way.end());  // its first point is already on the axis
   };
   auto straighten = [&](const std::vector<Vec3>& pts) { return straightenAxis(field, pts, required_clearance_m); };
 
@@ -589,32 +604,15 @@ bool RoadwayGraph::refreshFreeSpaceEdge(int edge, const map::DistanceField& fiel
     const VoxelIndex from = nodeVoxel(start_piece);
     if (field.distance(centre(from, res)) < required_clearance_m) return std::make_pair(reached, false);
     const VoxelIndex target = nodeVoxel(start_piece == chain.front() ? chain.back() : chain.front());
-    std::unordered_set<std::uint64_t> seen{key(from)};
-    std::vector<VoxelIndex> open{from};
-    std::vector<std::uint32_t> parent{0xffffffffu};
-    bool hit = false;
-    for (std::size_t h = 0; h < open.size(); ++h) {
-      const VoxelIndex v = open[h];
-      if (v == target && !hit) {
-        hit = true;
-        if (path) {
-          for (std::uint32_t i = std::uint32_t(h); i != 0xffffffffu; i = parent[i]) path->push_back(centre(open[i], res));
-          std::reverse(path->begin(), path->end());
-        }
-      }
-      const int at = position(ix.piece.get(v));
-      if (at >= 0) reached[std::size_t(at)] = 1;
-      for (const VoxelIndex& f : kFaces) {
-        const VoxelIndex w = plus(v, f);
-        const int c = ix.piece.get(w);
-        if (c < 0 || position(c) < 0 || seen.count(key(w))) continue;
-        if (field.distance(centre(w, res)) < required_clearance_m) continue;
-        if (field.distance(0.5 * (centre(v, res) + centre(w, res))) < required_clearance_m) continue;
-        seen.insert(key(w));
-        open.push_back(w);
-        parent.push_back(std::uint32_t(h));
-      }
-    }
+    const auto clear = [&](const Vec3& p) { return field.distance(p) >= required_clearance_m; };
+    std::vector<Vec3> found = floodPieces(
+        ix.piece, res, from, target, false, [&](int c) { return c >= 0 && position(c) >= 0; },
+        [&](const VoxelIndex& v, const VoxelIndex& w) {
+          return clear(centre(w, res)) && clear(0.5 * (centre(v, res) + centre(w, res)));
+        },
+        [&](const VoxelIndex& v) { reached[std::size_t(position(ix.piece.get(v)))] = 1; });
+    const bool hit = !found.empty();
+    if (path) *path = std::move(found);
     return std::make_pair(reached, hit);
   };
   std::vector<Vec3> way;

@@ -20,12 +20,6 @@ using map::Vec3;
 
 namespace {
 
-int degreeOf(const RoadwayGraph& g, int node) {
-  int d = 0;
-  for (const RoadwayEdge& e : g.edges()) d += (e.from == node) + (e.to == node);
-  return d;
-}
-
 // Millimetres are what a survey holds; more digits are float noise.
 double mm(double v) { return std::round(v * 1000.0) / 1000.0; }
 nlohmann::ordered_json point(const Vec3& p) { return {mm(p.x()), mm(p.y()), mm(p.z())}; }
@@ -83,7 +77,7 @@ Status writeDxf(const RoadwayGraph& g, const std::string& path) {
                     DL_Attributes("NAMES", 256, -1, "BYLAYER", 1.0));
     }
     for (std::size_t n = 0; n < g.nodes().size(); ++n) {
-      const int d = degreeOf(g, int(n));
+      const int d = g.degree(int(n));
       if (d == 2) continue;
       const Vec3& p = g.nodes()[n].position;
       dxf.writePoint(*dw, DL_PointData(p.x(), p.y(), p.z()),
@@ -106,7 +100,7 @@ Status writeDxf(const RoadwayGraph& g, const std::string& path) {
 }  // namespace
 
 const char* nodeKind(const RoadwayGraph& g, int node) {
-  const int d = degreeOf(g, node);
+  const int d = g.degree(node);
   return d >= 3 ? "junction" : d == 1 ? "end" : d == 0 ? "isolated" : "node";
 }
 

@@ -135,6 +135,8 @@ class RoadwayGraph {
   const std::vector<RoadwayNode>& nodes() const { return nodes_; }
   const std::vector<RoadwayEdge>& edges() const { return edges_; }
   double totalLength() const;
+  /// Edges meeting at `node` (a self-loop counts once).
+  int degree(int node) const { return int(incident_.at(std::size_t(node)).size()); }
   /// Nodes with a single edge: the roadway ends (dead ends, faces, portals).
   std::vector<int> ends() const;
 
