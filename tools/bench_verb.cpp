@@ -245,13 +245,13 @@ int runBench(const BenchArgs& a) {
   if (map_paths.empty() && a.movingai.empty()) map_paths.push_back("maps/district.yaml");
   bool header = false;  // printed once a map has loaded: a bad first map leaves stdout empty
   for (const std::string& path : map_paths) {
-    StatusOr<PlanWorld> world = loadPlanWorld(path, UnknownPolicy::kRock, a.quiet);
+    StatusOr<map::World> world = loadWorld(path, UnknownPolicy::kRock, a.quiet);
     if (!world.ok()) return report(world.status());
     if (!std::exchange(header, true))
       std::printf("%-22s %-22s %5s %8s %9s %9s %9s %9s %9s %7s %8s\n", "map", "planner", "runs", "success", "first_ms",
                   "final_ms", "final_p90", "len/grid", "worst", "breaks", "min_clr");
-    const LoadedMap* loaded = &world->loaded;
-    const DistanceField* field = &world->field;
+    const LoadedMap* loaded = &world->loaded();
+    const DistanceField* field = &world->field();
     const auto t_map = std::chrono::steady_clock::now();
     GlobalPlannerParams base;
     base.robot = *robot;

@@ -14,6 +14,7 @@
 #include "adit/global/global_planner.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
+#include "adit/map/world.hpp"
 #include "adit/map/map_summary.hpp"
 #include "adit/map/readers/import.hpp"
 #include "adit/map/size_estimate.hpp"
@@ -254,9 +255,13 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
                                  " or raise --max-memory");
   if (!fits.ok()) return report(fits);
   const auto max_tiles = std::uint64_t(double(budget.max_bytes) / distanceFieldBytesPerTile()) + 1;
-  StatusOr<DistanceField> df = DistanceField::build(loaded->map, bar.callback(), max_tiles);
+  WorldOptions wo;
+  wo.load.progress = bar.callback();
+  wo.max_field_blocks = max_tiles;
+  StatusOr<World> world = World::build(std::move(loaded).value(), a.path, wo);
   bar.finish();
-  if (!df.ok()) return report(df.status());
+  if (!world.ok()) return report(world.status());
+  const DistanceField* df = &world->field();
   // All input is validated before the first byte of output; rows are streamed (no copy of the
   // whole table in memory). Coordinates echo the input exactly so rows join back to it.
   auto writeRows = [&](std::ostream& os) {
@@ -264,7 +269,7 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
     char buf[160];
     for (const Vec3& p : pts) {
       const DistanceSample s = df->query(p);
-      std::snprintf(buf, sizeof buf, ",%s,%.4f,%.6f,%.6f,%.6f\n", voxelStateName(loaded->map.state(p)), s.distance,
+      std::snprintf(buf, sizeof buf, ",%s,%.4f,%.6f,%.6f,%.6f\n", voxelStateName(world->map().state(p)), s.distance,
                     s.gradient.x(), s.gradient.y(), s.gradient.z());
       os << roundTripNumber(p.x()) << ',' << roundTripNumber(p.y()) << ',' << roundTripNumber(p.z()) << buf;
     }
@@ -336,11 +341,14 @@ int runGraph(const MapArgs& a, const GraphArgs& g) {
   ProgressBar bar(a.quiet);
   StatusOr<LoadedMap> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
-  StatusOr<DistanceField> field = DistanceField::build(loaded->map, bar.callback());
+  WorldOptions wo;
+  wo.load.progress = bar.callback();
+  StatusOr<World> world = World::build(std::move(loaded).value(), a.path, wo);
   bar.finish();
-  if (!field.ok()) return report(field.status());
-  const SurveyNetwork* survey = loaded->survey ? &*loaded->survey : nullptr;
-  StatusOr<global::GlobalPlanner> planner = global::GlobalPlanner::create(loaded->map, *field, params, survey);
+  if (!world.ok()) return report(world.status());
+  const DistanceField* field = &world->field();
+  const SurveyNetwork* survey = world->survey();
+  StatusOr<global::GlobalPlanner> planner = global::GlobalPlanner::create(world->map(), *field, params, survey);
   if (!planner.ok()) return report(planner.status());
   const global::RoadwayGraph& graph = planner->graph();
   GraphContext c;
@@ -355,7 +363,7 @@ int runGraph(const MapArgs& a, const GraphArgs& g) {
   if (!g.picture.empty()) {
     const std::string title = "Roadway graph of " + std::filesystem::path(a.path).filename().string() + " (" +
                               (survey ? "survey" : "free space, " + g.robot) + ")";
-    if (Status s = drawGraph(loaded->map, graph, title, g.picture); !s.ok()) return report(s);
+    if (Status s = drawGraph(world->map(), graph, title, g.picture); !s.ok()) return report(s);
   }
   if (g.json) {
     std::cout << graphJson(graph, *field, c).dump(2) << "\n";

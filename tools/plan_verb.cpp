@@ -104,11 +104,11 @@ int runPlan(const PlanArgs& a) {
   if (Status s = checkOutputPath(a.out, "--out"); !s.ok()) return report(s);
   if (Status s = checkOutputPath(a.picture, "--picture"); !s.ok()) return report(s);
 
-  StatusOr<PlanWorld> world = loadPlanWorld(a.map_path, *policy, a.quiet);
+  StatusOr<map::World> world = loadWorld(a.map_path, *policy, a.quiet);
   if (!world.ok()) return report(world.status());
-  const LoadedMap* loaded = &world->loaded;
+  const LoadedMap* loaded = &world->loaded();
   StatusOr<global::GlobalPlanner> planner =
-      global::GlobalPlanner::create(loaded->map, world->field, *params, world->survey());
+      global::GlobalPlanner::create(loaded->map, world->field(), *params, world->survey());
   if (!planner.ok()) return report(planner.status());
   if (a.farthest_ends) {
     const auto ends = planner->graph().farthestEnds();
@@ -127,7 +127,7 @@ int runPlan(const PlanArgs& a) {
   const int code = exitCodeFor(r);
   if (!r.solved()) std::fprintf(stderr, "adit: %s: %s\n", global::outcomeName(r.outcome), r.message.c_str());
   std::optional<PlanRefinementInfo> refined;
-  if (a.refine && r.solved()) refined = refinePlan(*planner, world->field, &r, a.quiet);
+  if (a.refine && r.solved()) refined = refinePlan(*planner, world->field(), &r, a.quiet);
   const PlanRefinementInfo* before = refined ? &*refined : nullptr;
 
   if (!a.out.empty()) {

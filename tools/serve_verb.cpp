@@ -19,6 +19,7 @@
 #include "adit/map/size_estimate.hpp"
 #include "common/batch_runner.hpp"
 #include "common/cli.hpp"
+#include "common/plan_output.hpp"
 #include "common/progress.hpp"
 #include "verbs.hpp"
 
@@ -95,15 +96,12 @@ int runServe(const ServeArgs& args) {
   // Bad options are said before the map loads (which takes a while).
   if (Status s = options.validate(); !s.ok()) return report(s);
 
-  ProgressBar bar(args.quiet);
-  StatusOr<map::LoadedMap> loaded = map::loadMapAndSurvey(args.map, {map::UnknownPolicy::kRock, bar.callback()});
-  if (!loaded.ok()) return report(loaded.status());
-  StatusOr<map::DistanceField> field = map::DistanceField::build(loaded->map, bar.callback());
-  bar.finish();
-  if (!field.ok()) return report(field.status());
+  StatusOr<map::World> world = loadWorld(args.map, map::UnknownPolicy::kRock, args.quiet);
+  if (!world.ok()) return report(world.status());
   StatusOr<std::unique_ptr<console::Store>> store = console::Store::open(args.db);
   if (!store.ok()) return report(store.status());
-  StatusOr<std::unique_ptr<console::Server>> server = console::Server::create(*loaded, *field, **store, options);
+  StatusOr<std::unique_ptr<console::Server>> server =
+      console::Server::create(world->loaded(), world->field(), **store, options);
   if (!server.ok()) return report(server.status());
   const bool any = options.address == "0.0.0.0" || options.address == "::";
   const std::string host = options.address.find(':') != std::string::npos ? "[" + options.address + "]" : options.address;

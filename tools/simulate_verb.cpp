@@ -608,8 +608,17 @@ int run(const SimulateArgs& a) {
     std::fprintf(stderr, "adit: simulating %s with %s (sub-goals: %s) %s%s\n", sc->name.c_str(),
                  methodName(sc->params.method), subgoalModeName(sc->subgoal_mode), sc->map_path ? "on " : "in open space",
                  sc->map_path ? sc->map_path->c_str() : "");
-  StatusOr<Environment> env = Environment::load(*sc);
-  if (!env.ok()) return report(env.status());
+  // The scenario's map is loaded once: the referee's true world borrows it and the navigator's
+  // believed world starts from its copy (loading it twice was most of a short run's wall time).
+  std::optional<map::World> world;
+  StatusOr<Environment> env = Environment::openSpace();
+  if (sc->map_path) {
+    StatusOr<map::World> w = loadWorld(*sc->map_path, map::UnknownPolicy::kRock, a.quiet);
+    if (!w.ok()) return report(w.status());
+    world.emplace(std::move(w).value());
+    env = Environment::borrow(*world);
+    if (!env.ok()) return report(env.status());
+  }
   std::optional<fusion::NavigatedRun> nav;
   StatusOr<SimulationResult> r = internalError("not run");
   std::unique_ptr<console::RobotLink> link;
@@ -628,6 +637,7 @@ int run(const SimulateArgs& a) {
     options.refine_plan = !a.no_refine;
     options.refine_replans = a.refine_replans;
     if (live) options.observer = &*live;
+    if (world) options.believed = &*world;
     StatusOr<fusion::NavigatedRun> n = fusion::simulateNavigated(*sc, *env, options);
     if (link) {
       // Bounded wait for the centre to acknowledge everything (the run's end included). What is

@@ -320,7 +320,7 @@ double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p) {
 }
 
 BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index,
-                                const BelievedWorld* believed) {
+                                const map::World* believed) {
   BatchRunResult out;
   out.index = index;
   out.seed = scenario.seed;

@@ -95,12 +95,6 @@ void sense(std::vector<Fall>& falls, const map::OccupancyMap& truth, const Vec3&
 
 }  // namespace
 
-StatusOr<BelievedWorld> BelievedWorld::load(const std::string& map_path) {
-  ADIT_ASSIGN_OR_RETURN(map::LoadedMap loaded, map::loadMapAndSurvey(map_path));
-  ADIT_ASSIGN_OR_RETURN(map::DistanceField field, map::DistanceField::build(loaded.map));
-  return BelievedWorld{map_path, std::move(loaded), std::move(field)};
-}
-
 StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Environment& truth,
                                          const NavigatedOptions& options) {
   const auto wall0 = std::chrono::steady_clock::now();
@@ -120,16 +114,12 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   if (!truth.field()->isFree(sc.goal)) return invalidArgument(sc.file + ": goal: inside rock");
 
   // The believed world: its own copy of the map, sharing nothing with the true one.
-  std::optional<map::LoadedMap> believed;
-  std::optional<map::DistanceField> believed_field;
-  if (options.believed && options.believed->map_path == *sc.map_path) {
-    believed.emplace(map::LoadedMap{options.believed->loaded.map.deepCopy(), options.believed->loaded.survey});
-    believed_field.emplace(options.believed->field);
+  std::optional<map::World> believed;
+  if (options.believed && options.believed->path() == *sc.map_path) {
+    believed.emplace(options.believed->copy());
   } else {
-    ADIT_ASSIGN_OR_RETURN(map::LoadedMap loaded, map::loadMapAndSurvey(*sc.map_path));
-    believed.emplace(std::move(loaded));
-    ADIT_ASSIGN_OR_RETURN(map::DistanceField f, map::DistanceField::build(believed->map));
-    believed_field.emplace(std::move(f));
+    ADIT_ASSIGN_OR_RETURN(map::World w, map::World::load(*sc.map_path));
+    believed.emplace(std::move(w));
   }
   NavigatorParams np;
   np.local = sc.params;
@@ -143,7 +133,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   np.global.max_unsolved_iterations = 100000;
   np.subgoals = sc.subgoal_mode == local::SubgoalMode::kGaTrustRegion;
   np.subgoal = subgoalParamsFor(sc);
-  ADIT_ASSIGN_OR_RETURN(Navigator nav, Navigator::create(std::move(*believed), std::move(*believed_field), np, sc.goal));
+  ADIT_ASSIGN_OR_RETURN(Navigator nav, Navigator::create(std::move(*believed), np, sc.goal));
 
   NavigatedRun out;
   local::SimulationResult& res = out.run;

@@ -72,9 +72,10 @@ const char* consoleStatusName(const NavigatorCycle& c) {
 }
 
 struct Navigator::Impl {
-  explicit Impl(map::LoadedMap l) : loaded(std::move(l)) {}
-  map::LoadedMap loaded;
-  std::optional<map::DistanceField> field;
+  explicit Impl(map::World w) : world(std::move(w)), loaded(world.loaded()), field(&world.field()) {}
+  map::World world;
+  map::LoadedMap& loaded;      // world's, by their old names
+  map::DistanceField* field;
   std::optional<global::GlobalPlanner> global;
   std::optional<local::LocalPlanner> local;
   NavigatorParams params;
@@ -269,31 +270,33 @@ Navigator& Navigator::operator=(Navigator&&) noexcept = default;
 Navigator::~Navigator() = default;
 
 StatusOr<Navigator> Navigator::create(map::LoadedMap loaded, const NavigatorParams& params, const Vec3& goal) {
-  ADIT_ASSIGN_OR_RETURN(map::DistanceField f, map::DistanceField::build(loaded.map));
-  return create(std::move(loaded), std::move(f), params, goal);
+  ADIT_ASSIGN_OR_RETURN(map::World w, map::World::build(std::move(loaded)));
+  return create(std::move(w), params, goal);
 }
 
 StatusOr<Navigator> Navigator::create(map::LoadedMap loaded, map::DistanceField field, const NavigatorParams& params,
                                       const Vec3& goal) {
+  StatusOr<map::World> w = map::World::fromParts(std::move(loaded), std::move(field));
+  if (!w.ok()) return invalidArgument("navigator: " + w.status().message());
+  return create(std::move(w).value(), params, goal);
+}
+
+StatusOr<Navigator> Navigator::create(map::World world, const NavigatorParams& params, const Vec3& goal) {
   NavigatorParams p = params;
   p.global.robot = map::RobotShape::sphere(p.local.robot.radius_m);
   ADIT_RETURN_IF_ERROR(p.validate());
   if (!allFinite(goal)) return invalidArgument("navigator: goal is not finite");
-  if (field.resolution() != loaded.map.resolution())
-    return invalidArgument("navigator: the distance field (voxel " + std::to_string(field.resolution()) +
-                           " m) was not built from the map (voxel " + std::to_string(loaded.map.resolution()) + " m)");
-  auto impl = std::make_unique<Impl>(std::move(loaded));
+  auto impl = std::make_unique<Impl>(std::move(world));
   impl->params = p;
   impl->goal = goal;
-  impl->field.emplace(std::move(field));
   // The planners point into impl (map, field): impl never moves, only the Navigator's pointer.
   const map::SurveyNetwork* survey = impl->loaded.survey ? &*impl->loaded.survey : nullptr;
   ADIT_ASSIGN_OR_RETURN(global::GlobalPlanner g, global::GlobalPlanner::create(impl->loaded.map, *impl->field, p.global, survey));
   impl->global.emplace(std::move(g));
-  local::World world;
-  world.field = &*impl->field;
-  world.shape = p.global.robot;
-  ADIT_ASSIGN_OR_RETURN(local::LocalPlanner lp, local::LocalPlanner::create(p.local, world));
+  local::World sensed;
+  sensed.field = impl->field;
+  sensed.shape = p.global.robot;
+  ADIT_ASSIGN_OR_RETURN(local::LocalPlanner lp, local::LocalPlanner::create(p.local, sensed));
   impl->local.emplace(std::move(lp));
   impl->path.points = {goal};
   return Navigator(std::move(impl));

@@ -11,6 +11,7 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "adit/map/world.hpp"
 
 namespace adit::local {
 
@@ -19,8 +20,7 @@ using map::allFinite;
 // ---- Environment ------------------------------------------------------------------------------
 
 struct Environment::Impl {
-  std::optional<map::OccupancyMap> own_map;
-  std::optional<map::DistanceField> own_field;
+  std::optional<map::World> own;
   const map::OccupancyMap* map = nullptr;
   const map::DistanceField* field = nullptr;
   std::optional<map::CollisionChecker> checker;
@@ -46,15 +46,15 @@ StatusOr<Environment> Environment::borrow(const map::OccupancyMap& m, const map:
   return Environment(std::move(impl));
 }
 
+StatusOr<Environment> Environment::borrow(const map::World& world) { return borrow(world.map(), world.field()); }
+
 StatusOr<Environment> Environment::load(const Scenario& scenario) {
   if (!scenario.map_path) return openSpace();
   auto impl = std::make_unique<Impl>();
-  ADIT_ASSIGN_OR_RETURN(map::OccupancyMap m, map::loadMap(*scenario.map_path));
-  impl->own_map.emplace(std::move(m));
-  ADIT_ASSIGN_OR_RETURN(map::DistanceField f, map::DistanceField::build(*impl->own_map));
-  impl->own_field.emplace(std::move(f));
-  impl->map = &*impl->own_map;
-  impl->field = &*impl->own_field;
+  ADIT_ASSIGN_OR_RETURN(map::World w, map::World::load(*scenario.map_path));
+  impl->own.emplace(std::move(w));
+  impl->map = &impl->own->map();
+  impl->field = &impl->own->field();
   ADIT_ASSIGN_OR_RETURN(map::CollisionChecker checker, map::CollisionChecker::create(*impl->map, *impl->field));
   impl->checker = checker;
   return Environment(std::move(impl));

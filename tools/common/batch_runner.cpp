@@ -75,7 +75,7 @@ std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) 
 fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams& params, int index) {
   StatusOr<local::Scenario> sc = fusion::makeBatchScenario(setup.base, setup.roadways, setup.truth, params, index);
   if (sc.ok()) {
-    fusion::BatchRunResult r = fusion::runBatchScenario(*sc, setup.truth, index, setup.believed.get());
+    fusion::BatchRunResult r = fusion::runBatchScenario(*sc, setup.truth, index, &setup.believed);
     r.roadway_width_m = setup.roadways.widthAt(sc->start);
     return r;
   }
@@ -105,20 +105,19 @@ StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std:
   if (!scenario_file.empty() && !map.empty()) sc->map_path = map;
   if (!sc->map_path) return invalidArgument(sc->file + ": map: --batch needs a map");
   const std::string& map_path = *sc->map_path;
-  ADIT_ASSIGN_OR_RETURN(fusion::BelievedWorld loaded, fusion::BelievedWorld::load(map_path));
-  auto believed = std::make_unique<const fusion::BelievedWorld>(std::move(loaded));
+  ADIT_ASSIGN_OR_RETURN(map::World believed, map::World::load(map_path));
   fusion::BatchRoadways roadways;
-  if (believed->loaded.survey) {
-    roadways = fusion::BatchRoadways::fromSurvey(*believed->loaded.survey);
+  if (believed.survey()) {
+    roadways = fusion::BatchRoadways::fromSurvey(*believed.survey());
   } else {
     // The passages the base robot fits through with room to spare (the generator's own test
     // for a start or goal: clearance above radius + 0.4 m).
     StatusOr<fusion::BatchRoadways> r =
-        fusion::BatchRoadways::fromFreeSpace(believed->loaded.map, believed->field, sc->params.robot.radius_m + 0.4);
+        fusion::BatchRoadways::fromFreeSpace(believed.map(), believed.field(), sc->params.robot.radius_m + 0.4);
     if (!r.ok()) return invalidArgument(map_path + ": no roadways to draw starts and goals on: " + r.status().message());
     roadways = std::move(r).value();
   }
-  ADIT_ASSIGN_OR_RETURN(local::Environment truth, local::Environment::borrow(believed->loaded.map, believed->field));
+  ADIT_ASSIGN_OR_RETURN(local::Environment truth, local::Environment::borrow(believed));
   return BatchSetup{std::move(sc).value(), std::move(roadways), std::move(believed), std::move(truth)};
 }
 

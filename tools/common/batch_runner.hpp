@@ -39,8 +39,9 @@ struct BatchSetup {
   local::Scenario base;
   fusion::BatchRoadways roadways;
   /// The robot's map at t = 0, loaded once; every run starts from a deep copy of it. The true
-  /// world borrows its map and field: nothing writes them (heap-held, so the borrow survives a move).
-  std::unique_ptr<const fusion::BelievedWorld> believed;
+  /// world borrows its map and field: nothing writes them (a World keeps them on the heap, so the
+  /// borrow survives a move).
+  map::World believed;
   local::Environment truth;
 };
 

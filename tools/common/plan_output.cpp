@@ -16,17 +16,14 @@ namespace adit::tools {
 
 using map::Vec3;
 
-StatusOr<PlanWorld> loadPlanWorld(const std::string& path, map::UnknownPolicy policy, bool quiet) {
+StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet) {
   ProgressBar bar(quiet);
-  StatusOr<map::LoadedMap> loaded = map::loadMapAndSurvey(path, {policy, bar.callback()});
-  if (!loaded.ok()) {
-    bar.finish();
-    return loaded.status();
-  }
-  StatusOr<map::DistanceField> field = map::DistanceField::build(loaded->map, bar.callback());
+  map::WorldOptions options;
+  options.load.unknown_policy = policy;
+  options.load.progress = bar.callback();
+  StatusOr<map::World> world = map::World::load(path, options);
   bar.finish();
-  if (!field.ok()) return field.status();
-  return PlanWorld{std::move(loaded).value(), std::move(field).value()};
+  return world;
 }
 
 StatusOr<map::RobotShape> parseRobot(const std::string& text) {

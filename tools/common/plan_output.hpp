@@ -13,18 +13,13 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "adit/map/world.hpp"
 #include "adit/status.hpp"
 
 namespace adit::tools {
 
-/// A map ready to plan on: loaded (with its survey, if any) and its distance field built, with
-/// the progress bar on stderr. Keep it in place while planners use it (they point into it).
-struct PlanWorld {
-  map::LoadedMap loaded;
-  map::DistanceField field;
-  const map::SurveyNetwork* survey() const { return loaded.survey ? &*loaded.survey : nullptr; }
-};
-StatusOr<PlanWorld> loadPlanWorld(const std::string& path, map::UnknownPolicy policy, bool quiet);
+/// map::World::load with the progress bar on stderr (none when `quiet`).
+StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet);
 
 /// sphere:r | capsule:r,len | box:x,y,z | cylinder:r,h (metres).
 StatusOr<map::RobotShape> parseRobot(const std::string& text);

@@ -124,9 +124,9 @@ double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p);
 StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::string& file,
                                        const BatchParams& defaults = {});
 
-/// `believed`, if given, is the scenario map preloaded (see BelievedWorld); the row is the same.
+/// `believed`, if given, is the scenario map preloaded (NavigatedOptions::believed); the row is the same.
 BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index,
-                                const BelievedWorld* believed = nullptr);
+                                const map::World* believed = nullptr);
 
 /// `index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us,`
 /// `collisions,final_goal_distance,arrival_tolerance,vehicles,roof_fall,separation,robot_radius,`

@@ -9,8 +9,9 @@
 ///   against the map exactly (CollisionChecker, FCL), against a fall ball in closed form, against
 ///   moving obstacles with map::obstacleDistance, sub-sampled within each period as
 ///   local::simulate() does;
-/// - the BELIEVED world: the Navigator's own copy of the map (loaded separately, or deep-copied
-///   from a BelievedWorld, so it shares no octree with the true one). It learns a fall only through the sensor: every period the
+/// - the BELIEVED world: the Navigator's own map::World (loaded separately, or the copy() of
+///   NavigatedOptions::believed, so it shares no octree with the true one). It learns a fall only
+///   through the sensor: every period the
 ///   fall's surface voxels (free roadway in the true map, touching open roadway) within
 ///   `robot.sensor_range` that the robot's centre can see (OccupancyMap::lineOfSight through the
 ///   true map and every fall, voxel by voxel along the ray insertRays() traces; it sees through
@@ -20,8 +21,11 @@
 /// stopped), stuck, or t_max.
 ///
 ///   StatusOr<local::Scenario> sc = local::loadScenario("maps/scenarios/district_rescue.yaml");
-///   StatusOr<local::Environment> truth = local::Environment::load(*sc);
-///   StatusOr<NavigatedRun> run = simulateNavigated(*sc, *truth);
+///   StatusOr<map::World> world = map::World::load(*sc->map_path);   // loaded once
+///   StatusOr<local::Environment> truth = local::Environment::borrow(*world);
+///   NavigatedOptions options;
+///   options.believed = &*world;                                  // the robot starts from its copy
+///   StatusOr<NavigatedRun> run = simulateNavigated(*sc, *truth, options);
 ///   std::cout << run->replans << " replans, " << local::outcomeName(run->run.outcome) << "\n";
 
 #include <limits>
@@ -61,17 +65,6 @@ struct NavigatedRun {
   double wall_time_s = 0.0;            ///< the whole simulation, map loading included
 };
 
-/// The robot's belief at t = 0, loaded once for many runs on one map (a batch, a campaign): the
-/// map as loadMapAndSurvey() gives it, its survey and its distance field. Each run starts from a
-/// deep copy, so runs share nothing they mutate. On the district, voxelizing the survey and the
-/// distance transform were about two thirds of a run's CPU time.
-struct BelievedWorld {
-  std::string map_path;  ///< the scenario map it stands for
-  map::LoadedMap loaded;
-  map::DistanceField field;
-  static StatusOr<BelievedWorld> load(const std::string& map_path);
-};
-
 /// Watches, and may steer, a navigated run while it goes: the live link to the operations console
 /// (`adit simulate --live`) is one. Every hook runs on the simulation's thread, between
 /// control periods. With an observer the run goes on through kPaused and kManual (the operator
@@ -102,8 +95,12 @@ class NavigatedObserver {
 struct NavigatedOptions {
   bool refine_plan = true;       ///< NavigatorParams::refine_plan
   bool refine_replans = false;   ///< NavigatorParams::refine_replans
-  /// Copied instead of loading the scenario's map when its map_path is the scenario's (not owned).
-  const BelievedWorld* believed = nullptr;
+  /// The robot's belief at t = 0, loaded once for many runs on one map (a batch, a campaign, or
+  /// the true world of the same run): when its path() is the scenario's map, each run starts from
+  /// its copy() instead of loading the map again, so runs share nothing they mutate. On the
+  /// district, voxelizing the survey and the distance transform are most of a short run's CPU
+  /// time. Not owned.
+  const map::World* believed = nullptr;
   /// Watches and steers the run (not owned); null: none.
   NavigatedObserver* observer = nullptr;
 };

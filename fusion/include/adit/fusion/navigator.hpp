@@ -50,6 +50,7 @@
 #include "adit/local/local_planner.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
+#include "adit/map/world.hpp"
 #include "adit/status.hpp"
 
 namespace adit::fusion {
@@ -131,8 +132,10 @@ struct RoadwayBlockResult {
 
 class Navigator {
  public:
-  /// Takes over the believed map (with its survey: the roadway graph is exact then) and builds the
-  /// field and the planners. The goal is fixed for the navigator's life.
+  /// Takes over the believed world (map, survey, field: with a survey the roadway graph is exact)
+  /// and builds the planners on it. The goal is fixed for the navigator's life.
+  static StatusOr<Navigator> create(map::World world, const NavigatorParams& params, const Vec3& goal);
+  /// The same for a map alone: builds its field first.
   static StatusOr<Navigator> create(map::LoadedMap loaded, const NavigatorParams& params, const Vec3& goal);
   /// The same with the field already built from `loaded.map` (e.g. copied from a preloaded one:
   /// the distance transform is a large part of a short simulated run). The field must be

@@ -29,6 +29,7 @@
 
 namespace adit::map {
 class OccupancyMap;
+class World;
 }  // namespace adit::map
 
 namespace adit::local {
@@ -39,6 +40,9 @@ class Environment {
  public:
   /// Loads the scenario's map (unknown is rock) and builds the field. Open space without `map`.
   static StatusOr<Environment> load(const Scenario& scenario);
+  /// Shares an already loaded world (not owned; must outlive the environment): the true world of
+  /// a run whose robot starts from the same world's copy (NavigatedOptions::believed).
+  static StatusOr<Environment> borrow(const map::World& world);
   /// Shares an already loaded map and field (not owned; must outlive the environment).
   static StatusOr<Environment> borrow(const map::OccupancyMap& map, const map::DistanceField& field);
   static Environment openSpace();

@@ -1,0 +1,71 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "adit/map/world.hpp"
+
+#include <chrono>
+#include <utility>
+
+namespace adit::map {
+
+struct World::Parts {
+  Parts(std::string p, LoadedMap l, DistanceField f, WorldTimes t)
+      : path(std::move(p)), loaded(std::move(l)), field(std::move(f)), times(t) {}
+  std::string path;
+  LoadedMap loaded;
+  DistanceField field;
+  WorldTimes times;
+};
+
+namespace {
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+World::World(std::unique_ptr<Parts> parts) : parts_(std::move(parts)) {}
+World::World(World&&) noexcept = default;
+World& World::operator=(World&&) noexcept = default;
+World::~World() = default;
+
+StatusOr<World> World::load(const std::string& path, const WorldOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ADIT_ASSIGN_OR_RETURN(LoadedMap loaded, loadMapAndSurvey(path, options.load));
+  const double load_s = secondsSince(t0);
+  StatusOr<World> w = build(std::move(loaded), path, options);
+  if (w.ok()) w->parts_->times.load_s = load_s;
+  return w;
+}
+
+StatusOr<World> World::build(LoadedMap loaded, std::string path, const WorldOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  StatusOr<DistanceField> field = DistanceField::build(loaded.map, options.load.progress, options.max_field_blocks);
+  if (!field.ok())
+    return path.empty() ? field.status() : Status(field.status().code(), path + ": " + field.status().message());
+  WorldTimes times;
+  times.field_s = secondsSince(t0);
+  return World(std::make_unique<Parts>(std::move(path), std::move(loaded), std::move(field).value(), times));
+}
+
+StatusOr<World> World::fromParts(LoadedMap loaded, DistanceField field, std::string path) {
+  if (field.resolution() != loaded.map.resolution())
+    return invalidArgument((path.empty() ? std::string() : path + ": ") + "the distance field (voxel " +
+                           std::to_string(field.resolution()) + " m) was not built from the map (voxel " +
+                           std::to_string(loaded.map.resolution()) + " m)");
+  return World(std::make_unique<Parts>(std::move(path), std::move(loaded), std::move(field), WorldTimes{}));
+}
+
+World World::copy() const {
+  return World(std::make_unique<Parts>(parts_->path, LoadedMap{parts_->loaded.map.deepCopy(), parts_->loaded.survey},
+                                       parts_->field, parts_->times));
+}
+
+const std::string& World::path() const { return parts_->path; }
+const OccupancyMap& World::map() const { return parts_->loaded.map; }
+OccupancyMap& World::map() { return parts_->loaded.map; }
+const DistanceField& World::field() const { return parts_->field; }
+DistanceField& World::field() { return parts_->field; }
+const SurveyNetwork* World::survey() const { return parts_->loaded.survey ? &*parts_->loaded.survey : nullptr; }
+const LoadedMap& World::loaded() const { return parts_->loaded; }
+LoadedMap& World::loaded() { return parts_->loaded; }
+const WorldTimes& World::times() const { return parts_->times; }
+
+}  // namespace adit::map
