@@ -112,6 +112,10 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   if (!truth.field()->isFree(sc.start) || rockDistance(sc.start) <= 0.0)
     return invalidArgument(sc.file + ": start: the robot (radius " + std::to_string(r) + " m) overlaps rock");
   if (!truth.field()->isFree(sc.goal)) return invalidArgument(sc.file + ": goal: inside rock");
+  if (rockDistance(sc.goal) <= 0.0)
+    return invalidArgument(sc.file + ": goal: the robot (radius " + std::to_string(r) +
+                           " m) does not fit there: its centre is " + std::to_string(truth.field()->distance(sc.goal)) +
+                           " m from rock");
 
   // The believed world: its own copy of the map, sharing nothing with the true one.
   std::optional<map::World> believed;

@@ -204,6 +204,11 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env, 
   Referee referee(sc, env);
   if (referee.rockDistance(sc.start) <= 0.0)
     return invalidArgument(sc.file + ": start: the robot (radius " + std::to_string(r) + " m) overlaps rock");
+  // A goal the robot cannot be at is refused before the run, not discovered as a stall by it.
+  if (env.field() && referee.rockDistance(sc.goal) <= 0.0)
+    return invalidArgument(sc.file + ": goal: the robot (radius " + std::to_string(r) +
+                           " m) does not fit there: its centre is " + std::to_string(env.field()->distance(sc.goal)) +
+                           " m from rock");
 
   World world;
   world.field = env.field();

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "adit/local/simulator.hpp"
+#include "adit/map/distance_field.hpp"
 
 namespace adit::local {
 namespace {
@@ -168,6 +169,26 @@ TEST(Scenarios, DistrictRoadwayWithOncomingMachine) {
   expectCleanArrival(r);
   ASSERT_EQ(r.closest.size(), 1u);
   EXPECT_GT(r.closest[0].distance_m, 0.0);
+}
+
+// A goal the robot cannot be at (its sphere would overlap the floor) is refused before the run
+// with a message that says so, instead of ending stuck or timed out against the floor.
+TEST(Scenarios, AGoalTheRobotDoesNotFitAtIsRefusedUpFront) {
+  Scenario sc = load("district_oncoming.yaml");
+  StatusOr<Environment> env = Environment::load(sc);
+  ASSERT_TRUE(env.ok()) << env.status().message();
+  const double r = sc.params.robot.radius_m;
+  // Down from the scenario's goal until the centre is half a radius above the floor's rock.
+  Vec3 low = sc.goal;
+  while (env->field()->distance(low) > 0.5 * r) low.z() -= 0.02;
+  ASSERT_TRUE(env->field()->isFree(low));
+  sc.goal = low;
+  sc.expected_path.points = {sc.start, sc.goal};
+  StatusOr<SimulationResult> refused = simulate(sc, *env);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("goal: the robot (radius 0.4"), std::string::npos)
+      << refused.status().message();
+  EXPECT_NE(refused.status().message().find("does not fit there"), std::string::npos) << refused.status().message();
 }
 
 // Crossing traffic in open space: a 20 m straight path, 4-8 movers crossing it about when the
