@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 
 #include "adit/map/collision.hpp"
@@ -112,10 +113,12 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   if (!truth.field()->isFree(sc.start) || rockDistance(sc.start) <= 0.0)
     return invalidArgument(sc.file + ": start: the robot (radius " + std::to_string(r) + " m) overlaps rock");
   if (!truth.field()->isFree(sc.goal)) return invalidArgument(sc.file + ": goal: inside rock");
-  if (rockDistance(sc.goal) <= 0.0)
-    return invalidArgument(sc.file + ": goal: the robot (radius " + std::to_string(r) +
-                           " m) does not fit there: its centre is " + std::to_string(truth.field()->distance(sc.goal)) +
-                           " m from rock");
+  if (rockDistance(sc.goal) <= 0.0) {
+    char why[160];
+    std::snprintf(why, sizeof why, "goal: the robot (radius %.2f m) does not fit there: its sphere overlaps rock "
+                  "(centre %.2f m from the nearest rock voxel)", r, truth.field()->distance(sc.goal));
+    return invalidArgument(sc.file + ": " + why);
+  }
 
   // The believed world: its own copy of the map, sharing nothing with the true one.
   std::optional<map::World> believed;

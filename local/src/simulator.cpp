@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <optional>
 #include <sstream>
@@ -205,10 +206,12 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env, 
   if (referee.rockDistance(sc.start) <= 0.0)
     return invalidArgument(sc.file + ": start: the robot (radius " + std::to_string(r) + " m) overlaps rock");
   // A goal the robot cannot be at is refused before the run, not discovered as a stall by it.
-  if (env.field() && referee.rockDistance(sc.goal) <= 0.0)
-    return invalidArgument(sc.file + ": goal: the robot (radius " + std::to_string(r) +
-                           " m) does not fit there: its centre is " + std::to_string(env.field()->distance(sc.goal)) +
-                           " m from rock");
+  if (env.field() && referee.rockDistance(sc.goal) <= 0.0) {
+    char why[160];
+    std::snprintf(why, sizeof why, "goal: the robot (radius %.2f m) does not fit there: its sphere overlaps rock "
+                  "(centre %.2f m from the nearest rock voxel)", r, env.field()->distance(sc.goal));
+    return invalidArgument(sc.file + ": " + why);
+  }
 
   World world;
   world.field = env.field();
