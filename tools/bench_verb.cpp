@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <sstream>
 #include <utility>
@@ -37,7 +38,7 @@ struct BenchArgs {
   std::vector<std::string> maps;  ///< none given: maps/district.yaml, unless --movingai alone
   std::string planners = "rrtconnect,bitstar,informedrrtstar,rrtstar,prmstar";
   std::string robot = "sphere:0.4", mode = "fly", log_dir, json_out, movingai;
-  int runs = 2, pairs = 4, movingai_problems = 10;
+  int runs = 2, pairs = 4, movingai_problems = 10, movingai_subdivision = 3;
   double movingai_max_length = 60.0;
   double time_s = 2.0;
   bool no_baseline = false, no_grid = false, quiet = false;
@@ -130,10 +131,25 @@ bool writeOmplLog(std::ostream& os, const std::string& experiment, const std::st
 }
 
 // The MovingAI voxel maps: each problem is planned on a crop that holds every path of at most
-// its published optimal length (a point of such a path is within length/2 of both ends), with a
-// small sphere (0.05 voxel, no margin). adit keeps half a voxel of conservative clearance, so it
-// plans in a slightly eroded free space: voxels touching a blocked one are not valid centres, and
-// problems starting or ending there are counted, not planned.
+// its published optimal length (the bounding box of the ellipsoid with the ends as foci), with a
+// small sphere (0.05 voxel, no margin) standing in for the benchmark's point agent. adit keeps
+// half a map voxel of conservative clearance; with one map voxel per benchmark voxel that erodes
+// the free space by half a voxel, so voxels touching a blocked one are not valid centres. The crop
+// is therefore voxelized at --movingai-subdivision map voxels per benchmark voxel edge (3 by
+// default: same geometry, a sixth of a voxel rule, every free voxel's centre a valid map voxel
+// centre, so one-voxel passages stay passages on the roadway graph too). Endpoints still refused
+// are counted ("eroded"), not planned. Peak RSS is measured per map (VmHWM, reset between maps).
+// The process's peak resident set since the last reset [MiB], from /proc/self/status (VmHWM);
+// resetting writes 5 to /proc/self/clear_refs (Linux). NaN where /proc is not there.
+double peakRssMiB(bool reset_after) {
+  double kib = std::nan("");
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("VmHWM:", 0) == 0) kib = std::strtod(line.c_str() + 6, nullptr);
+  if (reset_after) std::ofstream("/proc/self/clear_refs") << "5";
+  return kib / 1024.0;
+}
+
 int runMovingAi(const BenchArgs& a, const std::vector<global::PlannerType>& planners, nlohmann::ordered_json* all) {
   std::vector<std::filesystem::path> maps;
   for (const auto& entry : std::filesystem::directory_iterator(a.movingai))
@@ -141,9 +157,12 @@ int runMovingAi(const BenchArgs& a, const std::vector<global::PlannerType>& plan
       maps.push_back(entry.path());
   std::sort(maps.begin(), maps.end());
   if (maps.empty()) return report(notFound(a.movingai + ": no .3dmap with a .3dmap.3dscen beside it"));
-  std::printf("\n%-12s %-16s %8s %9s %8s %9s %10s %9s %10s %9s\n", "movingai", "planner", "problems", "eroded",
-              "success", "final_ms", "len/grid", "worst", "len/publ", "worst");
+  if (a.movingai_subdivision < 1 || a.movingai_subdivision > 8)
+    return report(invalidArgument("--movingai-subdivision must be 1..8, got " + std::to_string(a.movingai_subdivision)));
+  std::printf("\n%-12s %-16s %8s %9s %8s %9s %10s %9s %10s %9s %9s\n", "movingai", "planner", "problems", "eroded",
+              "success", "final_ms", "len/grid", "worst", "len/publ", "worst", "peak_MiB");
   for (const auto& map_path : maps) {
+    peakRssMiB(true);
     StatusOr<global::MovingAiMap> m = global::loadMovingAiMap(map_path.string());
     if (!m.ok()) return report(m.status());
     StatusOr<std::vector<global::MovingAiProblem>> scen = global::loadMovingAiScenarios(map_path.string() + ".3dscen");
@@ -161,13 +180,8 @@ int runMovingAi(const BenchArgs& a, const std::vector<global::PlannerType>& plan
     };
     std::vector<Row> rows(planners.size());
     for (const global::MovingAiProblem& prob : problems) {
-      const int pad = int(std::ceil(prob.optimal_length / 2)) + 2;
-      global::VoxelIndex lo, hi;
-      for (int k = 0; k < 3; ++k) {
-        lo[std::size_t(k)] = std::min(prob.start[std::size_t(k)], prob.goal[std::size_t(k)]) - pad;
-        hi[std::size_t(k)] = std::max(prob.start[std::size_t(k)], prob.goal[std::size_t(k)]) + pad + 1;
-      }
-      StatusOr<OccupancyMap> crop = global::movingAiCrop(*m, lo, hi);
+      const auto [lo, hi] = global::movingAiProblemBox(*m, prob);
+      StatusOr<OccupancyMap> crop = global::movingAiCrop(*m, lo, hi, 1.0, 2e7, a.movingai_subdivision);
       if (!crop.ok()) return report(crop.status());
       StatusOr<DistanceField> field = DistanceField::build(*crop);
       if (!field.ok()) return report(field.status());
@@ -198,20 +212,22 @@ int runMovingAi(const BenchArgs& a, const std::vector<global::PlannerType>& plan
       }
     }
     const std::string name = map_path.filename().string();
+    const double peak_mib = peakRssMiB(false);
     for (std::size_t pi = 0; pi < planners.size(); ++pi) {
       const Row& row = rows[pi];
       const int planned = row.runs - row.eroded;
       auto worst = [](const std::vector<double>& v) { return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end()); };
       const double success = planned > 0 ? double(row.ok) / planned : std::nan("");
-      std::printf("%-12s %-16s %8d %9d %7.0f%% %9.1f %10.3f %9.3f %10.3f %9.3f\n", name.c_str(),
+      std::printf("%-12s %-16s %8d %9d %7.0f%% %9.1f %10.3f %9.3f %10.3f %9.3f %9.0f\n", name.c_str(),
                   global::plannerTypeName(planners[pi]), row.runs, row.eroded, 100 * success, quantile(row.ms, 0.5),
-                  quantile(row.grid_ratio, 0.5), worst(row.grid_ratio), quantile(row.publ_ratio, 0.5), worst(row.publ_ratio));
+                  quantile(row.grid_ratio, 0.5), worst(row.grid_ratio), quantile(row.publ_ratio, 0.5), worst(row.publ_ratio), peak_mib);
       all->push_back({{"map", name}, {"planner", global::plannerTypeName(planners[pi])}, {"problems", row.runs},
                       {"endpoints_eroded", row.eroded}, {"success_rate", success},
                       {"final_path_ms_median", quantile(row.ms, 0.5)},
                       {"length_over_grid_median", quantile(row.grid_ratio, 0.5)}, {"length_over_grid_max", worst(row.grid_ratio)},
                       {"length_over_published_median", quantile(row.publ_ratio, 0.5)},
-                      {"length_over_published_max", worst(row.publ_ratio)}});
+                      {"length_over_published_max", worst(row.publ_ratio)},
+                      {"subdivision", a.movingai_subdivision}, {"peak_rss_mib", peak_mib}});
     }
     std::fflush(stdout);
   }
@@ -374,6 +390,9 @@ void registerBenchVerb(CLI::App& app, int* rc) {
   cmd->add_option("--movingai", a->movingai,
                   "Also the MovingAI 3-D voxel benchmark maps in this directory (*.3dmap + *.3dmap.3dscen)");
   cmd->add_option("--movingai-problems", a->movingai_problems, "Problems per MovingAI map")->capture_default_str();
+  cmd->add_option("--movingai-subdivision", a->movingai_subdivision,
+                  "Map voxels per MovingAI voxel edge (1..8): 3 lets the point agent stand beside a blocked voxel and pass one-voxel gaps")
+      ->capture_default_str();
   cmd->add_option("--movingai-max-length", a->movingai_max_length,
                   "Only MovingAI problems with a published optimum up to this many voxels")->capture_default_str();
   cmd->add_flag("--no-baseline", a->no_baseline, "Skip plain OMPL in the bounding box");

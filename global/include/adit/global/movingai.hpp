@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "adit/map/occupancy_map.hpp"
@@ -38,10 +39,23 @@ struct MovingAiProblem {
 StatusOr<MovingAiMap> loadMovingAiMap(const std::string& path);
 StatusOr<std::vector<MovingAiProblem>> loadMovingAiScenarios(const std::string& path);
 
-/// The voxels [lo, hi) of the map as an OccupancyMap of edge `voxel_m`: voxel (i, j, k) is the
-/// cube [i, i+1) x [j, j+1) x [k, k+1) times voxel_m, blocked ones occupied, the rest free;
-/// everything outside the crop is unknown (rock). Refuses crops of more than `max_voxels`.
+/// The voxels [lo, hi) of the map as an OccupancyMap: benchmark voxel (i, j, k) is the cube
+/// [i, i+1) x [j, j+1) x [k, k+1) times voxel_m, blocked ones occupied, the rest free; everything
+/// outside the crop is unknown (rock). With `subdivision` s > 1 each benchmark voxel becomes s^3
+/// map voxels of edge voxel_m / s: the same geometry, so a planner's half-voxel conservative
+/// clearance shrinks to 1/(2s) of a benchmark voxel. The benchmark's point agent may stand in any
+/// free voxel, even one beside a blocked voxel; s = 3 is the least that lets adit's planner do the
+/// same: with an odd s every benchmark voxel's centre is a map voxel's centre, so the roadway graph
+/// (built on map voxel centres) also sees passages one benchmark voxel wide. Refuses crops of more
+/// than `max_voxels` map voxels.
 StatusOr<map::OccupancyMap> movingAiCrop(const MovingAiMap& m, const VoxelIndex& lo, const VoxelIndex& hi,
-                                         double voxel_m = 1.0, double max_voxels = 2e7);
+                                         double voxel_m = 1.0, double max_voxels = 2e7, int subdivision = 1);
+
+/// The smallest box of benchmark voxels [lo, hi) that holds every path from `p.start` to `p.goal`
+/// (voxel centres) no longer than its published optimum, plus `pad` voxels on each side: the
+/// bounding box of the ellipsoid with those foci and major axis the optimum, clipped to the map.
+/// Planning in it loses no path the benchmark's optimum could be, and builds a fraction of the
+/// axis-aligned box around the ends grown by half the optimum.
+std::pair<VoxelIndex, VoxelIndex> movingAiProblemBox(const MovingAiMap& m, const MovingAiProblem& p, int pad = 2);
 
 }  // namespace adit::global
