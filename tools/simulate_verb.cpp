@@ -338,6 +338,9 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
   j["scenario"] = sc.name;
   j["method"] = methodName(sc.params.method);
   j["subgoals"] = subgoalModeName(sc.subgoal_mode);
+  // Which field ran: the papers' as published (preset paper) or with the terminal phase.
+  j["preset"] = paramsPresetName(sc.preset);
+  j["terminal_phase"] = sc.params.terminal.enabled;
   j["outcome"] = outcomeName(r.outcome);
   if (!r.message.empty()) j["message"] = r.message;
   j["arrival_time"] = r.arrived() ? nlohmann::ordered_json(r.arrival_time_s) : nlohmann::ordered_json(nullptr);

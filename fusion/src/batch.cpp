@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "adit/fusion/navigated_simulation.hpp"
+#include "adit/global/global_planner_params.hpp"
 #include "adit/global/roadway_graph.hpp"
 #include "adit/map/distance_field.hpp"
 
@@ -66,6 +67,41 @@ class Drawer {
   std::discrete_distribution<std::size_t> pick_;
 };
 
+// The goal moved off the axis toward the floor or a rib (BatchParams::near_rock_goal_share),
+// from a stream of its own: the other draws of the run are not shifted. Last of the draws, so
+// that t_max and the roof fall's time stay those of the axis goal.
+void moveGoalNearRock(local::Scenario& sc, const Vec3& along, const local::Environment& truth, const BatchParams& params,
+                      std::uint64_t run_seed) {
+  std::mt19937_64 rng(batchRunSeed(run_seed ^ 0x474F414C4E454152ull, 0));  // "GOALNEAR"
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  if (!(unit(rng) < params.near_rock_goal_share)) return;
+  const double side = unit(rng), extra = 0.1 + 0.4 * unit(rng);
+  const map::DistanceField& field = *truth.field();
+  const double r = sc.params.robot.radius_m, margin = global::GlobalPlannerParams().safety_margin_m;
+  const double target = r + margin + std::max(extra, 0.5 * field.resolution());
+  Vec3 toward = -Vec3::UnitZ();  // the floor
+  if (side >= 1.0 / 3.0) {
+    const Vec3 rib = Vec3(-along.y(), along.x(), 0.0);  // the left rib, horizontal
+    if (rib.norm() < 1e-6) return;                      // a vertical shaft has no rib to find this way
+    toward = (side < 2.0 / 3.0 ? 1.0 : -1.0) * rib.normalized();
+  }
+  // March in 2 cm steps while the centre keeps `target` from rock: the last such point is within
+  // 2 cm of it (the field changes by at most 1 m per metre).
+  constexpr double kStep = 0.02, kFarthest = 6.0;
+  Vec3 g = sc.goal;
+  if (!field.isFree(g) || field.distance(g) < target) return;
+  for (double s = kStep; s <= kFarthest; s += kStep) {
+    const Vec3 p = sc.goal + s * toward;
+    if (!field.isFree(p) || field.distance(p) < target) break;
+    g = p;
+  }
+  const double d = (g - sc.start).norm();
+  if (d < params.min_separation_m || d > params.max_separation_m) return;
+  for (const local::ScenarioEvent& e : sc.events)
+    if ((g - e.center).norm() < e.radius_m + r + 1.0) return;
+  sc.goal = g;
+}
+
 std::string number(double v) {
   if (!std::isfinite(v)) return "";
   char buf[32];
@@ -99,6 +135,8 @@ Status BatchParams::validate() const {
                              std::to_string(lo) + ".." + std::to_string(hi) + ")");
     return Status();
   };
+  if (!(near_rock_goal_share >= 0.0 && near_rock_goal_share <= 1.0))
+    return invalidArgument("batch: near_rock_goal_share must be in [0, 1] (got " + std::to_string(near_rock_goal_share) + ")");
   ADIT_RETURN_IF_ERROR(range(robot_radius_min_m, robot_radius_max_m, "robot radius"));
   ADIT_RETURN_IF_ERROR(range(robot_speed_min_mps, robot_speed_max_mps, "robot speed"));
   return Status();
@@ -187,19 +225,21 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const B
   sc.moving_obstacles.clear();
   sc.events.clear();
   bool found = false;
+  Vec3 goal_direction = Vec3::UnitX();  // along the goal's roadway
   for (int k = 0; k < kMaxDraws && !found; ++k) {
-    const Vec3 s = draw.point().position, g = draw.point().position;
+    const RoadwayPoint sp = draw.point(), gp = draw.point();
+    const Vec3 s = sp.position, g = gp.position;
     const double d = (g - s).norm();
     if (d < params.min_separation_m || d > params.max_separation_m || !roomy(s) || !roomy(g)) continue;
     sc.start = s;
     sc.goal = g;
+    goal_direction = gp.direction;
     found = true;
   }
   if (!found)
     return invalidArgument(base.file + ": map: no start/goal pair " + std::to_string(params.min_separation_m) + ".." +
                            std::to_string(params.max_separation_m) + " m apart on the roadways in " +
                            std::to_string(kMaxDraws) + " draws");
-  sc.expected_path.points = {sc.start, sc.goal};
   const double dist = (sc.goal - sc.start).norm();
   sc.t_max_s = params.t_max_s > 0.0 ? params.t_max_s : 120.0 + 6.0 * dist / v_max;
 
@@ -238,6 +278,8 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const B
       break;
     }
   }
+  if (params.near_rock_goal_share > 0.0) moveGoalNearRock(sc, goal_direction, truth, params, run_seed);
+  sc.expected_path.points = {sc.start, sc.goal};
   ADIT_RETURN_IF_ERROR(sc.validate());
   return sc;
 }
@@ -305,10 +347,12 @@ StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::
       ADIT_RETURN_IF_ERROR(pair(v, key, p.robot_speed_min_mps, p.robot_speed_max_mps));
     } else if (key == "t_max") {
       ADIT_ASSIGN_OR_RETURN(p.t_max_s, number(v, key));
+    } else if (key == "near_rock_goals") {
+      ADIT_ASSIGN_OR_RETURN(p.near_rock_goal_share, number(v, key));
     } else {
       return invalidArgument(where(kv.first, key) +
                              ": unknown key (separation, max_moving_obstacles, vehicle_speed, vehicle_radius, "
-                             "roof_fall, robot_radius, robot_speed, t_max)");
+                             "roof_fall, robot_radius, robot_speed, t_max, near_rock_goals)");
     }
   }
   if (Status s = p.validate(); !s.ok()) return invalidArgument(file + ": " + s.message());

@@ -21,6 +21,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kMaxObstacles = 512;   // kept per period (the nearest win when more)
 constexpr std::size_t kRockBuffer = 8192;    // rock surface points per period
 constexpr double kClosingSpeed = 0.05;       // m/s: slower relative motion counts as static
+constexpr int kMaxSightSamples = 4096;       // bounds the line-of-sight test's work per period
 
 bool finiteShape(const map::RobotShape& s) {
   return std::isfinite(s.radius) && std::isfinite(s.length) && allFinite(s.size);
@@ -326,6 +327,24 @@ Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt) const {
   return lo * v_des;
 }
 
+bool LocalPlanner::goalInSight(const Vec3& q, const Vec3& goal) const {
+  // The robot's sphere along the whole segment: a non-spherical shape counts as its bounding
+  // sphere (conservative: such a robot may see less of the terminal phase, never more).
+  const double rr = world_.shape.type == map::ShapeType::kSphere
+                        ? params_.robot.radius_m
+                        : std::max(params_.robot.radius_m, world_.shape.boundingRadius());
+  for (const StaticSphere& s : world_.static_obstacles)
+    if ((nearestOnSegment(s.center, q, goal) - s.center).norm() < s.radius + rr) return false;
+  if (!world_.field) return true;
+  // Every half voxel, so that no rock voxel lies between two samples unseen.
+  const Vec3 d = goal - q;
+  const double step = 0.5 * world_.field->resolution();
+  const int n = std::clamp(int(std::ceil(d.norm() / step)), 1, kMaxSightSamples);
+  for (int k = 1; k <= n; ++k)
+    if (world_.field->distance(q + d * (double(k) / double(n))) < rr) return false;
+  return true;
+}
+
 StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& path, const map::MovingObstacle* moving,
                                std::size_t moving_count, double dt) {
   StepCommand cmd;
@@ -392,9 +411,13 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     seg_a = path.points[segment_];
     seg_b = path.points[segment_ + 1];
   }
+  // Terminal phase (TerminalParams): the goal near and in sight of the robot's sphere. Then it is
+  // what the robot steers at, whatever the break point or the caller's sub-goal.
+  const bool terminal =
+      !manual && P.terminal.enabled && goal_distance <= P.terminal.range_m && goalInSight(q, goal);
   // By hand, the goal-aware terms look where the operator drives.
   const Vec3 toward_hand = override_velocity_.norm() > 1e-6 ? override_velocity_ : Vec3(1e-3 * unitOr(goal - q, Vec3::UnitX()));
-  const Vec3 sub_goal = manual ? Vec3(q + toward_hand) : has_subgoal_ ? subgoal_ : seg_b;
+  const Vec3 sub_goal = manual ? Vec3(q + toward_hand) : terminal ? goal : has_subgoal_ ? subgoal_ : seg_b;
   cmd.sub_goal = sub_goal;
 
   // Progress: path length still to go from the projection onto the current segment, plus the
@@ -519,12 +542,33 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     }
     return {};
   };
+  // In the terminal phase the static repulsion U becomes s U with Ge & Cui's factor
+  // s = min(1, (rho_g / R)^n): zero at the goal, so the goal is the minimum of the whole field
+  // however near rock it lies. Its gradient s dU + U ds; U ds pulls toward the goal (Wang 2014's
+  // F_rep2). Forces without a potential are scaled alike. Moving obstacles keep their repulsion.
+  double goal_factor = 1.0;
+  Vec3 goal_factor_grad = Vec3::Zero();
+  if (terminal && goal_distance < P.terminal.range_m) {
+    const double R = P.terminal.range_m, e = P.terminal.n;
+    goal_factor = std::pow(goal_distance / R, e);
+    if (goal_distance > 1e-9) goal_factor_grad = (e / R) * std::pow(goal_distance / R, e - 1.0) * ((q - goal) / goal_distance);
+  }
   Vec3 moving_force = Vec3::Zero();  // kept apart: escapes still give way to moving obstacles
+  Vec3 repulsion_force = Vec3::Zero();  // every obstacle's, as applied (the terminal phase's seek adds it)
   for (const ObstacleData& o : obstacles_) {
     Vec3 no_potential = Vec3::Zero();
-    const TermValue rep = repulsion(o, &no_potential);
+    TermValue rep = repulsion(o, &no_potential);
+    if (!o.moving && goal_factor < 1.0) {
+      const double u = rep.u;
+      rep.u *= goal_factor;
+      rep.dq = goal_factor * rep.dq + u * goal_factor_grad;
+      rep.dv *= goal_factor;
+      rep.da *= goal_factor;
+      no_potential *= goal_factor;
+    }
     total += rep;
     extra += no_potential;
+    repulsion_force += rep.force() + no_potential;
     if (o.moving) moving_force += rep.force() + no_potential;
   }
   cmd.potential = total.u;
@@ -542,7 +586,11 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     v_des = override_velocity_ + v_max * push / P.monitor.full_speed_force;
     v_des = capTowardRock(q, v_des, dt);  // pushed or driven, never into rock
     steer_to = sub_goal;
-  } else if (escaping_) {
+  } else if (terminal && P.terminal.seek) {
+    // Straight at the goal, bent by the (scaled) repulsion; an escape in progress rests, since its
+    // virtual goal would lead away from a goal in sight.
+    v_des = v_max * unitOr(goal - q, Vec3::Zero()) + v_max * repulsion_force / P.monitor.full_speed_force;
+  } else if (escaping_ && !terminal) {
     // Virtual sub-goal on the chosen side: circulate about the escape axis round the nearest
     // obstacle, holding about half a metre from its surface.
     const ObstacleData* wall = nullptr;  // the static obstacle being followed
@@ -602,6 +650,9 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
       v_des = best;
     }
   }
+  // Near rock by design (a goal by a rib or the floor): the speed toward rock stays what still
+  // stops the robot short of it, whatever the field or the safety check asked for.
+  if (terminal) v_des = capTowardRock(q, v_des, dt);
   Vec3 acc = clampNorm((v_des - v) / dt, a_max);
   Vec3 v_cmd = v + acc * dt;
   if (v_cmd.norm() > v_max) {
@@ -617,7 +668,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   const double along = v_cmd.dot(to_goal);
   if (safety_override) cmd.status = StepStatus::kYielding;
   else if (manual) cmd.status = StepStatus::kFollowing;
-  else if (escaping_) cmd.status = StepStatus::kDetouring;
+  else if (escaping_ && !terminal) cmd.status = StepStatus::kDetouring;
   else if (moving_closing && along < 0.5 * v_max) cmd.status = StepStatus::kYielding;
   else if (nearest && v_cmd.norm() > 1e-3 && along < std::cos(30.0 * kPi / 180.0) * v_cmd.norm())
     cmd.status = StepStatus::kDetouring;

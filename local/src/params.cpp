@@ -112,6 +112,10 @@ Status MonitorParams::validate() const {
       .status();
 }
 
+Status TerminalParams::validate() const {
+  return Checker("TerminalParams").positive("range_m", range_m).nonNegative("n", n).status();
+}
+
 LocalParams LocalParams::preset(Method m) {
   LocalParams p;
   p.method = m;
@@ -135,9 +139,16 @@ LocalParams LocalParams::preset(Method m) {
   return p;
 }
 
+LocalParams LocalParams::paper(Method m) {
+  LocalParams p = preset(m);
+  p.terminal.enabled = false;
+  return p;
+}
+
 Status LocalParams::validate() const {
   ADIT_RETURN_IF_ERROR(robot.validate());
   ADIT_RETURN_IF_ERROR(monitor.validate());
+  ADIT_RETURN_IF_ERROR(terminal.validate());
   switch (method) {
     case Method::kClassic: return classic.validate();
     case Method::kTian2016: return tian2016.validate();

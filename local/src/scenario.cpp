@@ -181,7 +181,7 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
   if (!root.IsMap()) r.fail(root, "(document)", "a scenario is a YAML mapping");
   r.onlyKeys(root, "", {"name", "description", "map", "start", "goal", "expected_path", "robot",
                         "static_obstacles", "moving_obstacles", "method", "params", "dt", "t_max", "seed", "events",
-                        "subgoals", "subgoal_period"});
+                        "subgoals", "subgoal_period", "preset"});
   s.file = r.file();
   s.name = root["name"] ? root["name"].as<std::string>() : fs::path(r.file()).stem().string();
   if (root["description"]) s.description = root["description"].as<std::string>();
@@ -189,7 +189,13 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
   if (!root["method"]) r.fail(root, "method", "missing (classic, tian2016, wang2014, vff, cvff, uuv)");
   StatusOr<Method> method = parseMethod(root["method"].as<std::string>());
   if (!method.ok()) r.fail(root["method"], "method", method.status().message());
-  s.params = LocalParams::preset(*method);
+  if (const YAML::Node pr = root["preset"]) {
+    if (!pr.IsScalar()) r.fail(pr, "preset", "must be default or paper");
+    StatusOr<ParamsPreset> preset = parseParamsPreset(pr.Scalar());
+    if (!preset.ok()) r.fail(pr, "preset", preset.status().message());
+    s.preset = *preset;
+  }
+  s.params = s.preset == ParamsPreset::kPaper ? LocalParams::paper(*method) : LocalParams::preset(*method);
 
   if (const YAML::Node m = root["map"]) {
     const std::string p = m.as<std::string>();
@@ -293,6 +299,7 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
         case Method::kUuv: s.params.uuv.visit(set); break;
       }
       s.params.monitor.visit(set);
+      s.params.terminal.visit(set);
       if (!set.found)
         r.fail(kv.first, "params." + key, std::string("unknown field for method ") + methodName(s.params.method));
     }
@@ -334,6 +341,20 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
 }
 
 }  // namespace
+
+const char* paramsPresetName(ParamsPreset p) {
+  switch (p) {
+    case ParamsPreset::kDefault: return "default";
+    case ParamsPreset::kPaper: return "paper";
+  }
+  return "?";
+}
+
+StatusOr<ParamsPreset> parseParamsPreset(const std::string& name) {
+  for (ParamsPreset p : {ParamsPreset::kDefault, ParamsPreset::kPaper})
+    if (name == paramsPresetName(p)) return p;
+  return invalidArgument("unknown preset '" + name + "' (default, paper)");
+}
 
 const char* subgoalModeName(SubgoalMode m) {
   switch (m) {

@@ -103,6 +103,41 @@ TEST_F(BatchTest, ScenariosAreDrawnOnTheRoadwaysAndDoNotDependOnOrder) {
   EXPECT_GT(vehicles, 0);
 }
 
+// A share of the goals is moved beside the floor or a rib (issue 20), from a stream of its own:
+// with every goal moved (share 1), each goal that moved is radius + margin + 0.1..0.5 m from rock
+// (within the march's 2 cm), and everything else of every run is what it is without (share 0).
+TEST_F(BatchTest, NearRockGoalsMoveOnlyTheGoal) {
+  BatchParams none = shortRuns(), all = shortRuns();
+  none.near_rock_goal_share = 0.0;
+  all.near_rock_goal_share = 1.0;
+  const double r = base_->params.robot.radius_m, margin = 0.2;
+  int moved = 0;
+  for (int i = 0; i < 20; ++i) {
+    StatusOr<local::Scenario> a = makeBatchScenario(*base_, *survey_, *truth_, none, i);
+    StatusOr<local::Scenario> b = makeBatchScenario(*base_, *survey_, *truth_, all, i);
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_EQ(a->start, b->start);
+    EXPECT_EQ(a->t_max_s, b->t_max_s);
+    ASSERT_EQ(a->moving_obstacles.size(), b->moving_obstacles.size());
+    for (std::size_t k = 0; k < a->moving_obstacles.size(); ++k)
+      EXPECT_EQ(a->moving_obstacles[k].obstacle.position, b->moving_obstacles[k].obstacle.position);
+    ASSERT_EQ(a->events.size(), b->events.size());
+    for (std::size_t k = 0; k < a->events.size(); ++k) EXPECT_EQ(a->events[k].center, b->events[k].center);
+    EXPECT_EQ(b->expected_path.points.back(), b->goal);
+    if (a->goal == b->goal) continue;  // kept on the axis (near a fall, or out of the separation range)
+    ++moved;
+    const double c = truth_->field()->distance(b->goal);
+    EXPECT_GE(c, r + margin + 0.1 - 1e-9) << i;
+    EXPECT_LE(c, r + margin + 0.5 + 0.03) << i;
+  }
+  EXPECT_GE(moved, 15);
+  StatusOr<BatchParams> parsed = parseBatchParams("near_rock_goals: 0.3\n", "gen.yaml");
+  ASSERT_TRUE(parsed.ok()) << parsed.status().message();
+  EXPECT_EQ(parsed->near_rock_goal_share, 0.3);
+  EXPECT_EQ(BatchParams().near_rock_goal_share, 0.2);  // the documented share
+  EXPECT_FALSE(parseBatchParams("near_rock_goals: 2\n", "gen.yaml").ok());
+}
+
 // Runs in reverse order give the same deterministic columns as in order (the planner reseeds per
 // plan), no arrival collided and every arrival ends within the tolerance of the goal.
 TEST_F(BatchTest, RunsAreHonestAndIndependentOfOrder) {

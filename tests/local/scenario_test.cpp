@@ -141,6 +141,39 @@ TEST(Scenario, SubgoalsKeyDefaultsToNoneAndParsesTheModes) {
   EXPECT_EQ(s->subgoal_mode, SubgoalMode::kNone);
 }
 
+// `preset: paper` turns the terminal phase off (the papers' fields as published); the default
+// keeps it on; `params` may still set its fields by their visit() names, and bad values are named.
+TEST(Scenario, PresetPaperTurnsTheTerminalPhaseOffAndParamsNameItsFields) {
+  StatusOr<Scenario> s = parseScenario(kGood, "good.yaml");
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  EXPECT_EQ(s->preset, ParamsPreset::kDefault);
+  EXPECT_TRUE(s->params.terminal.enabled);
+  s = parseScenario(std::string(kGood) + "preset: paper\n", "good.yaml");
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  EXPECT_EQ(s->preset, ParamsPreset::kPaper);
+  EXPECT_FALSE(s->params.terminal.enabled);
+  EXPECT_STREQ(paramsPresetName(s->preset), "paper");
+  for (const char* name : {"tian2016_straight", "tian2016_polyline", "tian2016_polyline_subgoals", "wang2014_u_trap_classic",
+                           "wang2014_u_trap_wang2014", "guo2022_static_vff", "guo2022_static_cvff", "guo2022_dynamic",
+                           "uuv_3d"}) {
+    StatusOr<Scenario> paper = loadScenario(std::string(ADIT_MAPS_DIR) + "/scenarios/" + name + ".yaml");
+    ASSERT_TRUE(paper.ok()) << paper.status().message();
+    EXPECT_EQ(paper->preset, ParamsPreset::kPaper) << name << ": a paper reproduction runs the paper's field";
+  }
+  StatusOr<Scenario> t = parseScenario(
+      replace(std::string(kGood) + "preset: paper\n", "params: {k_l: 0.2, window_s: 5}",
+              "params: {terminal: true, terminal_range_m: 3, terminal_n: 1, terminal_seek: false}"),
+      "good.yaml");
+  ASSERT_TRUE(t.ok()) << t.status().message();
+  EXPECT_TRUE(t->params.terminal.enabled);
+  EXPECT_EQ(t->params.terminal.range_m, 3.0);
+  EXPECT_EQ(t->params.terminal.n, 1.0);
+  EXPECT_FALSE(t->params.terminal.seek);
+  expectError(std::string(kGood) + "preset: published\n", "preset: unknown preset 'published' (default, paper)");
+  expectError(replace(kGood, "params: {k_l: 0.2, window_s: 5}", "params: {terminal_range_m: 0}"),
+              "TerminalParams::range_m = 0");
+}
+
 TEST(Scenario, SubgoalErrorsNameTheField) {
   expectError(std::string(kGood) + "subgoals: genetic\n",
               "bad.yaml:12:11: subgoals: unknown sub-goal mode 'genetic' (none, ga_trust_region)");

@@ -6,7 +6,8 @@
 /// axes (a survey's centrelines 1.6 m above the floor, or the passages of the free-space roadway
 /// graph of a map without a survey; at least min_separation_m apart), 0..max_moving_obstacles
 /// vehicles driving along roadways, and with roof_fall_probability a roof fall on a roadway
-/// between them. Every random draw comes from a generator seeded by batchRunSeed(seed, index)
+/// between them; with near_rock_goal_share the goal moved off the axis to beside the floor or a
+/// rib (where refuge chambers, pumps and a ground robot's poses are). Every random draw comes from a generator seeded by batchRunSeed(seed, index)
 /// alone, so a run does not depend on which worker runs it, nor in which order: the table is the
 /// same whatever the number of workers. runBatchScenario() runs one through simulateNavigated()
 /// and keeps the figures of the table.
@@ -48,6 +49,13 @@ struct BatchParams {
   double robot_speed_min_mps = 0.0, robot_speed_max_mps = 0.0;
   /// Simulated-time cap; 0: 120 s plus 6 s per metre of start-goal distance at v_max 1 m/s.
   double t_max_s = 0.0;
+  /// Share of the runs whose goal is moved from the roadway's axis straight toward the floor or
+  /// either rib (a third each) until the robot's centre is radius + safety margin (the global
+  /// planner's, 0.2 m) + U(0.1, 0.5) m from rock, and never less than the planner's clearance
+  /// (radius + margin + half a voxel). Drawn from a stream of its own, so that every other draw of
+  /// a run (start, vehicles, roof fall, t_max) is the same as with 0. Kept on the axis when the
+  /// moved goal would come within 1 m of a roof fall's ball, or fall outside the separation range.
+  double near_rock_goal_share = 0.2;
   Status validate() const;
 };
 
@@ -119,6 +127,7 @@ double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p);
 ///   robot_radius: [0.3, 0.5]       # [m]; absent: the base scenario's robot
 ///   robot_speed: [0.8, 1.2]        # v_max [m/s]; absent: the base scenario's
 ///   t_max: 0                       # simulated-time cap [s]; 0: from the distance
+///   near_rock_goals: 0.2           # share of goals moved beside the floor or a rib
 /// Errors name the file, line and key: unknown keys, non-numbers, ranges with min > max,
 /// values that validate() refuses.
 StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::string& file,

@@ -9,6 +9,9 @@
 /// oscillation (no new best progress along the path over a window), escapes them (the UUV
 /// rotation direction picks the side, a virtual sub-goal on that side leads round the obstacle)
 /// and, after a bounded number of failed escapes, says kStuck so that the caller can replan.
+/// Near the goal, with the goal in sight, every model enters the terminal phase (TerminalParams):
+/// the goal is steered at directly and the static repulsion fades toward it, so that a goal by a
+/// rib or the floor is reached, not circled.
 ///
 /// step() does not allocate (scratch buffers are sized in create()), takes time linear in the
 /// number of obstacles passed, and never returns NaN: non-finite input gets a refused command
@@ -153,6 +156,9 @@ class LocalPlanner {
   // Only the obstacles listed in reachable_ count.
   // The operator's set-point with its speed toward rock capped so the robot can still stop.
   Vec3 capTowardRock(const Vec3& q, Vec3 v_des, double dt) const;
+  // The terminal phase's test: the segment q-goal clears rock and static obstacles by the robot's
+  // radius (the field sampled every half voxel, at most a fixed number of samples).
+  bool goalInSight(const Vec3& q, const Vec3& goal) const;
   double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving) const;
 
   LocalParams params_;

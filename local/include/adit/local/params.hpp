@@ -160,8 +160,32 @@ struct MonitorParams {
   }
 };
 
+/// The terminal phase (issue 20), for every model: in a roadway every point lies within some
+/// rock's repulsion range, so a goal near the floor or a rib is not the minimum of the field and
+/// the robot would rest, or circle, short of it. Once the goal is within range_m and in line of
+/// sight of the robot's sphere (the segment robot→goal clear of rock and static obstacles by the
+/// robot's radius), the goal becomes the sub-goal, the static repulsion (rock, static obstacles;
+/// moving ones keep theirs) is scaled by Ge & Cui's goal-aware factor min(1, (rho_g / range_m)^n),
+/// and with `seek` the desired velocity is v_max toward the goal blended with that repulsion. In
+/// the phase the speed toward rock is capped so that the robot can always stop short of it. Off
+/// (`preset: paper` in a scenario, or `terminal: false`): the papers' fields as published.
+struct TerminalParams {
+  bool enabled = true;    ///< the phase at all (false: the papers' fields only)
+  double range_m = 4.0;   ///< R: the phase starts within this distance of the goal [m]
+  double n = 2.0;         ///< exponent of the goal-aware factor (rho_g / R)^n on the static repulsion
+  /// Steer straight at the goal (v_max along unit(q_g - q), plus the scaled repulsion) instead of
+  /// along the model's force with the scaled repulsion.
+  bool seek = true;
+  Status validate() const;
+  /// One field list for YAML overrides, dumps and docs.
+  template <class V>
+  void visit(V& v) {
+    v("terminal", enabled); v("terminal_range_m", range_m); v("terminal_n", n); v("terminal_seek", seek);
+  }
+};
+
 /// Everything step() needs: the method, the model parameters (only the selected one is used),
-/// the robot and the monitor.
+/// the robot, the monitor and the terminal phase.
 struct LocalParams {
   Method method = Method::kTian2016;
   ClassicParams classic;
@@ -171,10 +195,14 @@ struct LocalParams {
   UuvParams uuv;
   RobotLimits robot;
   MonitorParams monitor;
+  TerminalParams terminal;
 
-  /// The paper's values for `m`. The classic preset turns escapes off: Khatib's APF has none,
-  /// which is what the baseline shows.
+  /// The paper's values for `m`, with this project's additions on (the terminal phase). The
+  /// classic preset turns escapes off: Khatib's APF has none, which is what the baseline shows.
   static LocalParams preset(Method m);
+  /// preset(m) with the additions off: the paper's field exactly as published, for the
+  /// reproduction runs (a scenario's `preset: paper`).
+  static LocalParams paper(Method m);
   Status validate() const;
 };
 

@@ -12,7 +12,10 @@
 ///   static_obstacles:  [{center: [9, 11.5, 0], radius: 0.5}]
 ///   moving_obstacles:  [{start: [4, 8, 0], velocity: [0.25, -0.35, 0], acceleration: [0.036, 0.16, 0], radius: 0.3}]
 ///   method: tian2016             # classic | tian2016 | wang2014 | vff | cvff | uuv
-///   params: {}                   # overrides of the preset: the method's fields and MonitorParams'
+///   preset: default              # extension: default | paper (the papers' fields as published:
+///                                # the terminal phase off; the reproduction runs use it)
+///   params: {}                   # overrides of the preset: the method's fields, MonitorParams' and
+///                                # TerminalParams' (terminal, terminal_range_m, terminal_n, terminal_seek)
 ///   dt: 0.1
 ///   t_max: 300
 ///   seed: 1
@@ -67,6 +70,14 @@ enum class SubgoalMode { kNone, kGaTrustRegion };
 const char* subgoalModeName(SubgoalMode m);
 StatusOr<SubgoalMode> parseSubgoalMode(const std::string& name);
 
+/// Which parameters a scenario's method starts from (`preset`). kDefault: LocalParams::preset(),
+/// the paper's values with this project's additions (the terminal phase); kPaper:
+/// LocalParams::paper(), the paper's field as published, so that a reproduction stays exact.
+enum class ParamsPreset { kDefault, kPaper };
+/// "default" | "paper".
+const char* paramsPresetName(ParamsPreset p);
+StatusOr<ParamsPreset> parseParamsPreset(const std::string& name);
+
 struct Scenario {
   std::string name;         ///< `name`, else the file's stem
   std::string description;
@@ -77,7 +88,8 @@ struct Scenario {
   map::Polyline expected_path;  ///< never empty after loading: [start, goal] by default
   std::vector<StaticSphere> static_obstacles;
   std::vector<NamedObstacle> moving_obstacles;
-  LocalParams params;       ///< preset of `method` with `params` and `robot` applied
+  ParamsPreset preset = ParamsPreset::kDefault;  ///< `preset`
+  LocalParams params;       ///< `preset` of `method` with `params` and `robot` applied
   double dt_s = 0.1;
   double t_max_s = 300.0;
   std::uint64_t seed = 1;
