@@ -282,17 +282,43 @@ double LocalPlanner::encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v
   return margin;
 }
 
-Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt) const {
-  constexpr double kKeep = 0.05;  // m of rock clearance the cap keeps in reserve
+Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt, const map::MovingObstacle* moving,
+                                 std::size_t moving_count) const {
+  const double kKeep = params_.envelope.keep_m;  // clearance the cap keeps in reserve
   const double a_max = params_.robot.a_max_mps2, rr = params_.robot.radius_m;
   // The fastest approach that still stops short: one period at that speed, then braking at a_max
-  // (v dt + v^2 / 2a = gap), since the next command comes a period later.
-  auto cap = [&](const Vec3& toward, double gap) {
+  // (v dt + v^2 / 2a = gap), since the next command comes a period later. `own` is the
+  // obstacle's speed along `toward` (a mover's): the robot's approach is what it adds to that.
+  auto cap = [&](const Vec3& toward, double gap, double own = 0.0) {
     const double ad = a_max * dt;
     const double allowed = std::max(0.0, -ad + std::sqrt(ad * ad + 2.0 * a_max * std::max(0.0, gap - kKeep)));
     const double approach = v_des.dot(toward);
-    if (approach > allowed) v_des -= (approach - allowed) * toward;
+    if (approach > allowed + own) v_des -= (approach - allowed - own) * toward;
   };
+  // Movers first, under their present motion: where one closes faster than the robot can brake,
+  // the cap asks the robot to back off. Rock comes last, so that giving way never means rock.
+  for (std::size_t i = 0; i < moving_count; ++i) {
+    const map::MovingObstacle& m = moving[i];
+    Vec3 point;
+    if (m.shape.type == map::ShapeType::kSphere) {
+      const Vec3 out = unitOr(Vec3(q - m.position), Vec3::UnitX());
+      point = m.position + m.shape.radius * out;
+      if ((q - m.position).norm() <= m.shape.radius) continue;  // inside: nothing to brake for
+    } else if (!nearestOnShape(m.shape, m.position, q, &point)) {
+      continue;
+    }
+    const Vec3 d = point - q;
+    const double dn = d.norm();
+    const double stop = v_des.norm() * dt + v_des.squaredNorm() / (2.0 * a_max) + m.velocity.norm() * dt;
+    if (dn < 1e-9 || dn - rr > stop + 2.0 * m.velocity.norm() + kKeep + 0.5) continue;  // out of reach
+    const Vec3 toward = d / dn;
+    cap(toward, dn - rr, m.velocity.dot(toward));
+  }
+  for (const StaticSphere& s : world_.static_obstacles) {
+    const Vec3 d = s.center - q;
+    const double dn = d.norm();
+    if (dn > 1e-9) cap(d / dn, dn - s.radius - rr);
+  }
   // The nearest rock whatever the influence range (a fast robot needs more than rho0 to stop),
   // then every static obstacle gathered this period.
   if (world_.field) {
@@ -314,8 +340,13 @@ Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt) const {
     if (speed < 1e-9) return true;
     const double reach = speed * dt + speed * speed / (2.0 * a_max);
     const int n = std::max(1, int(std::ceil(reach / step)));
-    for (int k = 1; k <= n; ++k)
-      if (world_.field->distance(q + v * (reach / speed * double(k) / double(n))) - rr < floor) return false;
+    for (int k = 1; k <= n; ++k) {
+      const Vec3 p = q + v * (reach / speed * double(k) / double(n));
+      if (world_.field->distance(p) - rr < floor) return false;
+      for (const StaticSphere& s : world_.static_obstacles)
+        if ((p - s.center).norm() - s.radius - rr < std::min(floor, (q - s.center).norm() - s.radius - rr - 1e-6))
+          return false;
+    }
     return true;
   };
   if (runIsClear(v_des)) return v_des;
@@ -407,7 +438,15 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     std::size_t nearest_seg = 0;
     path.nearestPoint(q, &nearest_seg);
     segment_ = std::min(std::max(segment_, nearest_seg), n - 2);
-    while (segment_ + 2 < n && (q - path.points[segment_ + 1]).norm() < P.monitor.subgoal_switch_m) ++segment_;
+    while (segment_ + 2 < n) {
+      const double to_break = (q - path.points[segment_ + 1]).norm();
+      if (to_break >= P.monitor.subgoal_switch_m) break;
+      // Turning toward a break point behind the corner cuts the corner into the rib.
+      if (P.envelope.sight_switch && to_break >= 0.5 * P.monitor.subgoal_switch_m &&
+          !goalInSight(q, path.points[segment_ + 2]))
+        break;
+      ++segment_;
+    }
     seg_a = path.points[segment_];
     seg_b = path.points[segment_ + 1];
   }
@@ -431,8 +470,10 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     escapes_ = 0;
     escaping_ = false;
   } else if (!std::isfinite(best_progress_)) {
+    // A new path may point behind the robot: it cannot make progress before it has stopped,
+    // so its stopping time is not held against it.
     best_progress_ = progress;
-    last_improvement_s_ = clock_s_;
+    last_improvement_s_ = clock_s_ + v.norm() / a_max;
   } else if (progress < best_progress_ - P.monitor.min_progress_m) {
     best_progress_ = progress;
     last_improvement_s_ = clock_s_;
@@ -652,8 +693,28 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   }
   // Near rock by design (a goal by a rib or the floor): the speed toward rock stays what still
   // stops the robot short of it, whatever the field or the safety check asked for.
-  if (terminal) v_des = capTowardRock(q, v_des, dt);
+  // The safety envelope (EnvelopeParams): whatever the field, the escape or the safety check
+  // asked for, the speed toward rock and movers stays what still stops the robot short of them.
+  if (P.envelope.enabled) v_des = capTowardRock(q, v_des, dt, moving, moving_count);
+  else if (terminal) v_des = capTowardRock(q, v_des, dt);
   Vec3 acc = clampNorm((v_des - v) / dt, a_max);
+  if (P.envelope.enabled && world_.field) {
+    // Braking toward the nearest rock first: the barrier above assumed all of a_max for it, and
+    // a turn asked at the same time (an escape, a side step) must not take its share.
+    const map::DistanceSample s = world_.field->query(q);
+    const Vec3 toward = s.nearest - q;
+    if (!s.in_rock && toward.norm() > 1e-9) {
+      // Only the braking of an approach that is under way has priority (down to no approach);
+      // moving away from rock, or turning, shares what is left.
+      const Vec3 nrm = toward.normalized();
+      const double vn = v.dot(nrm), target_n = std::max(0.0, v_des.dot(nrm));
+      if (vn > target_n) {
+        const double brake_n = std::max((target_n - vn) / dt, -a_max);
+        const double rest = std::sqrt(std::max(0.0, a_max * a_max - brake_n * brake_n));
+        acc = brake_n * nrm + clampNorm(Vec3((v_des - v) / dt - brake_n * nrm), rest);
+      }
+    }
+  }
   Vec3 v_cmd = v + acc * dt;
   if (v_cmd.norm() > v_max) {
     v_cmd = clampNorm(v_cmd, v_max);

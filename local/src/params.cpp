@@ -116,6 +116,12 @@ Status TerminalParams::validate() const {
   return Checker("TerminalParams").positive("range_m", range_m).nonNegative("n", n).status();
 }
 
+Status EnvelopeParams::validate() const {
+  return Checker("EnvelopeParams")
+      .rule("keep_m", keep_m, keep_m >= 0 && keep_m <= 1, "in [0, 1]")
+      .status();
+}
+
 LocalParams LocalParams::preset(Method m) {
   LocalParams p;
   p.method = m;
@@ -149,6 +155,7 @@ Status LocalParams::validate() const {
   ADIT_RETURN_IF_ERROR(robot.validate());
   ADIT_RETURN_IF_ERROR(monitor.validate());
   ADIT_RETURN_IF_ERROR(terminal.validate());
+  ADIT_RETURN_IF_ERROR(envelope.validate());
   switch (method) {
     case Method::kClassic: return classic.validate();
     case Method::kTian2016: return tian2016.validate();

@@ -155,7 +155,8 @@ class LocalPlanner {
   // horizon if the robot steers its velocity to v_target.
   // Only the obstacles listed in reachable_ count.
   // The operator's set-point with its speed toward rock capped so the robot can still stop.
-  Vec3 capTowardRock(const Vec3& q, Vec3 v_des, double dt) const;
+  Vec3 capTowardRock(const Vec3& q, Vec3 v_des, double dt, const map::MovingObstacle* moving = nullptr,
+                     std::size_t moving_count = 0) const;
   // The terminal phase's test: the segment q-goal clears rock and static obstacles by the robot's
   // radius (the field sampled every half voxel, at most a fixed number of samples).
   bool goalInSight(const Vec3& q, const Vec3& goal) const;

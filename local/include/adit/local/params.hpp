@@ -184,6 +184,32 @@ struct TerminalParams {
   }
 };
 
+/// The safety envelope (issue 16), for every model and every mode of step(): after the field's
+/// command and the moving-obstacle check, the speed toward rock and toward each moving obstacle
+/// is capped so that the robot can still brake at a_max, a period late, before its clearance
+/// drops below keep_m: the braking-distance barrier of a control-barrier-function safety filter,
+/// closing speed <= sqrt(2 a_max (d - keep_m)) less what one period's delay costs. A mover's own
+/// closing speed counts (under its present motion). Only the component that closes on rock is
+/// removed, so the robot slides along ribs and does not stall at corners; then the whole
+/// stopping run (a period at the command, then braking) is checked along the distance field and
+/// the command scaled down until it is clear (corners, the face at the end of a rib).
+/// `preset: paper` keeps it on (it changes nothing where the papers' robots keep clear of rock);
+/// `envelope: false` turns it off, to show what the field alone does.
+struct EnvelopeParams {
+  bool enabled = true;   ///< the envelope at all
+  double keep_m = 0.05;  ///< clearance to rock and movers the braking run keeps in reserve [m]
+  /// Advance along the expected path only when the break point after next is in line of sight
+  /// of the robot's sphere (else, within subgoal_switch_m, the robot turns early and cuts the
+  /// corner into the rib); within half that distance it advances anyway.
+  bool sight_switch = true;
+  Status validate() const;
+  /// One field list for YAML overrides, dumps and docs.
+  template <class V>
+  void visit(V& v) {
+    v("envelope", enabled); v("envelope_keep_m", keep_m); v("sight_switch", sight_switch);
+  }
+};
+
 /// Everything step() needs: the method, the model parameters (only the selected one is used),
 /// the robot, the monitor and the terminal phase.
 struct LocalParams {
@@ -196,6 +222,7 @@ struct LocalParams {
   RobotLimits robot;
   MonitorParams monitor;
   TerminalParams terminal;
+  EnvelopeParams envelope;
 
   /// The paper's values for `m`, with this project's additions on (the terminal phase). The
   /// classic preset turns escapes off: Khatib's APF has none, which is what the baseline shows.
