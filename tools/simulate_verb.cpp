@@ -699,7 +699,8 @@ int run(const SimulateArgs& a) {
 nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base, const std::vector<fusion::BatchRunResult>& runs,
                                     double wall_s) {
   nlohmann::ordered_json outcomes;
-  for (const char* o : {"arrived", "collision", "stuck", "timeout", "no_route", "error"}) outcomes[o] = 0;
+  for (const char* o : {"arrived", "collision", "stuck", "timeout", "no_route", "hit_by_fall", "hit_by_mover", "error"})
+    outcomes[o] = 0;
   int arrived = 0, bad_arrivals = 0, dishonest = 0, replans = 0, runs_replanned = 0;
   std::vector<double> p50, p99, arrival;
   for (const fusion::BatchRunResult& r : runs) {

@@ -477,9 +477,10 @@ StatusOr<BatchRunResult> parseBatchCsvRow(std::string_view line) {
   ADIT_ASSIGN_OR_RETURN(r.seed, csvInteger(f[1], 1, std::numeric_limits<std::uint64_t>::max()));
   bool known = f[2] == "error";
   for (local::Outcome o : {local::Outcome::kArrived, local::Outcome::kCollision, local::Outcome::kStuck,
-                           local::Outcome::kTimeout, local::Outcome::kNoRoute})
+                           local::Outcome::kTimeout, local::Outcome::kNoRoute, local::Outcome::kHitByFall,
+                           local::Outcome::kHitByMover})
     known = known || f[2] == local::outcomeName(o);
-  if (!known) return invalidArgument(columnError(2, f[2], "is not an outcome (arrived, collision, stuck, timeout, no_route, error)"));
+  if (!known) return invalidArgument(columnError(2, f[2], "is not an outcome (arrived, collision, stuck, timeout, no_route, hit_by_fall, hit_by_mover, error)"));
   r.outcome = std::string(f[2]);
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
   ADIT_ASSIGN_OR_RETURN(r.arrival_time_s, csvNumber(f[3], 3, 0.0, kTime, nan));

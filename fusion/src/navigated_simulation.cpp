@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cmath>
+#include <limits>
+#include <sstream>
 
 #include "adit/map/collision.hpp"
 #include "adit/map/distance_field.hpp"
@@ -35,12 +37,43 @@ struct SurfaceVoxel {
 struct Fall {
   ScenarioEvent event;
   std::vector<SurfaceVoxel> unseen;
+  /// It landed within the robot's stopping distance (a period late, then braking at a_max):
+  /// a contact with it is the fall's doing, not the planner's (Outcome::kHitByFall).
+  bool on_robot = false;
+  double stopped_by_s = 0.0;  ///< when the robot, braking from the landing, has stopped
 };
+
+// What the robot's sphere may already overlap the fall by, besides its stopping distance, for the
+// contact to count as the fall's (the referee's sub-sampling).
+constexpr double kFallContactSlackM = 0.05;
 
 bool inBall(const Vec3& p, const ScenarioEvent& e) { return (p - e.center).norm() <= e.radius_m; }
 
 // The fall's voxels (centres inside the ball that were free roadway in the true map) that touch
 // free roadway outside the ball.
+// The first contact was with a fall that landed within the robot's stopping distance, before
+// the robot could have stopped: the fall nearest to where the robot was then.
+bool fallLandedOnRobot(const std::vector<Fall>& falls, const local::SimulationResult& res) {
+  const double t = res.first_collision_t_s;
+  const local::TrajectorySample* at = nullptr;
+  for (const local::TrajectorySample& s : res.trajectory)
+    if (s.t_s >= t - 1e-9) {
+      at = &s;
+      break;
+    }
+  if (!at || falls.empty()) return false;
+  const Fall* nearest = nullptr;
+  double best = std::numeric_limits<double>::infinity();
+  for (const Fall& f : falls) {
+    const double d = (at->position - f.event.center).norm() - f.event.radius_m;
+    if (f.event.t_s <= t + 1e-9 && d < best) {
+      best = d;
+      nearest = &f;
+    }
+  }
+  return nearest && nearest->on_robot && t <= nearest->stopped_by_s + 1e-9;
+}
+
 Fall makeFall(const ScenarioEvent& e, const map::OccupancyMap& truth) {
   const double res = truth.resolution();
   Fall f{e, {}};
@@ -191,6 +224,13 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
     // The true world changes; the robot senses what of it is in range.
     while (next_event < sc.events.size() && sc.events[next_event].t_s <= t + 1e-9) {
       falls.push_back(makeFall(sc.events[next_event], *truth.map()));
+      {
+        const double a_max = sc.params.robot.a_max_mps2, speed = state.velocity.norm();
+        const double stop = speed * sc.dt_s + speed * speed / (2.0 * a_max);
+        const double gap = (state.position - falls.back().event.center).norm() - falls.back().event.radius_m - r;
+        falls.back().on_robot = gap <= stop + kFallContactSlackM;
+        falls.back().stopped_by_s = t + sc.dt_s + speed / a_max;
+      }
       if (observer) observer->roofFall(sc.events[next_event]);
       ++next_event;
     }
@@ -243,6 +283,13 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   out.end_time_s = t;
   // The verdict is the referee's.
   if (local::collisionVerdict(res)) {
+    if (res.first_collision_with == "roof fall" && fallLandedOnRobot(falls, res)) {
+      res.outcome = Outcome::kHitByFall;
+      std::ostringstream os;
+      os << "a roof fall landed within the robot's stopping distance: contact at t = " << res.first_collision_t_s
+         << " s (" << res.collisions << " periods in contact)";
+      res.message = os.str();
+    }
   } else if (last == NavigatorStatus::kArrived && res.final_goal_distance_m <= res.arrival_tolerance_m) {
     res.outcome = Outcome::kArrived;
     res.arrival_time_s = t;

@@ -332,30 +332,37 @@ Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt, const map
   // The nearest rock is not the only rock (a corner, the face at the end of a rib the robot
   // slides along): the stopping run itself (a period at v_des, then braking) must stay clear, or
   // the set-point is scaled down until it does.
-  const double now = world_.field->distance(q) - rr;
-  const double floor = std::min(0.5 * kKeep, now - 1e-6);
-  const double step = 0.5 * world_.field->resolution();
-  auto runIsClear = [&](const Vec3& v) {
-    const double speed = v.norm();
-    if (speed < 1e-9) return true;
-    const double reach = speed * dt + speed * speed / (2.0 * a_max);
-    const int n = std::max(1, int(std::ceil(reach / step)));
-    for (int k = 1; k <= n; ++k) {
-      const Vec3 p = q + v * (reach / speed * double(k) / double(n));
-      if (world_.field->distance(p) - rr < floor) return false;
-      for (const StaticSphere& s : world_.static_obstacles)
-        if ((p - s.center).norm() - s.radius - rr < std::min(floor, (q - s.center).norm() - s.radius - rr - 1e-6))
-          return false;
-    }
-    return true;
-  };
-  if (runIsClear(v_des)) return v_des;
+  const double floor = stoppingFloor(q);
+  if (stoppingRunClear(q, v_des, dt, floor)) return v_des;
   double lo = 0.0, hi = 1.0;
   for (int i = 0; i < 12; ++i) {
     const double mid = 0.5 * (lo + hi);
-    (runIsClear(mid * v_des) ? lo : hi) = mid;
+    (stoppingRunClear(q, mid * v_des, dt, floor) ? lo : hi) = mid;
   }
   return lo * v_des;
+}
+
+double LocalPlanner::stoppingFloor(const Vec3& q) const {
+  const double now = world_.field ? world_.field->distance(q) - params_.robot.radius_m : 0.0;
+  return std::min(0.5 * params_.envelope.keep_m, now - 1e-6);
+}
+
+bool LocalPlanner::stoppingRunClear(const Vec3& q, const Vec3& v, double dt, double floor) const {
+  if (!world_.field) return true;
+  const double a_max = params_.robot.a_max_mps2, rr = params_.robot.radius_m;
+  const double speed = v.norm();
+  if (speed < 1e-9) return true;
+  const double reach = speed * dt + speed * speed / (2.0 * a_max);
+  const double step = 0.5 * world_.field->resolution();
+  const int n = std::min(kMaxSightSamples, std::max(1, int(std::ceil(reach / step))));
+  for (int k = 1; k <= n; ++k) {
+    const Vec3 p = q + v * (reach / speed * double(k) / double(n));
+    if (world_.field->distance(p) - rr < floor) return false;
+    for (const StaticSphere& s : world_.static_obstacles)
+      if ((p - s.center).norm() - s.radius - rr < std::min(floor, (q - s.center).norm() - s.radius - rr - 1e-6))
+        return false;
+  }
+  return true;
 }
 
 bool LocalPlanner::goalInSight(const Vec3& q, const Vec3& goal) const {
@@ -720,6 +727,22 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     v_cmd = clampNorm(v_cmd, v_max);
     acc = clampNorm((v_cmd - v) / dt, a_max);  // a_max wins if the robot was already too fast
     v_cmd = v + acc * dt;
+  }
+  if (P.envelope.enabled && world_.field) {
+    // The set-point was safe; what the robot can reach of it in one period must be too (a turn
+    // asked at speed is not reached at once): else blend toward straight braking, which stops
+    // the robot soonest, until the stopping run from the command is clear.
+    const double floor = stoppingFloor(q);
+    if (!stoppingRunClear(q, v_cmd, dt, floor)) {
+      const Vec3 brake_acc = clampNorm(-v / dt, a_max);
+      double lo = 0.0, hi = 1.0;  // lo: known unclear blend, hi: straight braking
+      for (int i = 0; i < 10; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (stoppingRunClear(q, v + ((1.0 - mid) * acc + mid * brake_acc) * dt, dt, floor) ? hi : lo) = mid;
+      }
+      acc = (1.0 - hi) * acc + hi * brake_acc;
+      v_cmd = v + acc * dt;
+    }
   }
   if (!allFinite(v_cmd) || !allFinite(acc)) return refuse("internal: non-finite command");
   cmd.velocity = v_cmd;

@@ -68,6 +68,8 @@ const char* outcomeName(Outcome o) {
     case Outcome::kStuck: return "stuck";
     case Outcome::kTimeout: return "timeout";
     case Outcome::kNoRoute: return "no_route";
+    case Outcome::kHitByFall: return "hit_by_fall";
+    case Outcome::kHitByMover: return "hit_by_mover";
   }
   return "?";
 }
@@ -143,6 +145,7 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
     // Nearest thing to the robot at this instant, and what it is.
     double d = referee.rockDistance(p);
     std::string what = "rock";
+    int mover = -1;
     if (extra) extra(p, t + tau, d, what);
     for (std::size_t i = 0; i < sc.static_obstacles.size(); ++i) {
       const double ds = referee.staticDistance(p, i);
@@ -151,12 +154,19 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
     for (std::size_t i = 0; i < nm; ++i) {
       const double dm = referee.movingDistance(p, i, t + tau);
       if (dm < res.closest[i].distance_m) res.closest[i] = {res.closest[i].name, dm, t + tau};
-      if (dm < d) { d = dm; what = sc.moving_obstacles[i].name; }
+      if (dm < d) { d = dm; what = sc.moving_obstacles[i].name; mover = int(i); }
     }
     res.min_clearance_m = std::min(res.min_clearance_m, d);
     if (d <= 0.0 && !hit && res.collisions == 0) {
       res.first_collision_t_s = t + tau;
       res.first_collision_with = what;
+      if (mover >= 0) {
+        // Was the robot closing on it? Its velocity toward the mover's centre at the contact.
+        constexpr double kNotClosingMps = 0.05;
+        const Vec3 to = sc.moving_obstacles[std::size_t(mover)].obstacle.positionAt(t + tau) - p;
+        const Vec3 vel = v0 + acc * tau;
+        res.first_collision_by_mover = to.norm() < 1e-9 || vel.dot(to.normalized()) <= kNotClosingMps;
+      }
     }
     hit = hit || d <= 0.0;
   }
@@ -169,10 +179,14 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
 
 bool collisionVerdict(SimulationResult& res) {
   if (res.collisions == 0) return false;
-  res.outcome = Outcome::kCollision;
+  res.outcome = res.first_collision_by_mover ? Outcome::kHitByMover : Outcome::kCollision;
   std::ostringstream os;
-  os << "the robot overlapped " << res.first_collision_with << " at t = " << res.first_collision_t_s << " s ("
-     << res.collisions << " periods in contact)";
+  if (res.first_collision_by_mover)
+    os << res.first_collision_with << " ran into the robot, which was not closing on it, at t = " << res.first_collision_t_s
+       << " s (" << res.collisions << " periods in contact)";
+  else
+    os << "the robot overlapped " << res.first_collision_with << " at t = " << res.first_collision_t_s << " s ("
+       << res.collisions << " periods in contact)";
   res.message = os.str();
   return true;
 }

@@ -13,7 +13,7 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 
-const char* const kOutcomes[] = {"arrived", "collision", "stuck", "timeout", "no_route", "error"};
+const char* const kOutcomes[] = {"arrived", "collision", "stuck", "timeout", "no_route", "hit_by_fall", "hit_by_mover", "error"};
 
 nlohmann::ordered_json range(double lo, double hi) { return nlohmann::ordered_json::array({lo, hi}); }
 

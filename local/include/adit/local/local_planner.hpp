@@ -160,6 +160,12 @@ class LocalPlanner {
   // The terminal phase's test: the segment q-goal clears rock and static obstacles by the robot's
   // radius (the field sampled every half voxel, at most a fixed number of samples).
   bool goalInSight(const Vec3& q, const Vec3& goal) const;
+  /// The safety envelope's test: a period at `v`, then braking at a_max in a straight line,
+  /// keeps the robot's sphere at least `floor` from rock and static obstacles.
+  bool stoppingRunClear(const Vec3& q, const Vec3& v, double dt, double floor) const;
+  /// The clearance a stopping run must keep: half the envelope's reserve, or less than now when
+  /// the robot is already nearer (a sensed fall, the first period).
+  double stoppingFloor(const Vec3& q) const;
   double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving) const;
 
   LocalParams params_;

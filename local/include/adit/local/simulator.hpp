@@ -62,7 +62,11 @@ class Environment {
 };
 
 /// kNoRoute (the navigator's runs): every roadway to the goal is sealed; the robot stopped.
-enum class Outcome { kArrived, kCollision, kStuck, kTimeout, kNoRoute };
+/// kCollision is the planner's: it drove into rock, an obstacle or a mover it could have braked
+/// for. The other two contacts are not: kHitByFall, a roof fall landed where the robot could not
+/// stop short of it any more (the navigator's runs); kHitByMover, a mover ran into a robot that
+/// was not closing on it (stopped, or backing off: the mover was faster than braking allows).
+enum class Outcome { kArrived, kCollision, kStuck, kTimeout, kNoRoute, kHitByFall, kHitByMover };
 const char* outcomeName(Outcome o);
 
 struct TrajectorySample {
@@ -125,6 +129,9 @@ struct SimulationResult {
   int collisions = 0;  ///< periods during which the robot overlapped something
   double first_collision_t_s = std::numeric_limits<double>::quiet_NaN();  ///< NaN without collision
   std::string first_collision_with;  ///< "rock", "static obstacle 2", or the moving obstacle's name
+  /// The first contact was with a moving obstacle that the robot was not closing on (its speed
+  /// toward the obstacle's centre at most kNotClosingMps): the mover's doing (kHitByMover).
+  bool first_collision_by_mover = false;
   int steps = 0;       ///< step() calls
   int escapes = 0;     ///< escape manoeuvres started
   double step_time_p50_us = 0.0;
