@@ -13,12 +13,28 @@ using Clock = std::chrono::steady_clock;
 // How often the stale check runs: a tenth of the shortest threshold the options allow would be
 // finer than an operator can see; 100 ms is.
 constexpr auto kStaleCheckEvery = std::chrono::milliseconds(100);
+// How long a condition must stay ended before its alarm clears: a robot whose status flaps
+// between collision and following at its message rate (or that reconnects in a loop) keeps one
+// alarm raised instead of writing one a message, so the alarms table grows at most one row per
+// robot, kind and second.
+constexpr auto kAlarmSettle = std::chrono::seconds(1);
 
 std::string metres(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.2f", v);
   return buf;
 }
+
+// A period estimated from a robot sending as fast as it can is milliseconds: three figures.
+std::string seconds(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+// A robot that reported `arrived` has ended its mission: its silence and its hang-up are no
+// alarm (the simulator, for one, writes its results between its last telemetry and its exit).
+bool finished(const RobotCache& c) { return c.telemetry.is_object() && c.telemetry.value("status", "") == "arrived"; }
 
 // A robot's own status names the condition: the alarm stands while the status does.
 const char* statusAlarm(const std::string& status) {
@@ -71,6 +87,7 @@ Json Server::Impl::openAlarmsJson() const {
 
 void Server::Impl::raiseAlarm(const std::string& robot, const std::string& kind, const std::string& message) {
   RobotCache& c = cache[robot];
+  c.ending.erase(kind);
   if (c.raised.count(kind)) return;  // one alarm per condition while it lasts
   Alarm a;
   a.robot = robot;
@@ -90,9 +107,26 @@ void Server::Impl::raiseAlarm(const std::string& robot, const std::string& kind,
   broadcast(alarmJson(a), false);
 }
 
+void Server::Impl::endAlarm(const std::string& robot, const std::string& kind) {
+  auto cached = cache.find(robot);
+  if (cached == cache.end() || !cached->second.raised.count(kind)) return;
+  cached->second.ending.emplace(kind, Clock::now());  // the first end counts
+}
+
+void Server::Impl::clearSettled() {
+  const Clock::time_point now = Clock::now();
+  for (auto& [robot, c] : cache) {
+    std::vector<std::string> settled;
+    for (const auto& [kind, since] : c.ending)
+      if (now - since >= kAlarmSettle) settled.push_back(kind);
+    for (const std::string& kind : settled) clearAlarm(robot, kind);
+  }
+}
+
 void Server::Impl::clearAlarm(const std::string& robot, const std::string& kind) {
   auto cached = cache.find(robot);
   if (cached == cache.end()) return;
+  cached->second.ending.erase(kind);
   auto raised = cached->second.raised.find(kind);
   if (raised == cached->second.raised.end()) return;
   const std::int64_t id = raised->second;
@@ -117,7 +151,7 @@ void Server::Impl::onTelemetryArrived(const std::string& robot, const Telemetry&
   }
   c.telemetry_at = now;
   c.declared_period = m.period.value_or(0.0);
-  clearAlarm(robot, "stale_telemetry");
+  endAlarm(robot, "stale_telemetry");
 }
 
 void Server::Impl::onTelemetryStored(const std::string& robot, const Telemetry& m) {
@@ -129,7 +163,7 @@ void Server::Impl::onTelemetryStored(const std::string& robot, const Telemetry& 
       std::snprintf(at, sizeof at, " at (%.1f, %.1f, %.1f), t = %.1f s", m.pose.x(), m.pose.y(), m.pose.z(), m.t);
       raiseAlarm(robot, kind, message + at);
     } else {
-      clearAlarm(robot, kind);
+      endAlarm(robot, kind);
     }
   }
   // No clearance reported: the robot does not know, and the alarm stays as it was.
@@ -138,7 +172,7 @@ void Server::Impl::onTelemetryStored(const std::string& robot, const Telemetry& 
       raiseAlarm(robot, "clearance",
                  "clearance " + metres(*m.min_clearance) + " m below the margin " + metres(options.alarm_clearance_m) + " m");
     else
-      clearAlarm(robot, "clearance");
+      endAlarm(robot, "clearance");
   }
 }
 
@@ -150,17 +184,22 @@ void Server::Impl::onRobotClosed(WsSession& session) {
   if (current == robot_sessions.end()) return;
   if (auto s = current->second.lock(); s && s.get() != &session && !s->dead()) return;
   RobotCache& c = cache[robot];
-  // A robot that arrived and hung up finished its mission; any other silence is a lost link.
+  if (finished(c)) {
+    endAlarm(robot, "stale_telemetry");
+    return;
+  }
   const std::string status = c.telemetry.is_object() ? c.telemetry.value("status", "") : "";
-  if (status == "arrived") return;
   raiseAlarm(robot, "lost_link", "the robot's connection closed" + (status.empty() ? "" : " (last status " + status + ")"));
-  clearAlarm(robot, "stale_telemetry");  // the lost link says more
+  endAlarm(robot, "stale_telemetry");  // the lost link says more
 }
 
 void Server::Impl::checkStale() {
   const Clock::time_point now = Clock::now();
   for (auto& [robot, c] : cache) {
-    if (!c.telemetry_at || c.raised.count("stale_telemetry") || c.raised.count("lost_link")) continue;
+    // A stale alarm whose telemetry came back is checked again: silent anew before it settled,
+    // it stays raised.
+    if (!c.telemetry_at || c.raised.count("lost_link") || finished(c)) continue;
+    if (c.raised.count("stale_telemetry") && !c.ending.count("stale_telemetry")) continue;
     auto s = robot_sessions.find(robot);
     if (s == robot_sessions.end()) continue;
     auto session = s->second.lock();
@@ -171,7 +210,7 @@ void Server::Impl::checkStale() {
     const double silent = std::chrono::duration<double>(now - *c.telemetry_at).count();
     if (silent > threshold)
       raiseAlarm(robot, "stale_telemetry",
-                 "no telemetry for " + metres(silent) + " s (period " + metres(period) + " s, threshold " +
+                 "no telemetry for " + metres(silent) + " s (period " + seconds(period) + " s, threshold " +
                      metres(threshold) + " s)");
   }
 }
@@ -181,6 +220,7 @@ void Server::Impl::startAlarmTimer() {
   alarm_timer.async_wait([this](beast::error_code ec) {
     if (ec) return;
     checkStale();
+    clearSettled();
     startAlarmTimer();
   });
 }

@@ -168,7 +168,7 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
     cache[hello->robot].last_seen = now;
     cache[hello->robot].stored_seq = std::max(cache[hello->robot].stored_seq, *acked);
     session.send(Json{{"type", "welcome"}, {"robot", hello->robot}, {"acked_seq", *acked}});
-    clearAlarm(hello->robot, "lost_link");
+    endAlarm(hello->robot, "lost_link");
     // The stale clock starts again at the hello, not at the last telemetry before the drop.
     if (cache[hello->robot].telemetry_at) cache[hello->robot].telemetry_at = std::chrono::steady_clock::now();
     // An e-stop goes first: the robot stops before it reads a goal queued ahead of it.

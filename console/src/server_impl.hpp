@@ -93,6 +93,9 @@ struct RobotCache {
   std::optional<Command> estop;
   // Alarms (alarms.cpp): the id of each kind's uncleared alarm, and what the stale check needs.
   std::map<std::string, std::int64_t> raised;
+  // Raised alarms whose condition has ended, since when: cleared once it stays ended for
+  // kAlarmSettle (alarms.cpp), so a flapping condition is one alarm, not a row per message.
+  std::map<std::string, std::chrono::steady_clock::time_point> ending;
   std::optional<std::chrono::steady_clock::time_point> telemetry_at;  // the last telemetry's arrival
   double declared_period = 0.0;   // the robot's `period`, 0: none
   double estimated_period = 0.0;  // a running mean of the arrival intervals
@@ -197,7 +200,10 @@ struct Server::Impl {
   void startAlarmTimer();
   void checkStale();
   void raiseAlarm(const std::string& robot, const std::string& kind, const std::string& message);
+  /// The condition has ended: the alarm clears once it stays ended for kAlarmSettle.
+  void endAlarm(const std::string& robot, const std::string& kind);
   void clearAlarm(const std::string& robot, const std::string& kind);
+  void clearSettled();
   void onTelemetryArrived(const std::string& robot, const Telemetry& m);
   void onTelemetryStored(const std::string& robot, const Telemetry& m);
   void onRobotClosed(WsSession& session);

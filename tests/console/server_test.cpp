@@ -840,7 +840,7 @@ TEST_F(ServerTest, AlarmsAreRaisedAcknowledgedWithWhoAndWhenClearedAndStored) {
     return out;
   };
   Json open_list = openAlarms();
-  for (int i = 0; i < 50 && open_list.size() != 1u; ++i) {
+  for (int i = 0; i < 200 && open_list.size() != 1u; ++i) {  // cleared after 1 s without the condition
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     open_list = openAlarms();
   }
@@ -858,8 +858,12 @@ TEST_F(ServerTest, AlarmsAreRaisedAcknowledgedWithWhoAndWhenClearedAndStored) {
   const Json stale = nextAlarm("r-alarm", "stale_telemetry");
   EXPECT_EQ(stale["severity"], "minor");
   EXPECT_NE(stale["message"].get<std::string>().find("threshold 0.50 s"), std::string::npos) << stale.dump();
-  robot->send(telemetry("r-alarm", 5));
-  EXPECT_EQ(robot->recv()["type"], "ack");
+  // Talking again, for longer than the 1 s an alarm's condition must stay ended: cleared.
+  for (int seq = 5; seq < 20; ++seq) {
+    robot->send(telemetry("r-alarm", seq));
+    EXPECT_EQ(robot->recv()["type"], "ack");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
   EXPECT_FALSE(nextAlarm("r-alarm", "stale_telemetry")["cleared_at"].is_null());
 
   // A lost link: critical, cleared by the robot's next hello.
@@ -879,6 +883,40 @@ TEST_F(ServerTest, AlarmsAreRaisedAcknowledgedWithWhoAndWhenClearedAndStored) {
   EXPECT_EQ((*stored)->acked_at, when);
   EXPECT_EQ((*stored)->kind, "clearance");
   EXPECT_FALSE((*stored)->cleared_at.empty());
+}
+
+// A hostile robot flapping between collision and following at its message rate raises one
+// alarm, not one a message: an alarm clears only after its condition stays ended for 1 s.
+TEST_F(ServerTest, AFlappingConditionIsOneAlarm) {
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-flap");
+  for (int seq = 1; seq <= 40; ++seq) {
+    Json m = telemetry("r-flap", seq);
+    m["status"] = seq % 2 ? "collision" : "following";
+    robot.send(m);
+    EXPECT_EQ(robot.recv()["type"], "ack");
+  }
+  const Json alarms = get("/api/alarms?robot=r-flap").json();
+  ASSERT_EQ(alarms.size(), 1u) << alarms.dump();
+  EXPECT_EQ(alarms[0]["kind"], "collision");
+}
+
+// A robot that reported `arrived` has ended its mission: its silence and its hang-up raise nothing.
+TEST_F(ServerTest, ARobotThatArrivedHangsUpWithoutAnAlarm) {
+  {
+    WsClient robot(port(), "/ws/robot");
+    robot.hello("r-done");
+    robot.send(telemetry("r-done", 1));
+    EXPECT_EQ(robot.recv()["type"], "ack");
+    Json done = telemetry("r-done", 2);
+    done["status"] = "arrived";
+    robot.send(done);
+    EXPECT_EQ(robot.recv()["type"], "ack");
+    // Silent past the stale threshold (0.5 s), then gone.
+    std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_TRUE(get("/api/alarms?robot=r-done").json().empty()) << get("/api/alarms?robot=r-done").body;
 }
 
 TEST_F(ServerTest, CommandsWaitForTheRobotsNextHelloAndAreBounded) {
