@@ -11,8 +11,8 @@
 //
 // For tests the <html> element carries data-ready, data-errors, data-robots, data-webgl,
 // data-estops (the robots whose e-stop is in force, "robot:status,..."), data-alarms (open
-// alarms), data-series (the selected robot's samples with a clearance) and data-scale (the top
-// view's scale bar, "metres,pixels"); every robot row carries its pose (data-pose) and where its
+// alarms), data-series (the selected robot's samples with a clearance), data-layers (those shown)
+// and data-scale (the top view's scale bar, "metres,pixels"); every robot row carries its pose (data-pose) and where its
 // marker is drawn (data-drawn: the marker's 3-D position; data-top: its pixel in the top view).
 'use strict';
 (function () {
@@ -130,6 +130,7 @@
   }
 
   function applyLayers() {
+    root.dataset.layers = Object.keys(state.layers).filter(shownLayer).join(',');
     if (!three.scene) return;
     three.mesh.visible = shownLayer('rock');
     three.centrelines.visible = shownLayer('rock');
@@ -716,7 +717,8 @@
       clientX: rect.left + px[0] * rect.width / c.width, clientY: rect.top + px[1] * rect.height / c.height, bubbles: true }));
   }
 
-  // `#estop-click=1`, `#estop-release-click=1`, `#estop-all-click=1`, `#ack-click=all`: once the
+  // `#estop-click=1`, `#estop-release-click=1`, `#estop-all-click=1`, `#ack-click=all`,
+// `#layers-off=labels,trail` (unticks those layers): once the
   // snapshot is in, presses that button as an operator would (the browser test's e-stop and
   // acknowledgement). Each at most once per page load.
   const acted = new Set();
@@ -727,6 +729,12 @@
     press('estop-release-click', () => $('estoprelease').click());
     press('estop-all-click', () => $('estopall').click());
     press('ack-click', () => { for (const b of document.querySelectorAll('#alarms button.ack')) b.click(); });
+    press('layers-off', () => {
+      for (const name of params.get('layers-off').split(',')) {
+        const box = document.querySelector(`#layers input[data-layer="${CSS.escape(name)}"]`);
+        if (box && box.checked) box.click();
+      }
+    });
   }
 
   // A page opened mid-run (or after it) draws the robot's recent past from the database: the

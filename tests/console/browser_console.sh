@@ -230,8 +230,12 @@ row = sqlite3.connect(sys.argv[1]).execute("SELECT kind, severity, acked_by, ack
 print("stored:", row)
 sys.exit(0 if row and row[0] == "lost_link" and row[1] == "critical" and row[2] == "console-test" and row[3] else 1)
 PY
-page acked "" "data-unacked=\"0\""
+page acked "&layers-off=labels,trail" "data-unacked=\"0\"" 'data-layers="rock,plan,sensed,tracks,events"'
 grep -q "acknowledged by console-test at" "$WORK/acked.html" || fail "the page does not show who acknowledged the alarm"
+# The names layer off: no roadway name is drawn in the 3-D view.
+names=$(grep -o '<span class="roadway"[^>]*>' "$WORK/acked.html" | wc -l)
+hidden=$(grep -o '<span class="roadway" style="[^"]*display: none[^"]*"' "$WORK/acked.html" | wc -l)
+[ "$names" -gt 0 ] && [ "$names" -eq "$hidden" ] || fail "with the names layer off, $((names - hidden)) of $names roadway names are drawn"
 echo "alarm $alarm (lost link) shown, acknowledged by $acked; screenshot: $ALARM_SHOT"
 
 kill -TERM "$server_pid"
