@@ -20,13 +20,15 @@ add_custom_command(OUTPUT ${ADIT_CONSOLE_WEB_CPP}
   COMMENT "Embedding the console's page" VERBATIM)
 
 # server.cpp: options and the Server's life; transport.cpp: connections; routes.cpp: HTTP;
-# robot_stream.cpp: what robots send; writer.cpp: the database thread (server_impl.hpp: their state).
+# robot_stream.cpp: what robots send; writer.cpp: the database thread; alarms.cpp: what the centre
+# raises (server_impl.hpp: their state).
 target_sources(adit_console PRIVATE
   src/server.cpp
   src/transport.cpp
   src/routes.cpp
   src/robot_stream.cpp
   src/writer.cpp
+  src/alarms.cpp
   src/protocol.cpp
   src/mesh.cpp
   ${ADIT_CONSOLE_WEB_CPP})

@@ -35,6 +35,8 @@ struct ServeArgs {
   double mesh_cell = 0.0;
   double robot_rate = console::RobotQuota{}.messages_per_s;
   std::string robot_bandwidth = "1M", robot_store_quota = "4G", viewer_queue = "32M";
+  double alarm_clearance = console::ServerOptions{}.alarm_clearance_m;
+  double alarm_stale_min = console::ServerOptions{}.alarm_stale_min_s;
   bool quiet = false;
 };
 
@@ -57,6 +59,8 @@ int runServe(const ServeArgs& args) {
   if (Status s = console::parseListen(args.listen, &options); !s.ok()) return report(s);
   options.stop_on_signals = true;
   options.mesh_cell = args.mesh_cell;
+  options.alarm_clearance_m = args.alarm_clearance;
+  options.alarm_stale_min_s = args.alarm_stale_min;
   if (!args.token_file.empty()) {
     StatusOr<TokenFile> t = readTokenFile(args.token_file);
     if (!t.ok()) return report(t.status());
@@ -154,6 +158,12 @@ void registerServeVerb(CLI::App& app, int* rc) {
   cmd->add_option("--viewer-queue", args->viewer_queue,
                   "Bytes queued for one viewer, its snapshot included (K, M, G suffixes): a viewer too slow for "
                   "what cannot be dropped is closed (1013)")
+      ->capture_default_str();
+  cmd->add_option("--alarm-clearance", args->alarm_clearance,
+                  "A robot's reported clearance to rock below this raises a 'clearance' alarm [m]")
+      ->capture_default_str();
+  cmd->add_option("--alarm-stale-min", args->alarm_stale_min,
+                  "Telemetry is stale after two of the robot's periods and never sooner than this [s]")
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", args->quiet, "No progress bar");
   cmd->callback([args, rc] { *rc = runServe(*args); });

@@ -99,8 +99,8 @@ struct LiveOptions {
 
 class LiveConsole final : public fusion::NavigatedObserver {
  public:
-  LiveConsole(console::RobotLink& link, double dt_s, const LiveOptions& o)
-      : link_(link), dt_(dt_s), speed_(o.speed), period_(o.period_s), quiet_(o.quiet), hold_(o.hold),
+  LiveConsole(console::RobotLink& link, double dt_s, double radius_m, const LiveOptions& o)
+      : link_(link), dt_(dt_s), radius_(radius_m), speed_(o.speed), period_(o.period_s), quiet_(o.quiet), hold_(o.hold),
         lockstep_(o.lockstep), lockstep_timeout_s_(o.lockstep_timeout_s) {}
 
   void started(const fusion::Navigator& nav, const map::Polyline& path) override {
@@ -145,8 +145,7 @@ class LiveConsole final : public fusion::NavigatedObserver {
     if (t + 1e-9 >= next_telemetry_ || collided || std::strcmp(status, last_status_) != 0) {
       const bool steering = c.status == fusion::NavigatorStatus::kDriving;
       sendTelemetry(t, nav, state, status,
-                    steering ? std::optional<Vec3>(c.subgoal.value_or(c.command.sub_goal)) : std::nullopt,
-                    c.command.clearance_m);
+                    steering ? std::optional<Vec3>(c.subgoal.value_or(c.command.sub_goal)) : std::nullopt);
       if (!fresh_rock_.empty() || !tracks.empty()) sendObstacles(t, tracks);
       while (next_telemetry_ <= t + 1e-9) next_telemetry_ += period_;
     }
@@ -162,7 +161,7 @@ class LiveConsole final : public fusion::NavigatedObserver {
                          : res.outcome == Outcome::kNoRoute ? "no_route"
                          : res.outcome == Outcome::kStuck  ? "stuck"
                                                            : last_status_;
-    sendTelemetry(t_s, nav, state, status, std::nullopt, std::numeric_limits<double>::infinity());
+    sendTelemetry(t_s, nav, state, status, std::nullopt);
     if (goal_command_) {
       if (res.outcome == Outcome::kArrived) answer(*goal_command_, "executed", "arrived", t_s);
       else answer(*goal_command_, "refused", std::string("the run ended: ") + outcomeName(res.outcome), t_s);
@@ -199,16 +198,23 @@ class LiveConsole final : public fusion::NavigatedObserver {
     send(m);
   }
 
+  // Clearance from the believed map's distance field at every message (the local layer's own
+  // figure is infinite whenever no rock is in its sensing range, which is most of the time):
+  // the robot's centre to the nearest rock, less its radius.
   void sendTelemetry(double t, const fusion::Navigator& nav, const local::RobotState& state, const char* status,
-                     const std::optional<Vec3>& subgoal, double clearance) {
+                     const std::optional<Vec3>& subgoal) {
     console::Telemetry m;
     m.t = t;
     m.pose = state.position;
     m.velocity = state.velocity;
-    m.status = status;
+    m.status = estopped_ ? "estop" : status;
     m.goal = nav.goal();
     m.subgoal = subgoal;
-    if (std::isfinite(clearance)) m.min_clearance = clearance;
+    double centre = 0.0;
+    nav.read([&](const map::OccupancyMap&, const map::DistanceField& f) { centre = f.distance(state.position); });
+    m.min_clearance = std::max(0.0, centre - radius_);
+    m.speed = state.velocity.norm();
+    if (speed_ > 0.0) m.period = period_ / speed_;  // mission time paced to the wall clock
     send(m);
   }
 
@@ -232,6 +238,24 @@ class LiveConsole final : public fusion::NavigatedObserver {
       answer(id, "accepted", "", t);
       answer(id, "executed", note, t);
     };
+    // The e-stop latches: the robot holds (the navigator's pause, velocity set-point zero) and
+    // refuses anything that would move it until the e-stop is released; a release does not
+    // restart it (the operator resumes, as after any emergency stop).
+    if (c.kind == "estop") {
+      nav.pause();
+      const bool again = estopped_;
+      estopped_ = true;
+      answer(id, "accepted", "", t);
+      answer(id, "executed", again ? "stopped already" : "stopped", t);
+      return;
+    }
+    if (c.kind == "estop_release") {
+      if (!estopped_) return refuse("not e-stopped");
+      estopped_ = false;
+      return done("e-stop released; paused until resumed");
+    }
+    if (estopped_ && (c.kind == "resume" || c.kind == "goal" || c.kind == "manual" || c.kind == "release"))
+      return refuse("e-stopped: release the e-stop first");
     if (c.kind == "pause") {
       nav.pause();
       done("");
@@ -274,11 +298,20 @@ class LiveConsole final : public fusion::NavigatedObserver {
   // of them is a resume. Waits for a person, so it polls without a deadline (Ctrl-C ends it).
   void holdUntilResumed(double t, fusion::Navigator& nav, const local::RobotState& state) {
     nav.pause();
-    sendTelemetry(t, nav, state, "paused", std::nullopt, std::numeric_limits<double>::infinity());
+    sendTelemetry(t, nav, state, "paused", std::nullopt);
     if (!quiet_) std::fprintf(stderr, "adit: live: holding at the start until the operator resumes\n");
+    // Telemetry goes on while the robot waits: a silent robot is a stale one to the console.
+    const auto every = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(speed_ > 0.0 ? period_ / speed_ : period_));
+    auto next = std::chrono::steady_clock::now() + every;
     while (nav.paused()) {
       for (const console::ReceivedCommand& c : link_.pollCommands()) execute(t, nav, c);
-      if (nav.paused()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      if (!nav.paused()) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      if (std::chrono::steady_clock::now() >= next) {
+        sendTelemetry(t, nav, state, "paused", std::nullopt);
+        next += every;
+      }
     }
     wall0_ = std::chrono::steady_clock::now() - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                      std::chrono::duration<double>(speed_ > 0.0 ? t / speed_ : 0.0));
@@ -299,8 +332,9 @@ class LiveConsole final : public fusion::NavigatedObserver {
   }
 
   console::RobotLink& link_;
-  double dt_, speed_, period_;
+  double dt_, radius_, speed_, period_;
   bool quiet_, hold_, lockstep_;
+  bool estopped_ = false;
   double lockstep_timeout_s_;
   double resolution_ = 0.2;
   std::chrono::steady_clock::time_point wall0_ = std::chrono::steady_clock::now();
@@ -631,7 +665,7 @@ int run(const SimulateArgs& a) {
     StatusOr<std::unique_ptr<console::RobotLink>> l = connectLive(a, *sc);
     if (!l.ok()) return report(l.status());
     link = std::move(l).value();
-    live.emplace(*link, sc->dt_s,
+    live.emplace(*link, sc->dt_s, sc->params.robot.radius_m,
                  LiveOptions{a.live_speed, a.live_period, a.live_hold, a.live_lockstep, a.live_flush, a.quiet});
     if (!a.quiet) std::fprintf(stderr, "adit: live: connected to %s\n", a.live.c_str());
   }

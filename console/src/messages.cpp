@@ -23,15 +23,17 @@ Json points(const std::vector<map::Vec3>& ps) {
 }  // namespace
 
 std::string toJson(const Telemetry& m) {
-  return Json{{"type", "telemetry"},
-              {"t", m.t},
-              {"pose", point(m.pose)},
-              {"velocity", point(m.velocity)},
-              {"status", m.status},
-              {"goal", optionalPoint(m.goal)},
-              {"subgoal", optionalPoint(m.subgoal)},
-              {"min_clearance", m.min_clearance ? Json(*m.min_clearance) : Json(nullptr)}}
-      .dump();
+  Json j{{"type", "telemetry"},
+         {"t", m.t},
+         {"pose", point(m.pose)},
+         {"velocity", point(m.velocity)},
+         {"status", m.status},
+         {"goal", optionalPoint(m.goal)},
+         {"subgoal", optionalPoint(m.subgoal)},
+         {"min_clearance", m.min_clearance ? Json(*m.min_clearance) : Json(nullptr)},
+         {"speed", m.speed ? Json(*m.speed) : Json(m.velocity.norm())}};
+  if (m.period) j["period"] = *m.period;
+  return j.dump();
 }
 
 std::string toJson(const Plan& m) {

@@ -138,11 +138,16 @@ StatusOr<Telemetry> readTelemetry(const Json& j, double t) {
   ADIT_ASSIGN_OR_RETURN(m.velocity, pointField(j, "velocity"));
   ADIT_RETURN_IF_ERROR(wordField(j, "status", &m.status));
   if (!oneOf(m.status, {"following", "yielding", "detouring", "stuck", "replanning", "no_route", "paused", "manual",
-                        "arrived", "collision"}))
+                        "arrived", "collision", "estop"}))
     return refuse("unknown status '" + m.status + "'");
   ADIT_RETURN_IF_ERROR(optionalPointField(j, "goal", &m.goal));
   ADIT_RETURN_IF_ERROR(optionalPointField(j, "subgoal", &m.subgoal));
   ADIT_RETURN_IF_ERROR(optionalNumberField(j, "min_clearance", "min_clearance", &m.min_clearance));
+  ADIT_RETURN_IF_ERROR(optionalNumberField(j, "speed", "speed", &m.speed));
+  if (m.speed && *m.speed < 0.0) return refuse("field 'speed' must be >= 0");
+  ADIT_RETURN_IF_ERROR(optionalNumberField(j, "period", "period", &m.period));
+  if (m.period && !(*m.period > 0.0 && *m.period <= kMaxTelemetryPeriod))
+    return refuse("field 'period' must be in (0, " + std::to_string(int(kMaxTelemetryPeriod)) + "] s");
   return m;
 }
 
@@ -252,6 +257,9 @@ struct WithinVisitor {
   Status operator()(const Telemetry& m) const {
     ADIT_RETURN_IF_ERROR(pointWithin(m.pose, "pose", box));
     ADIT_RETURN_IF_ERROR(speedAtMost(m.velocity, "velocity"));
+    if (m.speed && *m.speed > kMaxReportedSpeed)
+      return refuse("field 'speed' " + std::to_string(*m.speed) + " is faster than " +
+                    std::to_string(int(kMaxReportedSpeed)) + " m/s");
     ADIT_RETURN_IF_ERROR(optionalPointWithin(m.goal, "goal", box));
     return optionalPointWithin(m.subgoal, "subgoal", box);
   }
@@ -383,7 +391,7 @@ StatusOr<CommandArgs> parseCommandArgs(const Json& j) {
   } else if (c.kind == "manual") {
     ADIT_ASSIGN_OR_RETURN(map::Vec3 v, pointField(j, "velocity"));
     c.velocity = v;
-  } else if (!oneOf(c.kind, {"pause", "resume", "release"})) {
+  } else if (!oneOf(c.kind, {"pause", "resume", "release", "estop", "estop_release"})) {
     return refuse("unknown command kind '" + c.kind + "'");
   }
   return c;

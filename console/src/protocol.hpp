@@ -69,7 +69,7 @@ Status checkWithin(const Body& body, const map::Aabb& box);
 /// centre's `command` (RobotLink's parseCommand); each then checks the ranges it knows (the
 /// centre the map and the robot's radius, the robot its own limits).
 struct CommandArgs {
-  std::string kind;  ///< pause | resume | goal | block | reopen | manual | release
+  std::string kind;  ///< pause | resume | goal | block | reopen | manual | release | estop | estop_release
   std::optional<map::Vec3> goal;
   std::string roadway;
   std::optional<map::Vec3> velocity;

@@ -446,6 +446,9 @@ std::vector<ReceivedCommand> RobotLink::pollCommands() {
   std::lock_guard lock(impl_->mu);
   std::vector<ReceivedCommand> out(impl_->inbox.begin(), impl_->inbox.end());
   impl_->inbox.clear();
+  // An e-stop acts before whatever arrived with it: a goal queued ahead of it must not move the
+  // robot for one more period. The others keep their order.
+  std::stable_partition(out.begin(), out.end(), [](const ReceivedCommand& c) { return c.kind == "estop"; });
   return out;
 }
 

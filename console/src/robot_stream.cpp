@@ -26,7 +26,42 @@ void Server::Impl::warmCache() {
       else if ((*m)->type == "plan") c.plan = j;
       else c.tracks = j.value("tracks", Json::array());
     }
+    // While e-stopped the centre refuses every command but estop and estop_release, so the
+    // robot's e-stop, if in force, is among its last commands.
+    if (auto list = store->commands(r.robot, 1000); list.ok())
+      for (const Command& k : *list) {
+        if (k.kind == "estop") c.estop = k;
+        if (k.kind == "estop_release" && k.status == CommandStatus::kExecuted) c.estop.reset();
+      }
   }
+  warmAlarms();
+}
+
+Json Server::Impl::estopJson(const std::optional<Command>& estop) {
+  if (!estop) return nullptr;
+  return Json{{"command_id", estop->command_id},
+              {"status", commandStatusName(estop->status)},
+              {"engaged", estop->status == CommandStatus::kExecuted},
+              {"operator", estop->operator_name},
+              {"issued_at", estop->issued_at},
+              {"updated_at", estop->updated_at},
+              {"reason", estop->reason}};
+}
+
+// An e-stop is in force from its issue until an estop_release is executed by the robot; every
+// change is pushed to the viewers as {"type": "estop"} (the page shows it until released).
+void Server::Impl::noteEstop(const Command& c) {
+  RobotCache& rc = cache[c.robot];
+  if (c.kind == "estop") {
+    if (rc.estop && rc.estop->command_id > c.command_id) return;  // an older one's late answer
+    rc.estop = c;
+  } else if (c.kind == "estop_release" && c.status == CommandStatus::kExecuted) {
+    if (!rc.estop || rc.estop->command_id > c.command_id) return;
+    rc.estop.reset();
+  } else {
+    return;
+  }
+  broadcast(Json{{"type", "estop"}, {"robot", c.robot}, {"estop", estopJson(rc.estop)}}, false);
 }
 
 void Server::Impl::broadcast(const Json& message, bool telemetry) {
@@ -52,6 +87,7 @@ void Server::Impl::setCommandStatus(Command command, CommandStatus status, const
     return;
   }
   broadcast(protocol::commandState(command), false);
+  noteEstop(command);
 }
 
 // Sends the command to its robot if connected; a pending one becomes `sent`.
@@ -132,6 +168,11 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
     cache[hello->robot].last_seen = now;
     cache[hello->robot].stored_seq = std::max(cache[hello->robot].stored_seq, *acked);
     session.send(Json{{"type", "welcome"}, {"robot", hello->robot}, {"acked_seq", *acked}});
+    endAlarm(hello->robot, "lost_link");
+    // The stale clock starts again at the hello, not at the last telemetry before the drop.
+    if (cache[hello->robot].telemetry_at) cache[hello->robot].telemetry_at = std::chrono::steady_clock::now();
+    // An e-stop goes first: the robot stops before it reads a goal queued ahead of it.
+    std::stable_partition(unanswered->begin(), unanswered->end(), [](const Command& c) { return c.kind == "estop"; });
     for (const Command& c : *unanswered) deliver(c);
     return;
   }
@@ -197,6 +238,7 @@ void Server::Impl::onRobotText(WsSession& session, const std::string& text) {
     return;
   }
   rc.last_seen = message->received_at;
+  if (const auto* tm = std::get_if<Telemetry>(&frame->body)) onTelemetryArrived(message->robot, *tm);
   PendingMessage p;
   if (in_flight.count(key)) {
     p.mode = PendingMessage::Mode::kAckOnly;
@@ -230,7 +272,8 @@ Json Server::Impl::robotsJson() {
                    {"radius", r.radius},
                    {"telemetry", c.telemetry},
                    {"plan", c.plan},
-                   {"tracks", c.tracks.is_null() ? Json::array() : c.tracks}});
+                   {"tracks", c.tracks.is_null() ? Json::array() : c.tracks},
+                   {"estop", estopJson(c.estop)}});
   }
   return out;
 }
@@ -239,7 +282,8 @@ void Server::Impl::onViewerOpen(const std::shared_ptr<WsSession>& session) {
   Json commands = Json::array();
   if (auto list = store->commands("", 100); list.ok())
     for (const Command& c : *list) commands.push_back(protocol::commandState(c));
-  session->send(Json{{"type", "snapshot"}, {"robots", robotsJson()}, {"commands", commands}});
+  session->send(
+      Json{{"type", "snapshot"}, {"robots", robotsJson()}, {"commands", commands}, {"alarms", openAlarmsJson()}});
   viewers[session.get()] = session;
 }
 

@@ -102,7 +102,8 @@ Status Server::Impl::prepare() {
                   {"hash", options.map_hash},
                   {"resolution", m.stats().resolution_m},
                   {"bounds", {{"min", pointJson(m.bounds().min)}, {"max", pointJson(m.bounds().max)}}},
-                  {"roadways", roadway_list}}
+                  {"roadways", roadway_list},
+                  {"alarms", {{"clearance", options.alarm_clearance_m}, {"stale_min", options.alarm_stale_min_s}}}}
                  .dump();
   ADIT_ASSIGN_OR_RETURN(RoadwayMesh mesh, buildRoadwayMesh(m, options.mesh_cell));
   mesh_json = Json{{"cell", mesh.cell}, {"positions", mesh.positions}, {"normals", mesh.normals}, {"indices", mesh.indices}}
@@ -219,23 +220,91 @@ Response Server::Impl::handleCommandPost(const Request& req) {
     }
     args["velocity"] = pointJson(*cmd->velocity);
   }
-  StatusOr<std::vector<Command>> pending = store->unansweredCommands(cmd->robot);
-  if (!pending.ok()) return refusal(req, http::status::internal_server_error, "database: " + pending.status().message());
-  if (pending->size() >= kMaxPendingCommands)
-    return refusal(req, http::status::too_many_requests,
-                   std::to_string(pending->size()) + " commands of " + cmd->robot + " are still unanswered");
+  // The e-stop is the highest priority: never held back by the pending limit, and while it is in
+  // force nothing that would move the robot is sent (the robot refuses it too).
+  const bool estop_kind = cmd->kind == "estop" || cmd->kind == "estop_release";
+  const std::optional<Command>& estop = cache[cmd->robot].estop;
+  if (cmd->kind == "estop_release" && !estop)
+    return refusal(req, http::status::conflict, "robot '" + cmd->robot + "' is not e-stopped");
+  if (estop && (cmd->kind == "resume" || cmd->kind == "goal" || cmd->kind == "manual" || cmd->kind == "release"))
+    return refusal(req, http::status::conflict,
+                   "robot '" + cmd->robot + "' is e-stopped (command " + std::to_string(estop->command_id) + " by " +
+                       estop->operator_name + "): release the e-stop first");
+  if (!estop_kind) {
+    StatusOr<std::vector<Command>> pending = store->unansweredCommands(cmd->robot);
+    if (!pending.ok()) return refusal(req, http::status::internal_server_error, "database: " + pending.status().message());
+    if (pending->size() >= kMaxPendingCommands)
+      return refusal(req, http::status::too_many_requests,
+                     std::to_string(pending->size()) + " commands of " + cmd->robot + " are still unanswered");
+  }
+  StatusOr<std::int64_t> id = issueCommand(cmd->robot, cmd->kind, args.dump());
+  if (!id.ok()) return refusal(req, http::status::internal_server_error, "database: " + id.status().message());
+  return jsonResponse(req, http::status::accepted, Json{{"command_id", *id}, {"status", "pending"}}.dump());
+}
+
+StatusOr<std::int64_t> Server::Impl::issueCommand(const std::string& robot, const std::string& kind,
+                                                  const std::string& args) {
   Command c;
-  c.robot = cmd->robot;
+  c.robot = robot;
   c.operator_name = options.operator_name;
   c.issued_at = c.updated_at = protocol::isoNow();
-  c.kind = cmd->kind;
-  c.body = args.dump();
-  StatusOr<std::int64_t> id = store->addCommand(c);
-  if (!id.ok()) return refusal(req, http::status::internal_server_error, "database: " + id.status().message());
-  c.command_id = *id;
+  c.kind = kind;
+  c.body = args;
+  ADIT_ASSIGN_OR_RETURN(c.command_id, store->addCommand(c));
   broadcast(protocol::commandState(c), false);
+  noteEstop(c);
   deliver(c);
-  return jsonResponse(req, http::status::accepted, Json{{"command_id", *id}, {"status", "pending"}}.dump());
+  return c.command_id;
+}
+
+// Every robot the centre knows, connected or not: one that is offline gets its e-stop first
+// thing at its next hello.
+Response Server::Impl::handleEstopAll(const Request& req) {
+  if (std::optional<Response> refused = requireOperator(req)) return *refused;
+  StatusOr<std::vector<RobotRecord>> robots = store->robots();
+  if (!robots.ok()) return refusal(req, http::status::internal_server_error, "database: " + robots.status().message());
+  Json issued = Json::array();
+  for (const RobotRecord& r : *robots) {
+    StatusOr<std::int64_t> id = issueCommand(r.robot, "estop", "{}");
+    if (!id.ok()) return refusal(req, http::status::internal_server_error, "database: " + id.status().message());
+    issued.push_back({{"robot", r.robot}, {"command_id", *id}, {"status", "pending"}});
+  }
+  return jsonResponse(req, http::status::accepted, Json{{"commands", issued}}.dump());
+}
+
+Response Server::Impl::handleAlarmAck(const Request& req) {
+  if (std::optional<Response> refused = requireOperator(req)) return *refused;
+  StatusOr<Json> body = protocol::parseObject(req.body());
+  if (!body.ok()) return refusal(req, http::status::bad_request, body.status().message());
+  const auto id = body->find("alarm_id");
+  if (id == body->end() || !id->is_number_integer() || id->get<std::int64_t>() < 1)
+    return refusal(req, http::status::bad_request, "field 'alarm_id' must be a positive integer");
+  StatusOr<Alarm> acked = store->acknowledgeAlarm(id->get<std::int64_t>(), options.operator_name, protocol::isoNow());
+  if (!acked.ok()) {
+    const StatusCode code = acked.status().code();
+    const http::status status = code == StatusCode::kNotFound             ? http::status::not_found
+                                : code == StatusCode::kFailedPrecondition ? http::status::conflict
+                                                                          : http::status::internal_server_error;
+    return refusal(req, status, acked.status().message());
+  }
+  if (acked->open()) open_alarms[acked->alarm_id] = *acked;
+  else open_alarms.erase(acked->alarm_id);
+  logLine("alarm " + std::to_string(acked->alarm_id) + " acknowledged by " + acked->acked_by);
+  const Json j = alarmJson(*acked);
+  broadcast(j, false);
+  return jsonResponse(req, http::status::ok, j.dump());
+}
+
+Response Server::Impl::handleAlarmsGet(const Request& req, const std::map<std::string, std::string>& query) {
+  const std::string robot = query.count("robot") ? query.at("robot") : "";
+  if (!robot.empty() && !protocol::validRobotId(robot)) return refusal(req, http::status::bad_request, protocol::kBadRobotId);
+  const std::string open = query.count("open") ? query.at("open") : "0";
+  if (open != "0" && open != "1") return refusal(req, http::status::bad_request, "open must be 0 or 1");
+  auto list = store->alarms(robot, open == "1", 10000);
+  if (!list.ok()) return refusal(req, http::status::internal_server_error, "database: " + list.status().message());
+  Json out = Json::array();
+  for (const Alarm& a : *list) out.push_back(alarmJson(a));
+  return jsonResponse(req, http::status::ok, out.dump());
 }
 
 Response Server::Impl::handle(const Request& req) {
@@ -244,7 +313,11 @@ Response Server::Impl::handle(const Request& req) {
   const std::string path = target.substr(0, q);
   const auto query = parseQuery(q == std::string::npos ? "" : target.substr(q + 1));
   const bool get = req.method() == http::verb::get || req.method() == http::verb::head;
-  if (path == "/api/commands" && req.method() == http::verb::post) return handleCommandPost(req);
+  if (req.method() == http::verb::post) {
+    if (path == "/api/commands") return handleCommandPost(req);
+    if (path == "/api/estop-all") return handleEstopAll(req);
+    if (path == "/api/alarms/ack") return handleAlarmAck(req);
+  }
   auto asset = assets.find(path);
   const bool known = asset != assets.end() || path.rfind("/api/", 0) == 0;
   if (known && !get) return refusal(req, http::status::method_not_allowed, req.method_string().to_string() + " " + path);
@@ -294,6 +367,7 @@ Response Server::Impl::handle(const Request& req) {
     for (const Command& c : *list) out.push_back(protocol::commandState(c));
     return jsonResponse(req, http::status::ok, out.dump());
   }
+  if (path == "/api/alarms") return handleAlarmsGet(req, query);
   if (path == "/api/history") {
     if (!query.count("robot")) return refusal(req, http::status::bad_request, "missing parameter 'robot'");
     const std::string robot = query.at("robot");

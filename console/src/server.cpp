@@ -47,6 +47,10 @@ Status ServerOptions::validate() const {
   if (!(mesh_cell >= 0.0)) return invalidArgument("mesh cell must be >= 0");
   if (viewer_queue_bytes < (std::size_t{1} << 20)) return invalidArgument("a viewer's queue must hold at least 1 MiB");
   ADIT_RETURN_IF_ERROR(quota.validate());
+  if (!(alarm_clearance_m >= 0.0 && alarm_clearance_m <= kMaxRobotRadius))
+    return invalidArgument("--alarm-clearance must be in [0, 10] m");
+  if (!(alarm_stale_min_s > 0.0 && alarm_stale_min_s <= kMaxTelemetryPeriod))
+    return invalidArgument("--alarm-stale-min must be in (0, 60] s");
   for (const std::string& o : allowed_origins) {
     const auto scheme = o.find("://");
     if (scheme == std::string::npos || scheme == 0 || scheme + 3 == o.size() || o.back() == '/' ||
@@ -134,6 +138,7 @@ Status Server::run() {
     });
   }
   d.startWriter();
+  d.startAlarmTimer();
   d.accept();
   d.ioc.run();
   d.stopWriter();
@@ -146,6 +151,7 @@ void Server::stop() {
     beast::error_code ignored;
     d.acceptor.close(ignored);
     if (d.signals) d.signals->cancel(ignored);
+    d.alarm_timer.cancel();
     d.ioc.stop();
   });
 }

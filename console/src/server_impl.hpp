@@ -88,6 +88,17 @@ struct RobotCache {
   std::optional<std::int64_t> stored_bytes;
   bool over_quota_logged = false;
   TokenBucket bucket;  // the robot's rate, whichever connection it uses
+  // The robot's e-stop from the moment it is issued until an estop_release is executed (its
+  // command's state says whether the robot has acknowledged it).
+  std::optional<Command> estop;
+  // Alarms (alarms.cpp): the id of each kind's uncleared alarm, and what the stale check needs.
+  std::map<std::string, std::int64_t> raised;
+  // Raised alarms whose condition has ended, since when: cleared once it stays ended for
+  // kAlarmSettle (alarms.cpp), so a flapping condition is one alarm, not a row per message.
+  std::map<std::string, std::chrono::steady_clock::time_point> ending;
+  std::optional<std::chrono::steady_clock::time_point> telemetry_at;  // the last telemetry's arrival
+  double declared_period = 0.0;   // the robot's `period`, 0: none
+  double estimated_period = 0.0;  // a running mean of the arrival intervals
 };
 
 // The Store behind a mutex, shared by the I/O thread and the writer thread: `store->call()`
@@ -146,6 +157,8 @@ struct Server::Impl {
   std::vector<PendingMessage> queue;
   bool stopping = false;
   std::set<std::pair<std::string, std::int64_t>> in_flight;  // I/O thread only
+  net::steady_timer alarm_timer{ioc};
+  std::map<std::int64_t, Alarm> open_alarms;  // raised and not both cleared and acknowledged
 
   void startWriter();
   void stopWriter();
@@ -173,6 +186,36 @@ struct Server::Impl {
   void setCommandStatus(Command command, CommandStatus status, const std::string& reason);
   Json robotsJson();
   void warmCache();
+
+  // E-stops (routes.cpp, robot_stream.cpp): an e-stop for every known robot; a command's state
+  // change as the robot's e-stop state, pushed as {"type": "estop"}.
+  Response handleEstopAll(const Request& req);
+  /// Stores an operator's command, shows it to the viewers and sends it to its robot if
+  /// connected (else at its next hello); its id.
+  StatusOr<std::int64_t> issueCommand(const std::string& robot, const std::string& kind, const std::string& args);
+  void noteEstop(const Command& c);
+  static Json estopJson(const std::optional<Command>& estop);
+
+  // Alarms (alarms.cpp).
+  void startAlarmTimer();
+  void checkStale();
+  void raiseAlarm(const std::string& robot, const std::string& kind, const std::string& message);
+  /// The condition has ended: the alarm clears once it stays ended for kAlarmSettle.
+  void endAlarm(const std::string& robot, const std::string& kind);
+  void clearAlarm(const std::string& robot, const std::string& kind);
+  void clearSettled();
+  void onTelemetryArrived(const std::string& robot, const Telemetry& m);
+  void onTelemetryStored(const std::string& robot, const Telemetry& m);
+  void onRobotClosed(WsSession& session);
+  void warmAlarms();
+  Json openAlarmsJson() const;
+  Response handleAlarmAck(const Request& req);
+  Response handleAlarmsGet(const Request& req, const std::map<std::string, std::string>& query);
 };
+
+/// An alarm as listed by GET /api/alarms and pushed to viewers as {"type": "alarm", ...}.
+Json alarmJson(const Alarm& a);
+/// The protocol's alarm kinds and their severities (console/doc/protocol.md, "Alarms").
+const char* alarmSeverity(const std::string& kind);
 
 }  // namespace adit::console

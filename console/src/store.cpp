@@ -38,6 +38,19 @@ const std::vector<Migration>& migrations() {
         " issued_at TEXT, kind TEXT NOT NULL, body TEXT, status TEXT NOT NULL, reason TEXT,"
         " updated_at TEXT)",
         "CREATE INDEX commands_by_robot_status ON commands(robot, status)"}},
+      // Alarms: raised by the centre, acknowledged by an operator (who and when), cleared when
+      // the condition ends. '' rather than NULL for "not yet", so both backends read alike.
+      {2,
+       {"CREATE TABLE alarms(alarm_id INTEGER PRIMARY KEY, robot TEXT NOT NULL, kind TEXT NOT NULL,"
+        " severity TEXT NOT NULL, message TEXT NOT NULL, raised_at TEXT NOT NULL,"
+        " cleared_at TEXT NOT NULL DEFAULT '', acked_at TEXT NOT NULL DEFAULT '',"
+        " acked_by TEXT NOT NULL DEFAULT '')",
+        "CREATE INDEX alarms_by_robot ON alarms(robot, alarm_id)"},
+       {"CREATE TABLE alarms(alarm_id BIGSERIAL PRIMARY KEY, robot TEXT NOT NULL, kind TEXT NOT NULL,"
+        " severity TEXT NOT NULL, message TEXT NOT NULL, raised_at TEXT NOT NULL,"
+        " cleared_at TEXT NOT NULL DEFAULT '', acked_at TEXT NOT NULL DEFAULT '',"
+        " acked_by TEXT NOT NULL DEFAULT '')",
+        "CREATE INDEX alarms_by_robot ON alarms(robot, alarm_id)"}},
   };
   return kMigrations;
 }
@@ -206,6 +219,27 @@ Status checkCommandUpdate(std::int64_t id, const std::string& reason, const std:
                           const std::string& where) {
   return checkTexts({{"reason", &reason}, {"updated_at", &updated_at}}, where,
                     "update of command " + std::to_string(id));
+}
+
+Status checkAlarm(const Alarm& a, const std::string& where) {
+  if (a.robot.empty()) return refuse(where, "alarm with an empty robot id");
+  if (a.kind.empty()) return refuse(where, "alarm for robot '" + a.robot + "' has no kind");
+  if (a.severity.empty()) return refuse(where, "alarm for robot '" + a.robot + "' has no severity");
+  return checkTexts({{"robot", &a.robot}, {"kind", &a.kind}, {"severity", &a.severity}, {"message", &a.message},
+                     {"raised_at", &a.raised_at}},
+                    where, "alarm");
+}
+
+Status checkAlarmUpdate(std::int64_t id, std::initializer_list<const std::string*> texts, const std::string& where) {
+  for (const std::string* t : texts)
+    ADIT_RETURN_IF_ERROR(checkTexts({{"text", t}}, where, "update of alarm " + std::to_string(id)));
+  return {};
+}
+
+Status alreadyAcknowledged(const Alarm& a, const std::string&) {
+  // Without the database's URL: the operator who acknowledged second reads this.
+  return failedPrecondition("alarm " + std::to_string(a.alarm_id) + " was acknowledged by " + a.acked_by +
+                            " at " + a.acked_at);
 }
 
 bool commandStatusAdvances(CommandStatus from, CommandStatus to) {

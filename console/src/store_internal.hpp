@@ -6,6 +6,7 @@
 /// message and command passes before anything is written, and the URL redaction that keeps a
 /// PostgreSQL password out of every error message.
 
+#include <initializer_list>
 #include <memory>
 #include <string>
 #include <vector>
@@ -60,6 +61,9 @@ Status checkCommand(const Command& c, const std::string& where);
 Status checkCommandUpdate(std::int64_t id, const std::string& reason, const std::string& updated_at,
                           const std::string& where);
 
+Status checkAlarm(const Alarm& a, const std::string& where);
+Status checkAlarmUpdate(std::int64_t id, std::initializer_list<const std::string*> texts, const std::string& where);
+
 /// Commands only move forward: pending → sent → accepted → executed, or → refused from any
 /// unanswered state; executed and refused are final. A repeated or late answer (the robot
 /// answers a resent command again with its stored result) leaves the stored state as it is.
@@ -113,6 +117,27 @@ StatusOr<Command> commandFromRow(const Row& row, const std::string& where) {
   c.updated_at = row.text(8);
   return c;
 }
+
+/// alarms: alarm_id, robot, kind, severity, message, raised_at, cleared_at, acked_at, acked_by
+template <class Row>
+Alarm alarmFromRow(const Row& row) {
+  Alarm a;
+  a.alarm_id = row.integer(0);
+  a.robot = row.text(1);
+  a.kind = row.text(2);
+  a.severity = row.text(3);
+  a.message = row.text(4);
+  a.raised_at = row.text(5);
+  a.cleared_at = row.text(6);
+  a.acked_at = row.text(7);
+  a.acked_by = row.text(8);
+  return a;
+}
+inline constexpr const char* kAlarmColumns =
+    "SELECT alarm_id, robot, kind, severity, message, raised_at, cleared_at, acked_at, acked_by FROM alarms";
+
+/// "alarm 7 was acknowledged by alice at 2026-...", the refusal of a second acknowledgement.
+Status alreadyAcknowledged(const Alarm& a, const std::string& where);
 
 /// Clamps a caller's row limit to what SQL LIMIT takes.
 long long sqlLimit(std::size_t limit);

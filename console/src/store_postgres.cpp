@@ -209,6 +209,67 @@ class PostgresStore final : public Store, private MigrationTarget {
     });
   }
 
+  StatusOr<std::int64_t> addAlarm(const Alarm& a) override {
+    ADIT_RETURN_IF_ERROR(checkAlarm(a, where_));
+    // Not retried, as addCommand: a retried INSERT whose COMMIT landed would raise it twice.
+    return guard("cannot store a '" + a.kind + "' alarm for robot '" + a.robot + "'", [&]() -> StatusOr<std::int64_t> {
+      pqxx::work txn(*conn_);
+      const long long id =
+          integer(txn.exec_prepared1("add_alarm", a.robot, a.kind, a.severity, a.message, a.raised_at)[0]);
+      txn.commit();
+      return static_cast<std::int64_t>(id);
+    }, Retry::kNever);
+  }
+
+  Status clearAlarm(std::int64_t id, const std::string& at) override {
+    ADIT_RETURN_IF_ERROR(checkAlarmUpdate(id, {&at}, where_));
+    return guard("cannot clear alarm " + std::to_string(id), [&]() -> Status {
+      pqxx::work txn(*conn_);
+      const pqxx::result r = txn.exec_prepared("clear_alarm", at, static_cast<long long>(id));
+      if (r.empty() && txn.exec_prepared("alarm", static_cast<long long>(id)).empty())
+        return notFound(where_ + ": no alarm " + std::to_string(id));
+      txn.commit();
+      return {};
+    });
+  }
+
+  // One conditional UPDATE ... RETURNING: of two operators acknowledging at once, one wins and
+  // the other is told who did.
+  StatusOr<Alarm> acknowledgeAlarm(std::int64_t id, const std::string& operator_name, const std::string& at) override {
+    ADIT_RETURN_IF_ERROR(checkAlarmUpdate(id, {&operator_name, &at}, where_));
+    return guard("cannot acknowledge alarm " + std::to_string(id), [&]() -> StatusOr<Alarm> {
+      pqxx::work txn(*conn_);
+      const pqxx::result r = txn.exec_prepared("ack_alarm", at, operator_name, static_cast<long long>(id));
+      if (!r.empty()) {
+        Alarm a = alarmFromRow(Row{r[0]});
+        txn.commit();
+        return a;
+      }
+      const pqxx::result now = txn.exec_prepared("alarm", static_cast<long long>(id));
+      if (now.empty()) return notFound(where_ + ": no alarm " + std::to_string(id));
+      return alreadyAcknowledged(alarmFromRow(Row{now[0]}), where_);
+    });
+  }
+
+  StatusOr<std::optional<Alarm>> alarm(std::int64_t id) override {
+    return guard("cannot read alarm " + std::to_string(id), [&]() -> StatusOr<std::optional<Alarm>> {
+      pqxx::read_transaction txn(*conn_);
+      const pqxx::result r = txn.exec_prepared("alarm", static_cast<long long>(id));
+      if (r.empty()) return std::optional<Alarm>();
+      return std::optional<Alarm>(alarmFromRow(Row{r[0]}));
+    });
+  }
+
+  StatusOr<std::vector<Alarm>> alarms(const std::string& robot, bool open_only, std::size_t limit) override {
+    return guard("cannot read the alarms", [&]() -> StatusOr<std::vector<Alarm>> {
+      pqxx::read_transaction txn(*conn_);
+      std::vector<Alarm> out;
+      for (const pqxx::row& row : txn.exec_prepared("alarms", robot, open_only, sqlLimit(limit)))
+        out.push_back(alarmFromRow(Row{row}));
+      return out;
+    });
+  }
+
  private:
   // MigrationTarget. A transaction-scoped advisory lock (the key is arbitrary but fixed) makes a
   // second centre starting at the same time wait for the first one's migration.
@@ -317,6 +378,19 @@ class PostgresStore final : public Store, private MigrationTarget {
                                    " ORDER BY command_id");
     conn_->prepare("unanswered",
                    command_cols + " WHERE robot = $1 AND status IN ('pending', 'sent') ORDER BY command_id");
+    const std::string alarm_cols = kAlarmColumns;
+    const std::string returning = " RETURNING alarm_id, robot, kind, severity, message, raised_at, cleared_at, acked_at, acked_by";
+    conn_->prepare("add_alarm",
+                   "INSERT INTO alarms(robot, kind, severity, message, raised_at) VALUES ($1, $2, $3, $4, $5)"
+                   " RETURNING alarm_id");
+    conn_->prepare("clear_alarm",
+                   "UPDATE alarms SET cleared_at = $1 WHERE alarm_id = $2 AND cleared_at = '' RETURNING alarm_id");
+    conn_->prepare("ack_alarm",
+                   "UPDATE alarms SET acked_at = $1, acked_by = $2 WHERE alarm_id = $3 AND acked_at = ''" + returning);
+    conn_->prepare("alarm", alarm_cols + " WHERE alarm_id = $1");
+    conn_->prepare("alarms", "SELECT * FROM (" + alarm_cols +
+                                 " WHERE ($1 = '' OR robot = $1) AND (NOT $2::BOOLEAN OR cleared_at = '' OR acked_at = '')"
+                                 " ORDER BY alarm_id DESC LIMIT $3) newest ORDER BY alarm_id");
   }
 
   static std::vector<RobotRecord> toRobots(const pqxx::result& r) {

@@ -233,6 +233,73 @@ class SqliteStore final : public Store, private MigrationTarget {
     return out;
   }
 
+  StatusOr<std::int64_t> addAlarm(const Alarm& a) override {
+    ADIT_RETURN_IF_ERROR(checkAlarm(a, where_));
+    Use u(add_alarm_);
+    u.bind(1, a.robot);
+    u.bind(2, a.kind);
+    u.bind(3, a.severity);
+    u.bind(4, a.message);
+    u.bind(5, a.raised_at);
+    const int rc = u.step();
+    if (rc != SQLITE_DONE) return error(rc, "cannot store a '" + a.kind + "' alarm for robot '" + a.robot + "'");
+    return static_cast<std::int64_t>(sqlite3_last_insert_rowid(db_));
+  }
+
+  Status clearAlarm(std::int64_t id, const std::string& at) override {
+    ADIT_RETURN_IF_ERROR(checkAlarmUpdate(id, {&at}, where_));
+    {
+      Use u(clear_alarm_);
+      u.bind(1, at);
+      u.bind(2, static_cast<long long>(id));
+      const int rc = u.step();
+      if (rc != SQLITE_DONE) return error(rc, "cannot clear alarm " + std::to_string(id));
+      if (sqlite3_changes(db_) > 0) return {};
+    }
+    ADIT_ASSIGN_OR_RETURN(std::optional<Alarm> a, alarm(id));
+    if (!a) return notFound(where_ + ": no alarm " + std::to_string(id));
+    return {};
+  }
+
+  // One conditional UPDATE: of two operators acknowledging at once, one wins and the other is
+  // told who did, without a transaction around a read.
+  StatusOr<Alarm> acknowledgeAlarm(std::int64_t id, const std::string& operator_name, const std::string& at) override {
+    ADIT_RETURN_IF_ERROR(checkAlarmUpdate(id, {&operator_name, &at}, where_));
+    bool changed = false;
+    {
+      Use u(ack_alarm_);
+      u.bind(1, at);
+      u.bind(2, operator_name);
+      u.bind(3, static_cast<long long>(id));
+      const int rc = u.step();
+      if (rc != SQLITE_DONE) return error(rc, "cannot acknowledge alarm " + std::to_string(id));
+      changed = sqlite3_changes(db_) > 0;
+    }
+    ADIT_ASSIGN_OR_RETURN(std::optional<Alarm> a, alarm(id));
+    if (!a) return notFound(where_ + ": no alarm " + std::to_string(id));
+    if (!changed) return alreadyAcknowledged(*a, where_);
+    return *a;
+  }
+
+  StatusOr<std::optional<Alarm>> alarm(std::int64_t id) override {
+    std::vector<Alarm> out;
+    Use u(alarm_);
+    u.bind(1, static_cast<long long>(id));
+    ADIT_RETURN_IF_ERROR(readAlarms(u, out, "cannot read alarm " + std::to_string(id)));
+    if (out.empty()) return std::optional<Alarm>();
+    return std::optional<Alarm>(std::move(out.front()));
+  }
+
+  StatusOr<std::vector<Alarm>> alarms(const std::string& robot, bool open_only, std::size_t limit) override {
+    std::vector<Alarm> out;
+    Use u(alarms_);
+    u.bind(1, robot);
+    u.bind(2, static_cast<long long>(open_only ? 1 : 0));
+    u.bind(3, sqlLimit(limit));
+    ADIT_RETURN_IF_ERROR(readAlarms(u, out, "cannot read the alarms"));
+    return out;
+  }
+
  private:
   // MigrationTarget. BEGIN IMMEDIATE takes the write lock at once: a second process migrating
   // the same file waits (busy timeout) and then sees the new version.
@@ -328,6 +395,12 @@ class SqliteStore final : public Store, private MigrationTarget {
     return rc == SQLITE_DONE ? Status() : error(rc, what);
   }
 
+  Status readAlarms(Use& u, std::vector<Alarm>& out, const std::string& what) {
+    int rc;
+    while ((rc = u.step()) == SQLITE_ROW) out.push_back(alarmFromRow(u));
+    return rc == SQLITE_DONE ? Status() : error(rc, what);
+  }
+
   Status prepareAll() {
     const std::string robot_cols =
         "SELECT r.robot, r.map_hash, r.radius, r.first_seen, r.last_seen,"
@@ -368,6 +441,15 @@ class SqliteStore final : public Store, private MigrationTarget {
          " ORDER BY command_id"},
         {&unanswered_,
          command_cols + " WHERE robot = ?1 AND status IN ('pending', 'sent') ORDER BY command_id"},
+        {&add_alarm_,
+         "INSERT INTO alarms(robot, kind, severity, message, raised_at) VALUES (?1, ?2, ?3, ?4, ?5)"},
+        {&clear_alarm_, "UPDATE alarms SET cleared_at = ?1 WHERE alarm_id = ?2 AND cleared_at = ''"},
+        {&ack_alarm_, "UPDATE alarms SET acked_at = ?1, acked_by = ?2 WHERE alarm_id = ?3 AND acked_at = ''"},
+        {&alarm_, std::string(kAlarmColumns) + " WHERE alarm_id = ?1"},
+        {&alarms_,
+         "SELECT * FROM (" + std::string(kAlarmColumns) +
+             " WHERE (?1 = '' OR robot = ?1) AND (?2 = 0 OR cleared_at = '' OR acked_at = '')"
+             " ORDER BY alarm_id DESC LIMIT ?3) ORDER BY alarm_id"},
     };
     for (const auto& [stmt, sql] : statements) {
       const int rc = sqlite3_prepare_v3(db_, sql.c_str(), -1, SQLITE_PREPARE_PERSISTENT, stmt->out(), nullptr);
@@ -404,7 +486,8 @@ class SqliteStore final : public Store, private MigrationTarget {
   bool synchronous_full_;
   sqlite3* db_ = nullptr;
   Statement upsert_robot_, robots_, robot_, insert_message_, insert_telemetry_, last_seq_, stored_bytes_, history_, last_of_type_,
-      telemetry_rows_, add_command_, update_command_, command_, commands_, unanswered_;
+      telemetry_rows_, add_command_, update_command_, command_, commands_, unanswered_, add_alarm_, clear_alarm_,
+      ack_alarm_, alarm_, alarms_;
 };
 
 }  // namespace

@@ -77,6 +77,7 @@ void Server::Impl::finish(std::vector<PendingMessage> done, const Status& status
     if (m.type == "plan") c.plan = stored;
     if (m.type == "obstacles") c.tracks = stored.value("tracks", Json::array());
     broadcast(stored, m.type == "telemetry");
+    if (const auto* tm = std::get_if<Telemetry>(&p.body)) onTelemetryStored(m.robot, *tm);
     if (p.command) {
       // A robot answers a command it got again with its stored result: never step back
       // (executed stays executed when an `accepted` repeat arrives).

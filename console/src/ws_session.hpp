@@ -119,6 +119,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     if (ec) {  // closed, or oversized (Beast has closed it with 1009 then)
       if (ec == websocket::error::message_too_big) logLine("closed a connection that sent an oversized message");
       dead_ = true;
+      if (robot_) impl_.onRobotClosed(*this);
       return;
     }
     std::string text = beast::buffers_to_string(buffer_.data());

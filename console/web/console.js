@@ -4,9 +4,16 @@
 // the robots' state from the /ws/view stream, operator commands through POST /api/commands,
 // and a replay over the stored history. Protocol: console/doc/protocol.md.
 //
-// For tests the <html> element carries data-ready, data-errors, data-robots, data-webgl, and
-// every robot row carries its pose (data-pose) and where its marker is drawn (data-drawn: the
-// marker's 3-D position; data-top: its pixel in the top view).
+// The control room's part: e-stops (per robot and for all, shown until released), the centre's
+// alarms with their acknowledgement, the selected robot's speed and clearance as time-series,
+// a scale bar and north arrow in both views, layer toggles, and a 3-D view that follows the
+// selected robot.
+//
+// For tests the <html> element carries data-ready, data-errors, data-robots, data-webgl,
+// data-estops (the robots whose e-stop is in force, "robot:status,..."), data-alarms (open
+// alarms), data-series (the selected robot's samples with a clearance), data-layers (those shown)
+// and data-scale (the top view's scale bar, "metres,pixels"); every robot row carries its pose (data-pose) and where its
+// marker is drawn (data-drawn: the marker's 3-D position; data-top: its pixel in the top view).
 'use strict';
 (function () {
   const root = document.documentElement;
@@ -22,6 +29,9 @@
 
   const COLOURS = ['#4fc3f7', '#ffb74d', '#ba68c8', '#81c784', '#f06292', '#fff176', '#90a4ae', '#e57373'];
   const TRAIL_MAX = 3000;
+  const SERIES_SECONDS = 60;  // of mission time, the time-series' window
+  const SERIES_MAX = 3000;
+  const FOLLOW_DISTANCE = 30;  // [m] from a robot newly followed in 3-D
   const state = {
     map: null,
     robots: new Map(),  // id -> {telemetry, plan, tracks, rock: [], trail: [], colour, radius, view: {...}}
@@ -29,7 +39,18 @@
     events: [],
     replay: null,       // {robot, messages} when not live
     goalMode: false,
+    alarms: new Map(),  // alarm_id -> the centre's alarm, while open
+    layers: {},         // layer name -> shown
   };
+  for (const box of document.querySelectorAll('#layers input[data-layer]')) {
+    state.layers[box.dataset.layer] = box.checked;
+    box.addEventListener('change', () => {
+      state.layers[box.dataset.layer] = box.checked;
+      for (const r of state.robots.values()) r.dirty = true;
+      applyLayers();
+    });
+  }
+  const shownLayer = (name) => state.layers[name] !== false;
 
   // ----- 3-D view --------------------------------------------------------------------------
   const three = { renderer: null, scene: null, camera: null, controls: null, mesh: null, labels: [] };
@@ -72,15 +93,18 @@
     const mesh = new THREE.Mesh(g, new THREE.MeshLambertMaterial({
       color: 0x8d8672, side: THREE.DoubleSide, transparent: true, opacity: 0.35, depthWrite: false }));
     scene.add(mesh);
+    const centrelines = new THREE.Group();
+    scene.add(centrelines);
     for (const r of map.roadways) {
       const pts = r.centreline.map((p) => new THREE.Vector3(p[0], p[1], p[2]));
-      scene.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints(pts),
+      centrelines.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints(pts),
         new THREE.LineBasicMaterial({ color: 0x51606f })));
       const mid = r.centreline[Math.floor(r.centreline.length / 2)];
       const a = r.centreline[Math.floor((r.centreline.length - 1) / 2)];
       addLabel(r.name, 'roadway', [(a[0] + mid[0]) / 2, (a[1] + mid[1]) / 2, (a[2] + mid[2]) / 2 + 3]);
     }
-    Object.assign(three, { renderer, scene, camera, controls, mesh });
+    Object.assign(three, { renderer, scene, camera, controls, mesh, centrelines });
+    applyLayers();
     renderer.domElement.addEventListener('click', onClick3d);
     window.addEventListener('resize', resize3d);
     resize3d();
@@ -105,12 +129,26 @@
     return label;
   }
 
+  function applyLayers() {
+    root.dataset.layers = Object.keys(state.layers).filter(shownLayer).join(',');
+    if (!three.scene) return;
+    three.mesh.visible = shownLayer('rock');
+    three.centrelines.visible = shownLayer('rock');
+  }
+
+  // The label kinds each layer holds: roadway names with the names, break points with the paths.
+  function labelShown(l) {
+    if (l.kind === 'roadway' || l.kind === 'robot') return shownLayer('labels');
+    if (l.kind === 'break') return shownLayer('plan');
+    return true;
+  }
+
   function placeLabels() {
     if (!three.renderer) return;
     const w = three.renderer.domElement.clientWidth, h = three.renderer.domElement.clientHeight;
     for (const l of three.labels) {
       const p = l.position.clone().project(three.camera);
-      const visible = p.z < 1 && Math.abs(p.x) <= 1 && Math.abs(p.y) <= 1 && !l.el.hidden;
+      const visible = p.z < 1 && Math.abs(p.x) <= 1 && Math.abs(p.y) <= 1 && !l.el.hidden && labelShown(l);
       l.el.style.display = visible ? '' : 'none';
       l.el.style.left = ((p.x + 1) / 2 * w).toFixed(0) + 'px';
       l.el.style.top = ((1 - p.y) / 2 * h).toFixed(0) + 'px';
@@ -144,7 +182,8 @@
     let r = state.robots.get(id);
     if (!r) {
       r = { id, telemetry: null, plan: null, tracks: [], rock: [], trail: [], trailSeq: [], radius: 0.4,
-            colour: COLOURS[state.robots.size % COLOURS.length], view: null, dirty: true };
+            colour: COLOURS[state.robots.size % COLOURS.length], view: null, dirty: true,
+            series: [], estop: null };
       state.robots.set(id, r);
       const option = document.createElement('option');
       option.value = option.textContent = id;
@@ -158,6 +197,7 @@
     if (m.type === 'telemetry') {
       const r = robot(m.robot);
       r.telemetry = m;
+      addSample(r, m);
       r.trail.push(m.pose);
       r.trailSeq.push(m.seq);
       if (r.trail.length > TRAIL_MAX) {
@@ -181,9 +221,27 @@
     } else if (m.type === 'command') {
       state.commands.set(m.command_id, m);
       renderCommands();
+    } else if (m.type === 'estop') {
+      robot(m.robot).estop = m.estop;
+      renderEstops();
+    } else if (m.type === 'alarm') {
+      if (m.open) state.alarms.set(m.alarm_id, m);
+      else state.alarms.delete(m.alarm_id);
+      renderAlarms();
     } else if (m.type === 'lag') {
       addItem('events', `the view fell behind: ${m.dropped} telemetry messages skipped`);
     }
+  }
+
+  // One sample per telemetry: its mission time, speed (the robot's, else |velocity|) and
+  // clearance (null when the robot did not know it). A new run's clock starting again ends the
+  // old series.
+  function addSample(r, m) {
+    const last = r.series[r.series.length - 1];
+    if (last && m.t < last.t) r.series = [];
+    const speed = m.speed != null ? m.speed : Math.hypot(...m.velocity);
+    r.series.push({ seq: m.seq, t: m.t, speed, clearance: m.min_clearance != null ? m.min_clearance : null });
+    if (r.series.length > SERIES_MAX) r.series.splice(0, r.series.length - SERIES_MAX);
   }
 
   function addItem(list, text) {
@@ -207,6 +265,62 @@
     }
   }
 
+  function renderEstops() {
+    const bar = $('estops');
+    bar.textContent = '';
+    const held = [...state.robots.values()].filter((r) => r.estop);
+    for (const r of held) {
+      const e = r.estop;
+      const div = document.createElement('div');
+      div.dataset.robot = r.id;
+      div.textContent = `E-STOP ${r.id}: ` + (e.engaged ? 'engaged, acknowledged by the robot' :
+        e.status === 'refused' ? `REFUSED by the robot (${e.reason})` : `${e.status}, waiting for the robot`) +
+        ` (command #${e.command_id} by ${e.operator} at ${e.issued_at.slice(11, 19)} UTC); until released`;
+      bar.appendChild(div);
+    }
+    bar.hidden = held.length === 0;
+    root.dataset.estops = held.map((r) => `${r.id}:${r.estop.engaged ? 'engaged' : r.estop.status}`).join(',');
+  }
+
+  function renderAlarms() {
+    const ul = $('alarms');
+    ul.textContent = '';
+    const rank = { critical: 0, major: 1, minor: 2 };
+    const list = [...state.alarms.values()].sort((a, b) =>
+      (!!a.acked_at - !!b.acked_at) || (rank[a.severity] - rank[b.severity]) || (b.alarm_id - a.alarm_id));
+    for (const a of list) {
+      const li = document.createElement('li');
+      li.className = a.severity + (a.acked_at ? ' acked' : '');
+      li.dataset.alarmId = a.alarm_id;
+      li.dataset.kind = a.kind;
+      li.textContent = `${a.severity.toUpperCase()} ${a.robot} ${a.kind.replace('_', ' ')}: ${a.message}` +
+        ` (${a.raised_at.slice(11, 19)}${a.cleared_at ? ', cleared ' + a.cleared_at.slice(11, 19) : ', active'})`;
+      if (a.acked_at) {
+        li.textContent += ` - acknowledged by ${a.acked_by} at ${a.acked_at.slice(11, 19)}`;
+      } else {
+        const b = document.createElement('button');
+        b.textContent = 'Ack';
+        b.className = 'ack';
+        b.onclick = () => acknowledge(a.alarm_id);
+        li.appendChild(document.createTextNode(' '));
+        li.appendChild(b);
+      }
+      ul.appendChild(li);
+    }
+    root.dataset.alarms = String(list.length);
+    root.dataset.unacked = String(list.filter((a) => !a.acked_at).length);
+  }
+
+  async function acknowledge(id) {
+    const res = await authed('/api/alarms/ack', {
+      method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify({ alarm_id: id }) });
+    const answer = await res.json();
+    if (res.ok) { state.alarms.set(id, answer); if (!answer.open) state.alarms.delete(id); renderAlarms(); }
+    $('answer').textContent = res.ok ? `alarm #${id} acknowledged` : `refused (${res.status}): ${answer.error}`;
+    $('answer').className = res.ok ? 'ok' : 'bad';
+    root.dataset.lastAck = res.ok ? String(id) : 'refused ' + res.status;
+  }
+
   // The telemetry shown for a robot: the live one, or the replay's at the slider.
   function shown(r) {
     if (state.replay && state.replay.robot === r.id) return state.replay.current;
@@ -222,6 +336,10 @@
     v.name.position.set(t.pose[0], t.pose[1], t.pose[2] + r.radius + 0.5);
     const trail = state.replay && state.replay.robot === r.id ? state.replay.trail : r.trail;
     v.trail.geometry.setFromPoints(points3(trail));
+    v.trail.visible = shownLayer('trail');
+    v.plan.visible = shownLayer('plan');
+    v.rock.visible = shownLayer('sensed');
+    v.tracks.visible = shownLayer('tracks');
     if (r.plan && r.plan.path.length > 1) {
       v.plan.geometry.setFromPoints(points3(r.plan.path));
       v.plan.computeLineDistances();
@@ -255,16 +373,25 @@
       if (!row) {
         row = body.insertRow();
         row.dataset.robot = r.id;
-        for (let i = 0; i < 5; ++i) row.insertCell();
+        for (let i = 0; i < 7; ++i) row.insertCell();
         row.cells[0].style.color = r.colour;
         row.cells[0].textContent = r.id;
+        const stop = document.createElement('button');
+        stop.className = 'estop';
+        stop.textContent = 'STOP';
+        stop.title = 'E-stop ' + r.id;
+        stop.onclick = () => command({ kind: 'estop' }, r.id);
+        row.cells[6].appendChild(stop);
       }
       const t = shown(r);
       if (!t) continue;
       row.cells[1].textContent = t.status;
-      row.cells[2].textContent = t.pose.map((v) => v.toFixed(1)).join(', ');
+      row.cells[2].textContent = t.pose.map((v) => v.toFixed(1)).join(' ');
       row.cells[3].textContent = t.min_clearance != null ? Number(t.min_clearance).toFixed(2) + ' m' : '';
-      row.cells[4].textContent = t.seq;
+      const speed = t.speed != null ? t.speed : Math.hypot(...t.velocity);
+      row.cells[4].textContent = speed.toFixed(2) + ' m/s';
+      row.cells[5].textContent = t.seq;
+      row.className = r.estop ? 'estop' : '';
       row.dataset.pose = t.pose.join(',');
       row.dataset.status = t.status;
       if (r.view) {
@@ -294,20 +421,22 @@
     g.clearRect(0, 0, c.width, c.height);
     g.lineCap = 'round';
     g.lineJoin = 'round';
-    for (const r of state.map.roadways) {
-      g.strokeStyle = '#3a4450';
-      g.lineWidth = Math.max(2, r.width * s);
-      polyline(g, r.centreline.map(topPixel));
-    }
+    if (shownLayer('rock'))
+      for (const r of state.map.roadways) {
+        g.strokeStyle = '#3a4450';
+        g.lineWidth = Math.max(2, r.width * s);
+        polyline(g, r.centreline.map(topPixel));
+      }
     g.fillStyle = '#9fb3c8';
     g.font = '10px sans-serif';
-    for (const r of state.map.roadways) {
-      const p = topPixel(r.centreline[Math.floor(r.centreline.length / 2)]);
-      g.fillText(r.name, p[0] + 3, p[1] - 3);
-    }
+    if (shownLayer('labels'))
+      for (const r of state.map.roadways) {
+        const p = topPixel(r.centreline[Math.floor(r.centreline.length / 2)]);
+        g.fillText(r.name, p[0] + 3, p[1] - 3);
+      }
     for (const r of state.robots.values()) {
       const t = shown(r);
-      if (r.plan) {
+      if (r.plan && shownLayer('plan')) {
         g.strokeStyle = '#ffd866';
         g.lineWidth = 1;
         g.setLineDash([4, 3]);
@@ -321,25 +450,149 @@
       }
       g.strokeStyle = r.colour;
       g.lineWidth = 1.5;
-      polyline(g, (state.replay && state.replay.robot === r.id ? state.replay.trail : r.trail).map(topPixel));
+      if (shownLayer('trail'))
+        polyline(g, (state.replay && state.replay.robot === r.id ? state.replay.trail : r.trail).map(topPixel));
       g.fillStyle = '#ff7043';
-      for (const p of r.rock) { const q = topPixel(p); g.fillRect(q[0] - 1, q[1] - 1, 2, 2); }
+      if (shownLayer('sensed')) for (const p of r.rock) { const q = topPixel(p); g.fillRect(q[0] - 1, q[1] - 1, 2, 2); }
       g.fillStyle = '#ef5350';
-      for (const tr of r.tracks) dot(g, topPixel(tr.position), Math.max(3, (tr.radius || 1) * s));
+      if (shownLayer('tracks')) for (const tr of r.tracks) dot(g, topPixel(tr.position), Math.max(3, (tr.radius || 1) * s));
       if (t) {
         g.fillStyle = r.colour;
         dot(g, topPixel(t.pose), Math.max(4, r.radius * s));
+        if (r.estop) {  // an e-stopped robot is ringed in red in every view
+          g.strokeStyle = '#ff1744';
+          g.lineWidth = 2;
+          g.beginPath();
+          g.arc(topPixel(t.pose)[0], topPixel(t.pose)[1], Math.max(8, r.radius * s + 4), 0, 2 * Math.PI);
+          g.stroke();
+        }
         if (t.subgoal) { g.fillStyle = '#ffd866'; dot(g, topPixel(t.subgoal), 3); }
       }
     }
     g.strokeStyle = '#ff7b72';
-    for (const e of state.events) {
+    g.lineWidth = 1;
+    for (const e of shownLayer('events') ? state.events : []) {
       if (!e.center) continue;
       const p = topPixel(e.center);
       g.beginPath();
       g.arc(p[0], p[1], Math.max(4, (e.radius || 1) * s), 0, 2 * Math.PI);
       g.stroke();
     }
+    // Top left: the mine's roadways run along the bottom edge of most plans.
+    const bar = scaleBar(g, s, 10, 16);
+    root.dataset.scale = `${bar.metres},${bar.pixels.toFixed(1)}`;
+    northArrow(g, c.width - 18, 26, 0, -1);
+  }
+
+  // The longest 1, 2 or 5 x 10^k metres that fits in `maxPx` pixels at `pxPerM`.
+  function niceLength(pxPerM, maxPx) {
+    let best = 1;
+    for (let k = -2; k <= 5; ++k)
+      for (const m of [1, 2, 5]) {
+        const v = m * Math.pow(10, k);
+        if (v * pxPerM <= maxPx) best = v;
+      }
+    return best;
+  }
+
+  function scaleBar(g, pxPerM, x, y) {
+    const metres = niceLength(pxPerM, 110);
+    const pixels = metres * pxPerM;
+    g.strokeStyle = g.fillStyle = '#dde3ea';
+    g.lineWidth = 2;
+    g.beginPath();
+    g.moveTo(x, y - 4); g.lineTo(x, y); g.lineTo(x + pixels, y); g.lineTo(x + pixels, y - 4);
+    g.stroke();
+    g.font = '10px sans-serif';
+    g.fillText(metres >= 1 ? `${metres} m` : `${metres * 100} cm`, x + pixels + 4, y);
+    return { metres, pixels };
+  }
+
+  // North is the map frame's +y (grid north of the survey): an arrow toward (dx, dy) on screen.
+  function northArrow(g, x, y, dx, dy) {
+    const n = Math.hypot(dx, dy) || 1;
+    dx /= n; dy /= n;
+    const len = 14;
+    g.strokeStyle = g.fillStyle = '#dde3ea';
+    g.lineWidth = 2;
+    g.beginPath();
+    g.moveTo(x - dx * len, y - dy * len);
+    g.lineTo(x + dx * len, y + dy * len);
+    g.stroke();
+    g.beginPath();
+    g.moveTo(x + dx * (len + 4), y + dy * (len + 4));
+    g.lineTo(x + dx * (len - 4) - dy * 5, y + dy * (len - 4) + dx * 5);
+    g.lineTo(x + dx * (len - 4) + dy * 5, y + dy * (len - 4) - dx * 5);
+    g.fill();
+    g.font = 'bold 11px sans-serif';
+    g.fillText('N', x + dx * (len + 8) - 4, y + dy * (len + 8) + 4);
+  }
+
+  // The 3-D view's scale bar (metres at the distance of the orbit's centre) and its north arrow
+  // (the map's +y as seen from the camera).
+  function drawOverlay3d() {
+    const c = $('overlay3d'), g = c.getContext('2d');
+    g.clearRect(0, 0, c.width, c.height);
+    const cam = three.camera, target = three.controls.target;
+    const h = three.renderer.domElement.clientHeight || 600;
+    const dist = cam.position.distanceTo(target);
+    const pxPerM = h / (2 * dist * Math.tan((cam.fov / 2) * Math.PI / 180));
+    const bar = scaleBar(g, pxPerM, 6, c.height - 8);
+    root.dataset.scale3d = `${bar.metres},${bar.pixels.toFixed(1)}`;
+    const a = target.clone().project(cam), b = target.clone().add(new THREE.Vector3(0, 1, 0)).project(cam);
+    northArrow(g, c.width - 24, 30, b.x - a.x, -(b.y - a.y) * h / (three.renderer.domElement.clientWidth || 800));
+  }
+
+  // The selected robot's speed (blue) and clearance (green; the alarm margin dashed) over the last
+  // SERIES_SECONDS of its mission time.
+  function drawSeries() {
+    const c = $('series'), g = c.getContext('2d');
+    g.clearRect(0, 0, c.width, c.height);
+    const r = state.robots.get($('robot').value);
+    g.font = '10px sans-serif';
+    g.fillStyle = '#9fb3c8';
+    if (!r || !r.series.length) { g.fillText('speed and clearance: no telemetry yet', 6, 14); root.dataset.series = '0'; return; }
+    // The window's left edge: SERIES_SECONDS back, or the first sample of a shorter run.
+    const t1 = r.series[r.series.length - 1].t, t0 = Math.max(t1 - SERIES_SECONDS, r.series[0].t);
+    const span = Math.max(t1 - t0, 1);
+    const pts = r.series.filter((p) => p.t >= t0);
+    const vmax = Math.max(0.5, ...pts.map((p) => p.speed));
+    const cmax = Math.max(1, ...pts.filter((p) => p.clearance != null).map((p) => p.clearance));
+    const L = 34, R = c.width - 34, T = 16, B = c.height - 14;
+    const x = (t) => L + (t - t0) / span * (R - L);
+    g.strokeStyle = '#333a42';
+    g.strokeRect(L, T, R - L, B - T);
+    const plot = (value, max, colour) => {
+      g.strokeStyle = colour;
+      g.lineWidth = 1.5;
+      g.beginPath();
+      let pen = false;
+      for (const p of pts) {
+        const v = value(p);
+        if (v == null) { pen = false; continue; }
+        const y = B - Math.min(v, max) / max * (B - T);
+        if (pen) g.lineTo(x(p.t), y); else g.moveTo(x(p.t), y);
+        pen = true;
+      }
+      g.stroke();
+    };
+    plot((p) => p.speed, vmax, '#4fc3f7');
+    plot((p) => p.clearance, cmax, '#81c784');
+    if (state.margin != null) {
+      const y = B - state.margin / cmax * (B - T);
+      g.strokeStyle = '#81c784';
+      g.setLineDash([3, 3]);
+      g.beginPath(); g.moveTo(L, y); g.lineTo(R, y); g.stroke();
+      g.setLineDash([]);
+    }
+    const last = r.series[r.series.length - 1];
+    g.fillStyle = '#4fc3f7';
+    g.fillText(`speed ${last.speed.toFixed(2)} m/s (max ${vmax.toFixed(1)})`, L, 11);
+    g.fillStyle = '#81c784';
+    g.fillText(`clearance ${last.clearance != null ? last.clearance.toFixed(2) + ' m' : '-'} (max ${cmax.toFixed(1)})`, L + 200, 11);
+    g.fillStyle = '#9fb3c8';
+    g.fillText(`${r.id}: t = ${t0.toFixed(1)} to ${t1.toFixed(1)} s (at most the last ${SERIES_SECONDS} s)`, L, c.height - 2);
+    root.dataset.series = String(pts.filter((p) => p.clearance != null).length);
   }
 
   function drawProfile() {
@@ -358,9 +611,9 @@
     }
     for (const r of state.robots.values()) {
       const t = shown(r);
-      if (r.plan) { g.strokeStyle = '#ffd866'; g.lineWidth = 1; polyline(g, r.plan.path.map(px)); }
+      if (r.plan && shownLayer('plan')) { g.strokeStyle = '#ffd866'; g.lineWidth = 1; polyline(g, r.plan.path.map(px)); }
       g.strokeStyle = r.colour;
-      polyline(g, r.trail.map(px));
+      if (shownLayer('trail')) polyline(g, r.trail.map(px));
       if (t) { g.fillStyle = r.colour; dot(g, px(t.pose), 4); }
     }
   }
@@ -381,18 +634,31 @@
     }
     drawTop();
     drawProfile();
+    drawSeries();
     renderTable();
     if (three.renderer) {
       const followed = $('follow').checked && state.robots.get($('robot').value);
       if (followed && followed.view && shown(followed)) {
         const p = followed.view.marker.position;
+        // A robot newly followed is approached to FOLLOW_DISTANCE, seen from where the camera
+        // looked: the whole-mine view makes it a dot. Then the camera moves with it.
+        if (three.followed !== followed.id) {
+          three.followed = followed.id;
+          const away = three.camera.position.clone().sub(three.controls.target);
+          three.camera.position.copy(p.clone().add(away.setLength(FOLLOW_DISTANCE)));
+          three.controls.target.copy(p);
+        }
         three.camera.position.add(p.clone().sub(three.controls.target));
         three.controls.target.copy(p);
+      } else {
+        three.followed = null;
       }
+      for (const r of state.robots.values()) if (r.view) r.view.marker.material.emissive.set(r.estop ? 0x990000 : 0x000000);
       for (const r of state.robots.values())
         if (r.view) r.view.marker.scale.setScalar(markerScale(r, r.view.marker.position));
       three.controls.update();
       placeLabels();
+      drawOverlay3d();
       three.renderer.render(three.scene, three.camera);
     }
     requestAnimationFrame(frame);
@@ -420,12 +686,17 @@
           if (r.telemetry) apply(r.telemetry);
           if (r.plan) apply(r.plan);
           x.tracks = r.tracks || [];
+          x.estop = r.estop || null;
         }
         for (const c of m.commands) apply(c);
+        state.alarms.clear();
+        for (const a of m.alarms || []) state.alarms.set(a.alarm_id, a);
+        renderEstops();
+        renderAlarms();
       } else {
         apply(m);
       }
-      if (m.type === 'snapshot') clickFromHash();
+      if (m.type === 'snapshot') { clickFromHash(); actFromHash(); }
     };
   }
 
@@ -446,6 +717,26 @@
       clientX: rect.left + px[0] * rect.width / c.width, clientY: rect.top + px[1] * rect.height / c.height, bubbles: true }));
   }
 
+  // `#estop-click=1`, `#estop-release-click=1`, `#estop-all-click=1`, `#ack-click=all`,
+// `#layers-off=labels,trail` (unticks those layers): once the
+  // snapshot is in, presses that button as an operator would (the browser test's e-stop and
+  // acknowledgement). Each at most once per page load.
+  const acted = new Set();
+  function actFromHash() {
+    const params = new URLSearchParams(location.hash.slice(1));
+    const press = (key, act) => { if (params.get(key) && !acted.has(key)) { acted.add(key); act(); } };
+    press('estop-click', () => $('estop').click());
+    press('estop-release-click', () => $('estoprelease').click());
+    press('estop-all-click', () => $('estopall').click());
+    press('ack-click', () => { for (const b of document.querySelectorAll('#alarms button.ack')) b.click(); });
+    press('layers-off', () => {
+      for (const name of params.get('layers-off').split(',')) {
+        const box = document.querySelector(`#layers input[data-layer="${CSS.escape(name)}"]`);
+        if (box && box.checked) box.click();
+      }
+    });
+  }
+
   // A page opened mid-run (or after it) draws the robot's recent past from the database: the
   // trail, sensed rock and events of its last TRAIL_MAX stored messages.
   async function backfill(r, lastSeq) {
@@ -454,9 +745,9 @@
     const res = await authed(`/api/history?robot=${encodeURIComponent(r.id)}&from_seq=${from}&limit=${TRAIL_MAX}`);
     if (!res.ok) return;
     const past = await res.json();
-    const trail = [], seqs = [];
+    const trail = [], seqs = [], series = { series: [] };
     for (const m of past) {
-      if (m.type === 'telemetry') { trail.push(m.pose); seqs.push(m.seq); }
+      if (m.type === 'telemetry') { trail.push(m.pose); seqs.push(m.seq); addSample(series, m); }
       else if (m.type === 'obstacles') for (const p of m.rock || []) r.rock.push(p);
       else if (m.type === 'event') apply(m);
     }
@@ -465,6 +756,7 @@
     const keep = r.trailSeq.map((seq) => seq > newest);
     r.trail = trail.concat(r.trail.filter((_, i) => keep[i]));
     r.trailSeq = seqs.concat(r.trailSeq.filter((_, i) => keep[i]));
+    r.series = series.series.concat(r.series.filter((p) => p.seq > newest));
     r.dirty = true;
   }
 
@@ -480,8 +772,8 @@
     return fetch(url, { ...options, headers: { ...(options.headers || {}), Authorization: 'Bearer ' + token.value.trim() } });
   }
 
-  async function command(body) {
-    body.robot = $('robot').value;
+  async function command(body, robotId) {
+    body.robot = robotId || $('robot').value;
     if (!body.robot) { $('answer').textContent = 'no robot connected yet'; return; }
     const res = await authed('/api/commands', {
       method: 'POST',
@@ -495,6 +787,15 @@
     $('answer').className = res.ok ? 'ok' : 'bad';
   }
 
+  $('estop').onclick = () => command({ kind: 'estop' });
+  $('estoprelease').onclick = () => command({ kind: 'estop_release' });
+  $('estopall').onclick = async () => {
+    const res = await authed('/api/estop-all', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: '{}' });
+    const answer = await res.json();
+    $('answer').textContent = res.ok ? `e-stop sent to ${answer.commands.length} robots` : `refused (${res.status}): ${answer.error}`;
+    $('answer').className = res.ok ? 'ok' : 'bad';
+    root.dataset.lastCommand = res.ok ? answer.commands.map((c) => c.command_id).join(',') : 'refused ' + res.status;
+  };
   $('pause').onclick = () => command({ kind: 'pause' });
   $('resume').onclick = () => command({ kind: 'resume' });
   $('release').onclick = () => command({ kind: 'release' });
@@ -623,6 +924,7 @@
       await new Promise((resolve) => token.addEventListener('change', resolve, { once: true }));
     }
     state.map = map;
+    state.margin = map.alarms ? map.alarms.clearance : null;
     $('mapname').textContent = `${map.name} (${map.roadways.length} roadways, resolution ${map.resolution} m)`;
     for (const r of map.roadways) {
       const option = document.createElement('option');

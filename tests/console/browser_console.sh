@@ -6,14 +6,17 @@
 # 3-D marker's position = data-pose), with no script error, WebGL on, and a screenshot showing the
 # robot's colour. Then a click on the top view (the page's `#goal-click=X,Y`, a real click event
 # in goal mode) must reach a navigated robot (`adit simulate --live`), which accepts the goal and
-# replans toward it. Finally SIGTERM must stop the server cleanly (exit 0). Also how the README's
-# screenshot is made:
+# replans toward it. Then the control room: the page's E-STOP button stops that robot, which
+# acknowledges it (the banner shows it engaged, the telemetry says "estop"), the page's release
+# ends it; the robot's process killed, the centre raises a lost-link alarm the page shows and an
+# operator's click acknowledges (stored with who and when). Finally SIGTERM must stop the server
+# cleanly (exit 0). Also how the docs' screenshots are made:
 #
-#   tests/console/browser_console.sh ADIT FEED MAP WORK [CHECK_PNG] [SCREENSHOT]
+#   tests/console/browser_console.sh ADIT FEED MAP WORK [CHECK_PNG] [SCREENSHOT] [ALARM_SCREENSHOT]
 set -euo pipefail
 # Deadlines x ADIT_TEST_SLOWDOWN (10 in sanitizer and Debug builds).
 SLOWDOWN=${ADIT_TEST_SLOWDOWN:-1}
-ADIT=$1 FEED=$2 MAP=$3 WORK=$4 CHECK_PNG=${5:-} SHOT=${6:-$4/console.png}
+ADIT=$1 FEED=$2 MAP=$3 WORK=$4 CHECK_PNG=${5:-} SHOT=${6:-$4/console.png} ALARM_SHOT=${7:-$4/console-alarm.png}
 CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
 rm -rf "$WORK" && mkdir -p "$WORK"
 server_pid="" sim_pid=""
@@ -126,9 +129,9 @@ if "accepted" in results and plans:
   [ -n "$replanned" ] && break
   sleep 0.2
 done
-kill -TERM "$sim_pid" 2>/dev/null || true
-wait "$sim_pid" 2>/dev/null || true
 if [ -z "$replanned" ]; then
+  kill -TERM "$sim_pid" 2>/dev/null || true
+  wait "$sim_pid" 2>/dev/null || true
   # What the centre holds of it, and what the robot said: the reason is in one of them.
   api "/api/history?robot=district_inspection&limit=10000" | python3 -c '
 import json, sys
@@ -143,6 +146,97 @@ for m in msgs:
   fail "the robot did not accept and replan toward the clicked goal (command $command_id)"
 fi
 echo "$replanned"
+
+# 3. The e-stop, pressed in the page: the robot acknowledges it (executed), the page shows it
+#    engaged until the page's release is executed too.
+# page NAME HASH CHECK...: load until the root element matches every CHECK (bounded; the
+# virtual-time budget does not wait for the snapshot and the history, as above).
+page() {
+  local name=$1 hash=$2 check all
+  shift 2
+  for _ in 1 2 3 4 5; do
+    chromium "$name" --dump-dom "http://$hostport/#token=0123456789abcdef0123&robot=district_inspection$hash" > "$WORK/$name.html"
+    all=1
+    for check in "$@"; do grep -q "<html[^>]*$check" "$WORK/$name.html" || all=0; done
+    [ "$all" = 1 ] && return 0
+    grep -q '<html[^>]*data-errors="0"' "$WORK/$name.html" || break
+  done
+  echo "$name: $(grep -o '<html[^>]*>' "$WORK/$name.html" | head -1)"
+  fail "the page did not show $*: $(grep -o '<pre id="errors">[^<]*' "$WORK/$name.html"; grep -o 'id="answer"[^<]*' "$WORK/$name.html")"
+}
+estop_of() { api /api/robots | python3 -c '
+import json, sys
+for r in json.load(sys.stdin):
+    if r["robot"] == "district_inspection":
+        e = r.get("estop")
+        print("none" if e is None else "engaged" if e["engaged"] else e["status"])' ; }
+wait_estop() {  # wait_estop STATE
+  for _ in $(seq $((100 * SLOWDOWN))); do [ "$(estop_of)" = "$1" ] && return 0; sleep 0.2; done
+  fail "the robot's e-stop is '$(estop_of)', not '$1': $(tail -n 5 "$WORK/sim.log")"
+}
+page estop "&estop-click=1" 'data-last-command="[0-9]'
+wait_estop engaged
+status=$(api /api/robots | python3 -c 'import json, sys; print([r for r in json.load(sys.stdin) if r["robot"] == "district_inspection"][0]["telemetry"]["status"])')
+for _ in $(seq $((50 * SLOWDOWN))); do
+  [ "$status" = estop ] && break
+  sleep 0.2
+  status=$(api /api/robots | python3 -c 'import json, sys; print([r for r in json.load(sys.stdin) if r["robot"] == "district_inspection"][0]["telemetry"]["status"])')
+done
+[ "$status" = estop ] || fail "the e-stopped robot reports status '$status', not estop"
+page banner "" 'data-estops="district_inspection:engaged"' 'data-series="[1-9][0-9]'
+grep -q '<div data-robot="district_inspection">E-STOP district_inspection: engaged, acknowledged by the robot' "$WORK/banner.html" \
+  || fail "the page shows no e-stop banner"
+series=$(grep -o '<html[^>]*>' "$WORK/banner.html" | sed -n 's/.*data-series="\([0-9]*\)".*/\1/p')
+[ "${series:-0}" -ge 10 ] || fail "the page's time-series holds ${series:-0} samples with a clearance"
+grep -q '<html[^>]*data-scale="[0-9.]*,[0-9.]*"' "$WORK/banner.html" || fail "the top view has no scale bar"
+grep -q '<html[^>]*data-scale3d="[0-9.]*,[0-9.]*"' "$WORK/banner.html" || fail "the 3-D view has no scale bar"
+echo "e-stop engaged, acknowledged by the robot, shown in the page ($series samples of speed and clearance)"
+page release "&estop-release-click=1" 'data-last-command="[0-9]'
+wait_estop none
+echo "e-stop released by the page"
+
+# 4. An alarm: the robot's process killed, the centre raises a lost link; the page shows it and
+#    a click acknowledges it, stored with the operator's name and time.
+kill -KILL "$sim_pid" 2>/dev/null || true
+wait "$sim_pid" 2>/dev/null || true
+sim_pid=""
+alarm=""
+for _ in $(seq $((100 * SLOWDOWN))); do
+  alarm=$(api "/api/alarms?robot=district_inspection&open=1" | python3 -c '
+import json, sys
+a = [a for a in json.load(sys.stdin) if a["kind"] == "lost_link" and not a["acked_at"]]
+print(a[-1]["alarm_id"] if a else "")')
+  [ -n "$alarm" ] && break
+  sleep 0.2
+done
+[ -n "$alarm" ] || fail "no lost-link alarm after the robot's process was killed"
+page alarm "" 'data-unacked="[1-9]'
+grep -q "<li class=\"critical\" data-alarm-id=\"$alarm\" data-kind=\"lost_link\">CRITICAL district_inspection lost link" "$WORK/alarm.html" \
+  || fail "the page does not list alarm $alarm"
+chromium alarmshot --screenshot="$ALARM_SHOT" "http://$hostport/#token=0123456789abcdef0123&robot=district_inspection"
+[ -s "$ALARM_SHOT" ] || fail "chromium wrote no alarm screenshot"
+if [ -n "$CHECK_PNG" ]; then
+  "$CHECK_PNG" check-png "$ALARM_SHOT" ff7b72 20 || fail "the alarm screenshot does not show the critical alarm's colour"
+fi
+page ack "&ack-click=all" 'data-last-ack="[0-9]'
+acked=$(api "/api/alarms?robot=district_inspection" | python3 -c '
+import json, sys
+a = [a for a in json.load(sys.stdin) if a["alarm_id"] == int(sys.argv[1])][0]
+print("%s at %s" % (a["acked_by"], a["acked_at"]) if a["acked_by"] else "")' "$alarm")
+[[ "$acked" == console-test\ at\ 20* ]] || fail "alarm $alarm is not acknowledged by console-test: '$acked'"
+python3 - "$WORK/centre.db" "$alarm" <<'PY' || fail "the acknowledgement is not in the database"
+import sqlite3, sys
+row = sqlite3.connect(sys.argv[1]).execute("SELECT kind, severity, acked_by, acked_at FROM alarms WHERE alarm_id = ?", (int(sys.argv[2]),)).fetchone()
+print("stored:", row)
+sys.exit(0 if row and row[0] == "lost_link" and row[1] == "critical" and row[2] == "console-test" and row[3] else 1)
+PY
+page acked "&layers-off=labels,trail" "data-unacked=\"0\"" 'data-layers="rock,plan,sensed,tracks,events"'
+grep -q "acknowledged by console-test at" "$WORK/acked.html" || fail "the page does not show who acknowledged the alarm"
+# The names layer off: no roadway name is drawn in the 3-D view.
+names=$(grep -o '<span class="roadway"[^>]*>' "$WORK/acked.html" | wc -l)
+hidden=$(grep -o '<span class="roadway" style="[^"]*display: none[^"]*"' "$WORK/acked.html" | wc -l)
+[ "$names" -gt 0 ] && [ "$names" -eq "$hidden" ] || fail "with the names layer off, $((names - hidden)) of $names roadway names are drawn"
+echo "alarm $alarm (lost link) shown, acknowledged by $acked; screenshot: $ALARM_SHOT"
 
 kill -TERM "$server_pid"
 set +e

@@ -649,6 +649,48 @@ TEST_F(LiveSimulation, OperatorBlocksPausesResumesAndTheRunArrives) {
   }
 }
 
+// An e-stop mid-run: the robot acknowledges it at once, holds still reporting status "estop",
+// refuses to resume while it stands, and after the release waits for the operator's resume.
+// Every telemetry message carries its clearance (the believed map's distance field less the
+// radius) and speed.
+TEST_F(LiveSimulation, AnEstopHoldsTheRobotUntilReleasedAndResumed) {
+  Ledger ledger;
+  Centre centre(ledger, scripted({{2.0, command(1, "estop")},
+                                  {0.0, command(2, "resume"), "estop", 1.0},
+                                  {0.0, command(3, "estop_release"), "estop", 2.0},
+                                  {0.0, command(4, "resume"), "paused", 0.5}}));
+  const int rc = simulate(centre.url(), "--live-speed 0 --live-lockstep");
+  ASSERT_TRUE(rc == 0 || rc == 1) << std::ifstream(dir_ + "/stderr.txt").rdbuf();
+  const Transcript tr = transcript(ledger);
+  EXPECT_EQ(tr.results, (std::vector<std::string>{"1:accepted", "1:executed", "2:refused", "3:accepted", "3:executed",
+                                                  "4:accepted", "4:executed"}));
+  std::vector<json> held;
+  for (const json& m : tr.telemetry)
+    if (m["status"] == "estop") held.push_back(m);
+  ASSERT_GE(held.size(), 10u);  // 2 s of e-stop at 0.1 s
+  const json& a = held[held.size() / 2];
+  const json& b = held.back();
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(a["pose"][i].get<double>(), b["pose"][i].get<double>(), 1e-6);
+  EXPECT_NEAR(b["speed"].get<double>(), 0.0, 1e-6);
+  // Released, the robot stays paused until resumed, then drives on.
+  const auto released = std::find(tr.statuses.begin(), tr.statuses.end(), "estop");
+  ASSERT_NE(released, tr.statuses.end());
+  ASSERT_NE(released + 1, tr.statuses.end());
+  EXPECT_EQ(*(released + 1), "paused");
+  std::size_t with_clearance = 0;
+  for (const json& m : tr.telemetry) {
+    if (!m["min_clearance"].is_number()) continue;
+    ++with_clearance;
+    // The loop's drift is 4 m wide and 3.2 m high with the robot on its axis: at most 1.6 m of
+    // the centre to rock, less the 0.4 m radius.
+    EXPECT_GE(m["min_clearance"].get<double>(), 0.0);
+    EXPECT_LE(m["min_clearance"].get<double>(), 1.6 - 0.4 + 0.2);
+    const double v = std::hypot(m["velocity"][0].get<double>(), m["velocity"][1].get<double>(), m["velocity"][2].get<double>());
+    EXPECT_NEAR(m["speed"].get<double>(), v, 1e-9);
+  }
+  EXPECT_EQ(with_clearance, tr.telemetry.size()) << "every telemetry message carries its clearance";
+}
+
 // A goal clicked by the operator, manual driving, release: the robot replans from where it was
 // driven to and arrives at the new goal; the goal command is executed on arrival.
 TEST_F(LiveSimulation, NewGoalManualDriveAndReleaseArriveAtTheOperatorsGoal) {

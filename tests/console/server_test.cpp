@@ -120,7 +120,25 @@ class WsClient {
       : ws_(openWebSocket(ioc_, "127.0.0.1", std::to_string(port), path, token)) {}
   void send(const std::string& text) { ws_.write(net::buffer(text)); }
   void send(const Json& j) { send(j.dump()); }
-  Json recv() { return readJson(ws_); }
+  /// The next message, skipping the centre's alarms and e-stop states: they concern every viewer
+  /// and arrive whenever another test's robot goes quiet or hangs up.
+  Json recv() {
+    for (;;) {
+      Json j = readJson(ws_);
+      const std::string type = j.value("type", "");
+      if (type != "alarm" && type != "estop") return j;
+    }
+  }
+  /// The next message, whatever it is.
+  Json recvAny() { return readJson(ws_); }
+  /// The next message of `type`, skipping others (at most `limit`).
+  Json recvType(const std::string& type, int limit = 1000) {
+    for (int i = 0; i < limit; ++i) {
+      Json j = readJson(ws_);
+      if (j.value("type", "") == type) return j;
+    }
+    return nullptr;
+  }
   /// Reads until the server closes; the close code (-1: the connection broke otherwise).
   int closeCode() {
     beast::error_code ec;
@@ -207,7 +225,9 @@ class Centre {
                                      "--viewer-queue", std::to_string(o.viewer_queue_bytes),
                                      "--robot-rate", number(o.quota.messages_per_s),
                                      "--robot-bandwidth", std::to_string(std::uint64_t(o.quota.bytes_per_s)),
-                                     "--robot-store-quota", std::to_string(o.quota.stored_bytes)};
+                                     "--robot-store-quota", std::to_string(o.quota.stored_bytes),
+                                     "--alarm-clearance", number(o.alarm_clearance_m),
+                                     "--alarm-stale-min", number(o.alarm_stale_min_s)};
     for (const std::string& origin : o.allowed_origins) args.insert(args.end(), {"--allow-origin", origin});
     if (!o.robot_tokens.empty()) {
       std::ofstream robots(robot_file);
@@ -624,6 +644,279 @@ TEST_F(ServerTest, OperatorCommandsAreCheckedStoredDeliveredAndTracked) {
   EXPECT_EQ(log[0]["operator"], "alice");
   EXPECT_EQ(post({{"robot", "r-cmd"}, {"kind", "block"}, {"roadway", "crosscut"}}).status, 202);
   EXPECT_EQ(robot.recv()["roadway"], "crosscut");
+}
+
+// ----- e-stop --------------------------------------------------------------------------------
+
+TEST_F(ServerTest, AnEstopGoesFirstIsAcknowledgedByTheRobotAndShownUntilReleased) {
+  {
+    WsClient robot(port(), "/ws/robot");
+    robot.hello("r-estop");
+  }
+  // A robot away with a full queue: the e-stop is not held back by the pending limit.
+  for (std::size_t i = 0; i < kMaxPendingCommands; ++i) ASSERT_EQ(post({{"robot", "r-estop"}, {"kind", "pause"}}).status, 202);
+  ASSERT_EQ(post({{"robot", "r-estop"}, {"kind", "pause"}}).status, 429);
+  const Reply stop = post({{"robot", "r-estop"}, {"kind", "estop"}});
+  ASSERT_EQ(stop.status, 202) << stop.body;
+  const std::int64_t id = stop.json()["command_id"];
+  auto estopOf = [](const std::string& robot) {
+    for (const Json& r : get("/api/robots").json())
+      if (r["robot"] == robot) return r["estop"];
+    return Json("no such robot");
+  };
+  EXPECT_EQ(estopOf("r-estop")["status"], "pending");
+  EXPECT_EQ(estopOf("r-estop")["engaged"], false);
+  EXPECT_EQ(estopOf("r-estop")["operator"], "alice");
+  // While it is in force nothing that would move the robot is sent.
+  for (const char* kind : {"resume", "release"}) {
+    const Reply refused = post({{"robot", "r-estop"}, {"kind", kind}});
+    EXPECT_EQ(refused.status, 409) << kind;
+    EXPECT_NE(refused.json()["error"].get<std::string>().find("e-stopped"), std::string::npos) << refused.body;
+  }
+  EXPECT_EQ(post({{"robot", "r-estop"}, {"kind", "goal"}, {"goal", {10.0, 0.0, 1.4}}}).status, 409);
+
+  WsClient viewer(port(), "/ws/view");
+  const Json snap = viewer.recvAny();
+  ASSERT_EQ(snap["type"], "snapshot");
+  for (const Json& r : snap["robots"])
+    if (r["robot"] == "r-estop") EXPECT_EQ(r["estop"]["command_id"], id);
+  // At its hello the robot gets the e-stop before the 64 commands issued ahead of it.
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-estop");
+  const Json first = robot.recv();
+  EXPECT_EQ(first["kind"], "estop");
+  EXPECT_EQ(first["command_id"], id);
+  EXPECT_EQ(first["operator"], "alice");
+  for (std::size_t i = 0; i < kMaxPendingCommands; ++i) EXPECT_EQ(robot.recv()["kind"], "pause");
+  EXPECT_EQ(viewer.recvType("estop")["estop"]["status"], "sent");
+
+  robot.send(Json{{"type", "command_result"}, {"robot", "r-estop"}, {"seq", 1}, {"t", 1.0}, {"command_id", id},
+                  {"result", "accepted"}});
+  EXPECT_EQ(robot.recv()["type"], "ack");
+  robot.send(Json{{"type", "command_result"}, {"robot", "r-estop"}, {"seq", 2}, {"t", 1.0}, {"command_id", id},
+                  {"result", "executed"}, {"reason", "stopped"}});
+  EXPECT_EQ(robot.recv()["type"], "ack");
+  Json engaged;
+  for (int i = 0; i < 4 && !(engaged.is_object() && engaged["estop"]["engaged"] == true); ++i) engaged = viewer.recvType("estop");
+  EXPECT_EQ(engaged["robot"], "r-estop");
+  EXPECT_EQ(engaged["estop"]["engaged"], true);
+  EXPECT_EQ(estopOf("r-estop")["status"], "executed");
+  // A robot held by its e-stop says so.
+  Json held = telemetry("r-estop", 3);
+  held["status"] = "estop";
+  held["t"] = 1.5;
+  robot.send(held);
+  EXPECT_EQ(robot.recv()["type"], "ack");
+
+  // Released only once the robot has executed the release.
+  const Reply release = post({{"robot", "r-estop"}, {"kind", "estop_release"}});
+  ASSERT_EQ(release.status, 202) << release.body;
+  const std::int64_t rid = release.json()["command_id"];
+  const Json delivered = robot.recv();
+  EXPECT_EQ(delivered["kind"], "estop_release");
+  EXPECT_TRUE(estopOf("r-estop").is_object());
+  robot.send(Json{{"type", "command_result"}, {"robot", "r-estop"}, {"seq", 4}, {"t", 2.0}, {"command_id", rid},
+                  {"result", "executed"}});
+  EXPECT_EQ(robot.recv()["type"], "ack");
+  Json released = viewer.recvType("estop");
+  for (int i = 0; i < 4 && !released["estop"].is_null(); ++i) released = viewer.recvType("estop");
+  EXPECT_TRUE(released["estop"].is_null()) << released.dump();
+  EXPECT_TRUE(estopOf("r-estop").is_null());
+  EXPECT_EQ(post({{"robot", "r-estop"}, {"kind", "estop_release"}}).status, 409);  // nothing to release
+  // The log says who did what, as for any command.
+  const Json log = get("/api/commands?robot=r-estop").json();
+  EXPECT_EQ(log[log.size() - 2]["kind"], "estop");
+  EXPECT_EQ(log[log.size() - 2]["status"], "executed");
+  EXPECT_EQ(log.back()["kind"], "estop_release");
+  EXPECT_EQ(log.back()["operator"], "alice");
+}
+
+// Its own centre and database: an e-stop for all reaches every robot the database knows.
+TEST_F(ServerTest, AnEstopForAllStopsEveryKnownRobotAndSurvivesARestart) {
+  const std::string url = "sqlite:" + (*dir_ / "estop_all.db").string();
+  auto own = [&] {
+    static int n = 0;
+    return std::make_unique<Centre>(*loaded_, *field_, url, options(), *dir_ / ("estop-all-" + std::to_string(++n) + ".log"));
+  };
+  auto centre = own();
+  ASSERT_TRUE(centre->ok());
+  auto at = [&](http::verb verb, const std::string& target, const std::string& body = "") {
+    net::io_context ioc;
+    tcp::socket s(ioc);
+    s.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), centre->port()));
+    http::request<http::string_body> req{verb, target, 11};
+    req.set(http::field::host, "127.0.0.1");
+    req.set(http::field::authorization, std::string("Bearer ") + kToken);
+    req.body() = body;
+    req.prepare_payload();
+    http::write(s, req);
+    beast::flat_buffer b;
+    http::response<http::string_body> res;
+    http::read(s, b, res);
+    return Reply{static_cast<int>(res.result_int()), res.body()};
+  };
+  WsClient a(centre->port(), "/ws/robot"), b(centre->port(), "/ws/robot");
+  a.hello("all-a");
+  b.hello("all-b");
+  EXPECT_EQ(request(http::verb::post, "/api/estop-all", "{}", "").status, 401);
+  const Reply all = at(http::verb::post, "/api/estop-all", "{}");
+  ASSERT_EQ(all.status, 202) << all.body;
+  ASSERT_EQ(all.json()["commands"].size(), 2u);
+  EXPECT_EQ(a.recv()["kind"], "estop");
+  EXPECT_EQ(b.recv()["kind"], "estop");
+  centre.reset();
+  centre = own();  // restarted on the same database: the e-stops are still in force
+  ASSERT_TRUE(centre->ok());
+  for (const Json& r : at(http::verb::get, "/api/robots").json()) {
+    EXPECT_TRUE(r["estop"].is_object()) << r.dump();
+    EXPECT_EQ(r["estop"]["status"], "sent");
+  }
+  EXPECT_EQ(at(http::verb::post, "/api/commands", R"({"robot":"all-a","kind":"resume"})").status, 409);
+}
+
+// ----- alarms --------------------------------------------------------------------------------
+
+TEST_F(ServerTest, AlarmsAreRaisedAcknowledgedWithWhoAndWhenClearedAndStored) {
+  WsClient viewer(port(), "/ws/view");
+  ASSERT_EQ(viewer.recvAny()["type"], "snapshot");
+  auto nextAlarm = [&](const std::string& robot, const std::string& kind) {
+    for (int i = 0; i < 1000; ++i) {
+      const Json j = viewer.recvType("alarm");
+      if (j.is_null() || (j["robot"] == robot && j["kind"] == kind)) return j;
+    }
+    return Json();
+  };
+  auto robot = std::make_unique<WsClient>(port(), "/ws/robot");
+  robot->hello("r-alarm");
+  // Clearance below the margin (0.2 m): major; a collision: critical.
+  Json low = telemetry("r-alarm", 1);
+  low["min_clearance"] = 0.05;
+  robot->send(low);
+  EXPECT_EQ(robot->recv()["type"], "ack");
+  const Json clearance = nextAlarm("r-alarm", "clearance");
+  EXPECT_EQ(clearance["severity"], "major");
+  EXPECT_EQ(clearance["open"], true);
+  EXPECT_TRUE(clearance["acked_at"].is_null());
+  EXPECT_NE(clearance["message"].get<std::string>().find("0.05 m below the margin 0.20 m"), std::string::npos);
+  Json hit = telemetry("r-alarm", 2);
+  hit["status"] = "collision";
+  hit["min_clearance"] = 0.0;
+  robot->send(hit);
+  EXPECT_EQ(robot->recv()["type"], "ack");
+  const Json collision = nextAlarm("r-alarm", "collision");
+  EXPECT_EQ(collision["severity"], "critical");
+  // Still low: no second clearance alarm while the first stands.
+  const Json listed = get("/api/alarms?robot=r-alarm").json();
+  ASSERT_EQ(listed.size(), 2u) << listed.dump();
+
+  // The operator acknowledges: who and when, once.
+  const std::int64_t cid = clearance["alarm_id"];
+  auto ack = [](const Json& body, const std::string& token = kToken) {
+    return request(http::verb::post, "/api/alarms/ack", body.dump(), token);
+  };
+  EXPECT_EQ(ack({{"alarm_id", cid}}, "").status, 401);
+  EXPECT_EQ(ack({{"alarm_id", "7"}}).status, 400);
+  EXPECT_EQ(request(http::verb::post, "/api/alarms/ack", "{", kToken).status, 400);
+  EXPECT_EQ(ack({{"alarm_id", 1 << 30}}).status, 404);
+  const Reply acked = ack({{"alarm_id", cid}});
+  ASSERT_EQ(acked.status, 200) << acked.body;
+  EXPECT_EQ(acked.json()["acked_by"], "alice");
+  const std::string when = acked.json()["acked_at"];
+  EXPECT_EQ(when.size(), 24u) << when;  // 2026-12-03T10:00:00.000Z
+  EXPECT_EQ(nextAlarm("r-alarm", "clearance")["acked_by"], "alice");
+  const Reply twice = ack({{"alarm_id", cid}});
+  EXPECT_EQ(twice.status, 409);
+  EXPECT_NE(twice.json()["error"].get<std::string>().find("acknowledged by alice at " + when), std::string::npos) << twice.body;
+
+  // The conditions end: both cleared; the acknowledged one is closed, the other still open.
+  robot->send(telemetry("r-alarm", 3));
+  EXPECT_EQ(robot->recv()["type"], "ack");
+  // (A stale alarm may come and go meanwhile on a busy machine: the robot is silent while the
+  // test talks to the centre.)
+  auto openAlarms = [] {
+    Json out = Json::array();
+    for (const Json& a : get("/api/alarms?robot=r-alarm&open=1").json())
+      if (a["kind"] != "stale_telemetry") out.push_back(a);
+    return out;
+  };
+  Json open_list = openAlarms();
+  for (int i = 0; i < 200 && open_list.size() != 1u; ++i) {  // cleared after 1 s without the condition
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    open_list = openAlarms();
+  }
+  ASSERT_EQ(open_list.size(), 1u) << open_list.dump();
+  EXPECT_EQ(open_list[0]["kind"], "collision");
+  EXPECT_FALSE(open_list[0]["cleared_at"].is_null());
+  EXPECT_EQ(get("/api/alarms?open=2").status, 400);
+
+  // Stale: a robot that declared a 0.05 s period and then says nothing for longer than the
+  // threshold (two periods, at least 0.5 s).
+  Json periodic = telemetry("r-alarm", 4);
+  periodic["period"] = 0.05;
+  robot->send(periodic);
+  EXPECT_EQ(robot->recv()["type"], "ack");
+  const Json stale = nextAlarm("r-alarm", "stale_telemetry");
+  EXPECT_EQ(stale["severity"], "minor");
+  EXPECT_NE(stale["message"].get<std::string>().find("threshold 0.50 s"), std::string::npos) << stale.dump();
+  // Talking again, for longer than the 1 s an alarm's condition must stay ended: cleared.
+  for (int seq = 5; seq < 20; ++seq) {
+    robot->send(telemetry("r-alarm", seq));
+    EXPECT_EQ(robot->recv()["type"], "ack");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_FALSE(nextAlarm("r-alarm", "stale_telemetry")["cleared_at"].is_null());
+
+  // A lost link: critical, cleared by the robot's next hello.
+  robot.reset();
+  const Json lost = nextAlarm("r-alarm", "lost_link");
+  EXPECT_EQ(lost["severity"], "critical");
+  robot = std::make_unique<WsClient>(port(), "/ws/robot");
+  robot->hello("r-alarm");
+  EXPECT_FALSE(nextAlarm("r-alarm", "lost_link")["cleared_at"].is_null());
+
+  // Stored: another connection to the database reads who acknowledged what, and when.
+  StatusOr<std::unique_ptr<Store>> db = Store::open(databaseUrl());
+  ASSERT_TRUE(db.ok()) << db.status().toString();
+  StatusOr<std::optional<Alarm>> stored = (*db)->alarm(cid);
+  ASSERT_TRUE(stored.ok() && stored->has_value());
+  EXPECT_EQ((*stored)->acked_by, "alice");
+  EXPECT_EQ((*stored)->acked_at, when);
+  EXPECT_EQ((*stored)->kind, "clearance");
+  EXPECT_FALSE((*stored)->cleared_at.empty());
+}
+
+// A hostile robot flapping between collision and following at its message rate raises one
+// alarm, not one a message: an alarm clears only after its condition stays ended for 1 s.
+TEST_F(ServerTest, AFlappingConditionIsOneAlarm) {
+  WsClient robot(port(), "/ws/robot");
+  robot.hello("r-flap");
+  for (int seq = 1; seq <= 40; ++seq) {
+    Json m = telemetry("r-flap", seq);
+    m["status"] = seq % 2 ? "collision" : "following";
+    robot.send(m);
+    EXPECT_EQ(robot.recv()["type"], "ack");
+  }
+  const Json alarms = get("/api/alarms?robot=r-flap").json();
+  ASSERT_EQ(alarms.size(), 1u) << alarms.dump();
+  EXPECT_EQ(alarms[0]["kind"], "collision");
+}
+
+// A robot that reported `arrived` has ended its mission: its silence and its hang-up raise nothing.
+TEST_F(ServerTest, ARobotThatArrivedHangsUpWithoutAnAlarm) {
+  {
+    WsClient robot(port(), "/ws/robot");
+    robot.hello("r-done");
+    robot.send(telemetry("r-done", 1));
+    EXPECT_EQ(robot.recv()["type"], "ack");
+    Json done = telemetry("r-done", 2);
+    done["status"] = "arrived";
+    robot.send(done);
+    EXPECT_EQ(robot.recv()["type"], "ack");
+    // Silent past the stale threshold (0.5 s), then gone.
+    std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_TRUE(get("/api/alarms?robot=r-done").json().empty()) << get("/api/alarms?robot=r-done").body;
 }
 
 TEST_F(ServerTest, CommandsWaitForTheRobotsNextHelloAndAreBounded) {

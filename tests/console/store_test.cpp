@@ -151,7 +151,7 @@ TEST_P(StoreTest, MigratesAnEmptyDatabaseToTheCurrentVersion) {
   StatusOr<int> version = db.schemaVersion();
   ASSERT_TRUE(version.ok()) << version.status().toString();
   EXPECT_EQ(*version, kSchemaVersion);
-  EXPECT_EQ(rawScalar("SELECT count(*) FROM schema_migrations"), "1");
+  EXPECT_EQ(rawScalar("SELECT count(*) FROM schema_migrations"), std::to_string(kSchemaVersion));
   EXPECT_FALSE(rawScalar("SELECT applied_at FROM schema_migrations WHERE version = 1").empty());
   // Every table of the schema is there and empty.
   for (const char* table : {"robots", "messages", "telemetry", "commands"})
@@ -167,7 +167,7 @@ TEST_P(StoreTest, ReopeningKeepsTheDataAndTheVersion) {
   }
   Store& db = open();
   EXPECT_EQ(*db.schemaVersion(), kSchemaVersion);
-  EXPECT_EQ(rawScalar("SELECT count(*) FROM schema_migrations"), "1");  // not migrated twice
+  EXPECT_EQ(rawScalar("SELECT count(*) FROM schema_migrations"), std::to_string(kSchemaVersion));  // not migrated twice
   EXPECT_EQ(*db.lastSeq("r1"), 1);
   EXPECT_EQ(db.commands("r1", 10)->size(), 1u);
   EXPECT_FALSE(*db.appendMessage(telemetry("r1", 1)));
@@ -390,7 +390,7 @@ TEST_P(StoreTest, CentresStartingTogetherMigrateOnce) {
     ASSERT_EQ(waitpid(child, &wstatus, 0), child);
     EXPECT_TRUE(WIFEXITED(wstatus) && WEXITSTATUS(wstatus) == 0) << "a centre failed to open";
   }
-  EXPECT_EQ(rawScalar("SELECT count(*) FROM schema_migrations"), "1");
+  EXPECT_EQ(rawScalar("SELECT count(*) FROM schema_migrations"), std::to_string(kSchemaVersion));
 }
 
 TEST_P(StoreTest, ADatabaseWithForeignTablesIsRefusedUntouched) {
@@ -454,6 +454,91 @@ TEST_P(StoreTest, CommandsGoThroughTheirLifecycle) {
   Status missing = db.updateCommand(b + 100, CommandStatus::kSent, "", "T8");
   EXPECT_EQ(missing.code(), StatusCode::kNotFound);
   EXPECT_FALSE(db.command(b + 100)->has_value());
+}
+
+Alarm lowClearance(const std::string& robot, const std::string& at) {
+  Alarm a;
+  a.robot = robot;
+  a.kind = "clearance";
+  a.severity = "major";
+  a.message = "clearance 0.05 m below the margin 0.20 m";
+  a.raised_at = at;
+  return a;
+}
+
+TEST_P(StoreTest, AlarmsAreRaisedClearedAndAcknowledgedOnceWithWhoAndWhen) {
+  Store& db = open();
+  const std::int64_t a = *db.addAlarm(lowClearance("r1", "2026-12-03T10:00:00.000Z"));
+  const std::int64_t b = *db.addAlarm(lowClearance("r2", "2026-12-03T10:00:01.000Z"));
+  EXPECT_GT(b, a);
+  std::optional<Alarm> got = *db.alarm(a);
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ(got->robot, "r1");
+  EXPECT_EQ(got->kind, "clearance");
+  EXPECT_EQ(got->severity, "major");
+  EXPECT_EQ(got->raised_at, "2026-12-03T10:00:00.000Z");
+  EXPECT_TRUE(got->cleared_at.empty());
+  EXPECT_TRUE(got->acked_at.empty());
+  EXPECT_TRUE(got->open());
+
+  StatusOr<Alarm> acked = db.acknowledgeAlarm(a, "alice", "2026-12-03T10:00:05.000Z");
+  ASSERT_TRUE(acked.ok()) << acked.status().toString();
+  EXPECT_EQ(acked->acked_by, "alice");
+  EXPECT_EQ(acked->acked_at, "2026-12-03T10:00:05.000Z");
+  EXPECT_TRUE(acked->open());  // the condition still holds
+  // A second operator is told who acknowledged it first, and nothing changes.
+  StatusOr<Alarm> again = db.acknowledgeAlarm(a, "bob", "2026-12-03T10:00:06.000Z");
+  ASSERT_FALSE(again.ok());
+  EXPECT_EQ(again.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(again.status().message().find("acknowledged by alice at 2026-12-03T10:00:05.000Z"), std::string::npos)
+      << again.status().message();
+  EXPECT_EQ((*db.alarm(a))->acked_by, "alice");
+
+  ASSERT_TRUE(db.clearAlarm(a, "2026-12-03T10:00:09.000Z").ok());
+  ASSERT_TRUE(db.clearAlarm(a, "2026-12-03T10:00:10.000Z").ok());  // the first clearing stands
+  got = *db.alarm(a);
+  EXPECT_EQ(got->cleared_at, "2026-12-03T10:00:09.000Z");
+  EXPECT_FALSE(got->open());
+
+  // Open: not both cleared and acknowledged (b is neither).
+  const std::vector<Alarm> open_now = *db.alarms("", true, 100);
+  ASSERT_EQ(open_now.size(), 1u);
+  EXPECT_EQ(open_now[0].alarm_id, b);
+  EXPECT_EQ(db.alarms("", false, 100)->size(), 2u);
+  EXPECT_EQ(db.alarms("r1", false, 100)->size(), 1u);
+  EXPECT_EQ(db.alarms("", false, 1)->front().alarm_id, b);  // the newest
+
+  EXPECT_EQ(db.acknowledgeAlarm(b + 100, "alice", "T").status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(db.clearAlarm(b + 100, "T").code(), StatusCode::kNotFound);
+  EXPECT_FALSE(db.alarm(b + 100)->has_value());
+  Alarm bad = lowClearance("", "T");
+  EXPECT_EQ(db.addAlarm(bad).status().code(), StatusCode::kInvalidArgument);
+  bad = lowClearance("r1", "T");
+  bad.message = std::string("a\0b", 3);
+  EXPECT_EQ(db.addAlarm(bad).status().code(), StatusCode::kInvalidArgument);
+
+  // What a restarted centre reads back.
+  store_.reset();
+  Store& reopened = open();
+  got = *reopened.alarm(a);
+  EXPECT_EQ(got->acked_by, "alice");
+  EXPECT_EQ(got->cleared_at, "2026-12-03T10:00:09.000Z");
+}
+
+TEST_P(StoreTest, AVersion1DatabaseIsMigratedKeepingItsData) {
+  {
+    Store& db = open();
+    ASSERT_TRUE(db.addCommand(goalCommand("r1", "2026-11-30T23:00:00.000Z")).ok());
+  }
+  store_.reset();
+  // Back to what a build of schema version 1 left.
+  rawScalar("DROP TABLE alarms");
+  rawScalar("DELETE FROM schema_migrations WHERE version = 2");
+  ASSERT_EQ(rawScalar("SELECT max(version) FROM schema_migrations"), "1");
+  Store& db = open();
+  EXPECT_EQ(*db.schemaVersion(), kSchemaVersion);
+  EXPECT_EQ(db.commands("r1", 10)->size(), 1u);
+  EXPECT_TRUE(db.addAlarm(lowClearance("r1", "T")).ok());
 }
 
 TEST_P(StoreTest, CommandListsAreNewestLastAndLimited) {

@@ -29,11 +29,18 @@ struct Telemetry {
   map::Vec3 pose = map::Vec3::Zero();
   map::Vec3 velocity = map::Vec3::Zero();
   /// following | yielding | detouring | stuck | replanning | no_route | paused | manual |
-  /// arrived | collision
+  /// arrived | collision | estop (held by an operator's e-stop until it is released)
   std::string status = "following";
   std::optional<map::Vec3> goal;
   std::optional<map::Vec3> subgoal;        ///< the local layer's current sub-goal, when steering
-  std::optional<double> min_clearance;     ///< to rock [m]; none: nothing in range
+  /// Robot surface to rock [m] in the robot's believed map (0 when touching); none: the robot
+  /// does not know. The centre raises a `clearance` alarm below its margin.
+  std::optional<double> min_clearance;
+  /// |velocity| [m/s], for the console's time-series; none: the reader takes |velocity|.
+  std::optional<double> speed;
+  /// The robot's telemetry period [s], so the centre knows when telemetry is stale (> 2
+  /// periods); none: the centre estimates it from the arrivals.
+  std::optional<double> period;
 };
 
 /// The expected path, on every (re)plan.

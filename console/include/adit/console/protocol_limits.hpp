@@ -53,5 +53,8 @@ inline constexpr double kMaxReportedSpeed = 50.0;
 inline constexpr double kMaxReportedRadius = 100.0;
 /// Shortest robot token (`adit serve --robot-tokens`): as the operator token's 16 characters.
 inline constexpr std::size_t kMinTokenLength = 16;
+/// Longest telemetry period a robot may declare [s]: the stale-telemetry alarm waits two of
+/// them, and an operator waiting more than two minutes for it is not watching the robot.
+inline constexpr double kMaxTelemetryPeriod = 60.0;
 
 }  // namespace adit::console

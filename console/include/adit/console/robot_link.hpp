@@ -65,7 +65,7 @@ struct LinkOptions {
 /// are empty.
 struct ReceivedCommand {
   std::int64_t id = 0;
-  std::string kind;  ///< pause | resume | goal | block | reopen | manual | release
+  std::string kind;  ///< pause | resume | goal | block | reopen | manual | release | estop | estop_release
   std::optional<map::Vec3> goal;
   std::optional<map::Vec3> velocity;
   std::string roadway;
@@ -112,7 +112,8 @@ class RobotLink {
   StatusOr<std::uint64_t> send(const Plan& m) { return send(toJson(m)); }
   StatusOr<std::uint64_t> send(const Obstacles& m) { return send(toJson(m)); }
   StatusOr<std::uint64_t> send(const Event& m) { return send(toJson(m)); }
-  /// The commands received since the last call, in arrival order, each once.
+  /// The commands received since the last call, each once: e-stops first, then the others in
+  /// arrival order.
   std::vector<ReceivedCommand> pollCommands();
   /// Sends command_result for `command_id` and stores it as that command's answer.
   Status answer(std::int64_t command_id, const std::string& result, const std::string& reason, double t_s);

@@ -78,6 +78,12 @@ struct ServerOptions {
   std::size_t viewer_queue_bytes = kMaxViewerQueueBytes;
   /// Per robot id (`--robot-rate`, `--robot-bandwidth`, `--robot-store-quota`).
   RobotQuota quota;
+  /// A telemetry `min_clearance` below this raises a `clearance` alarm (`--alarm-clearance`) [m]:
+  /// the global planner's default safety margin.
+  double alarm_clearance_m = 0.2;
+  /// Telemetry is stale after two periods, and never sooner than this (`--alarm-stale-min`) [s]:
+  /// a robot at 50 Hz is not late after 40 ms of a busy network.
+  double alarm_stale_min_s = 0.5;
 
   Status validate() const;
 };

@@ -28,7 +28,7 @@
 namespace adit::console {
 
 /// The schema version this build writes and reads.
-inline constexpr int kSchemaVersion = 1;
+inline constexpr int kSchemaVersion = 2;  ///< 2: the alarms table
 
 /// One robot → centre message as stored (protocol.md, "robot → centre"), `hello` excluded.
 struct RobotMessage {
@@ -55,11 +55,27 @@ struct Command {
   std::string robot;
   std::string operator_name;
   std::string issued_at;
-  std::string kind;             ///< pause, resume, goal, block, reopen, manual, release
+  std::string kind;             ///< pause, resume, goal, block, reopen, manual, release, estop, estop_release
   std::string body;             ///< the command as JSON text (its arguments)
   CommandStatus status = CommandStatus::kPending;
   std::string reason;
   std::string updated_at;
+};
+
+/// A condition an operator must see and acknowledge (console/doc/protocol.md, "Alarms"): raised
+/// by the centre, cleared when the condition ends, acknowledged by an operator; it stays open
+/// (shown) until it is both.
+struct Alarm {
+  std::int64_t alarm_id = 0;  ///< assigned by addAlarm()
+  std::string robot;
+  std::string kind;           ///< stale_telemetry, lost_link, clearance, stuck, collision, no_route
+  std::string severity;       ///< critical, major, minor
+  std::string message;        ///< what was seen, in words (e.g. "clearance 0.12 m below the margin 0.20 m")
+  std::string raised_at;      ///< the centre's clock, ISO 8601 UTC
+  std::string cleared_at;     ///< "" while the condition holds
+  std::string acked_at;       ///< "" until an operator acknowledges it
+  std::string acked_by;       ///< the operator's name
+  bool open() const { return cleared_at.empty() || acked_at.empty(); }
 };
 
 struct RobotRecord {
@@ -131,6 +147,21 @@ class Store {
   virtual StatusOr<std::vector<Command>> commands(const std::string& robot, std::size_t limit) = 0;
   /// Commands of the robot still pending or sent (to resend after its hello), oldest first.
   virtual StatusOr<std::vector<Command>> unansweredCommands(const std::string& robot) = 0;
+
+  /// Stores a new alarm (not cleared, not acknowledged) and returns its id.
+  virtual StatusOr<std::int64_t> addAlarm(const Alarm& alarm) = 0;
+  /// Marks the alarm's condition over at `at`; an alarm cleared already keeps its first time.
+  /// NotFound for an unknown id.
+  virtual Status clearAlarm(std::int64_t alarm_id, const std::string& at) = 0;
+  /// Records who acknowledged the alarm and when, once: a second acknowledgement is refused
+  /// (FailedPrecondition naming who did it first and when) and changes nothing. NotFound for
+  /// an unknown id. Returns the alarm as stored.
+  virtual StatusOr<Alarm> acknowledgeAlarm(std::int64_t alarm_id, const std::string& operator_name,
+                                           const std::string& at) = 0;
+  virtual StatusOr<std::optional<Alarm>> alarm(std::int64_t alarm_id) = 0;
+  /// The robot's alarms ("" = every robot's), oldest first, at most `limit` (the newest);
+  /// `open_only`: those not both cleared and acknowledged.
+  virtual StatusOr<std::vector<Alarm>> alarms(const std::string& robot, bool open_only, std::size_t limit) = 0;
 
  protected:
   /// The backends' one way to store: `count` messages in one transaction (see appendMessages).
