@@ -148,6 +148,8 @@ LocalParams LocalParams::preset(Method m) {
 LocalParams LocalParams::paper(Method m) {
   LocalParams p = preset(m);
   p.terminal.enabled = false;
+  p.envelope.enabled = false;
+  p.envelope.sight_switch = false;
   return p;
 }
 

@@ -70,13 +70,18 @@ void recordNs(benchmark::State& state, const std::string& name, double total_ns)
   g_ns_per_step[name] = total_ns / double(state.iterations());
 }
 
-void runSteps(benchmark::State& state, Method method, const std::string& record_as) {
+void runSteps(benchmark::State& state, Method method, const std::string& record_as, bool envelope = true,
+              int n_movers = -1) {
   District& d = district();
   World w;
   w.field = &d.field;
-  StatusOr<LocalPlanner> p = LocalPlanner::create(LocalParams::preset(method), w);
+  LocalParams params = LocalParams::preset(method);
+  params.envelope.enabled = envelope;
+  params.envelope.sight_switch = envelope;
+  StatusOr<LocalPlanner> p = LocalPlanner::create(params, w);
   if (!p.ok()) std::abort();
-  const std::vector<map::MovingObstacle> mov = movers(record_as.empty() ? 20 : int(state.range(0)));
+  const std::vector<map::MovingObstacle> mov =
+      movers(n_movers >= 0 ? n_movers : record_as.empty() ? 20 : int(state.range(0)));
   const map::Polyline path{{Vec3(25, 0, 0.575), Vec3(80, 0, -2.23)}};
   std::size_t i = 0;
   long stuck_or_arrived = 0;
@@ -102,6 +107,15 @@ void runSteps(benchmark::State& state, Method method, const std::string& record_
 
 void BM_LocalStep(benchmark::State& state) { runSteps(state, Method::kTian2016, "adit/" + std::to_string(state.range(0))); }
 BENCHMARK(BM_LocalStep)->Arg(0)->Arg(5)->Arg(20)->Arg(50);
+
+// The safety envelope's cost (EnvelopeParams): the same 20-mover steps without it and with it,
+// side by side in one run.
+void BM_LocalStepEnvelope(benchmark::State& state) {
+  const bool on = state.range(0) != 0;
+  state.SetLabel(on ? "envelope on" : "envelope off");
+  runSteps(state, Method::kTian2016, on ? "envelope-on" : "envelope-off", on, 20);
+}
+BENCHMARK(BM_LocalStepEnvelope)->Arg(0)->Arg(1);
 
 // The models that sum over every rock surface point in range (rockSurfacePoints), 20 obstacles.
 void BM_LocalStepModel(benchmark::State& state) {
@@ -153,6 +167,10 @@ int main(int argc, char** argv) {
     std::printf("  %2d moving obstacles: adit %8.2f us, baseline %8.1f us, ratio %6.0fx\n", n, a->second / 1e3,
                 b->second / 1e3, b->second / a->second);
   }
+  const auto off = g_ns_per_step.find("envelope-off"), on = g_ns_per_step.find("envelope-on");
+  if (off != g_ns_per_step.end() && on != g_ns_per_step.end())
+    std::printf("  safety envelope, 20 moving obstacles: off %.2f us, on %.2f us per step, ratio %.2fx\n",
+                off->second / 1e3, on->second / 1e3, on->second / off->second);
   benchmark::Shutdown();
   return 0;
 }

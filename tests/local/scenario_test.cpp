@@ -148,10 +148,13 @@ TEST(Scenario, PresetPaperTurnsTheTerminalPhaseOffAndParamsNameItsFields) {
   ASSERT_TRUE(s.ok()) << s.status().message();
   EXPECT_EQ(s->preset, ParamsPreset::kDefault);
   EXPECT_TRUE(s->params.terminal.enabled);
+  EXPECT_TRUE(s->params.envelope.enabled);
   s = parseScenario(std::string(kGood) + "preset: paper\n", "good.yaml");
   ASSERT_TRUE(s.ok()) << s.status().message();
   EXPECT_EQ(s->preset, ParamsPreset::kPaper);
   EXPECT_FALSE(s->params.terminal.enabled);
+  EXPECT_FALSE(s->params.envelope.enabled);
+  EXPECT_FALSE(s->params.envelope.sight_switch);
   EXPECT_STREQ(paramsPresetName(s->preset), "paper");
   for (const char* name : {"tian2016_straight", "tian2016_polyline", "tian2016_polyline_subgoals", "wang2014_u_trap_classic",
                            "wang2014_u_trap_wang2014", "guo2022_static_vff", "guo2022_static_cvff", "guo2022_dynamic",
@@ -169,6 +172,15 @@ TEST(Scenario, PresetPaperTurnsTheTerminalPhaseOffAndParamsNameItsFields) {
   EXPECT_EQ(t->params.terminal.range_m, 3.0);
   EXPECT_EQ(t->params.terminal.n, 1.0);
   EXPECT_FALSE(t->params.terminal.seek);
+  StatusOr<Scenario> e = parseScenario(
+      replace(kGood, "params: {k_l: 0.2, window_s: 5}", "params: {envelope: false, envelope_keep_m: 0.1, sight_switch: false}"),
+      "good.yaml");
+  ASSERT_TRUE(e.ok()) << e.status().message();
+  EXPECT_FALSE(e->params.envelope.enabled);
+  EXPECT_EQ(e->params.envelope.keep_m, 0.1);
+  EXPECT_FALSE(e->params.envelope.sight_switch);
+  expectError(replace(kGood, "params: {k_l: 0.2, window_s: 5}", "params: {envelope_keep_m: -1}"),
+              "EnvelopeParams::keep_m = -1");
   expectError(std::string(kGood) + "preset: published\n", "preset: unknown preset 'published' (default, paper)");
   expectError(replace(kGood, "params: {k_l: 0.2, window_s: 5}", "params: {terminal_range_m: 0}"),
               "TerminalParams::range_m = 0");

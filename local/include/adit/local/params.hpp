@@ -193,8 +193,9 @@ struct TerminalParams {
 /// removed, so the robot slides along ribs and does not stall at corners; then the whole
 /// stopping run (a period at the command, then braking) is checked along the distance field and
 /// the command scaled down until it is clear (corners, the face at the end of a rib).
-/// `preset: paper` keeps it on (it changes nothing where the papers' robots keep clear of rock);
-/// `envelope: false` turns it off, to show what the field alone does.
+/// `preset: paper` turns it off with the terminal phase (the papers' runs as published, their
+/// robots keep clear of rock anyway); `envelope: false` turns it off elsewhere, to show what the
+/// field alone does.
 struct EnvelopeParams {
   bool enabled = true;   ///< the envelope at all
   double keep_m = 0.05;  ///< clearance to rock and movers the braking run keeps in reserve [m]
@@ -227,8 +228,8 @@ struct LocalParams {
   /// The paper's values for `m`, with this project's additions on (the terminal phase). The
   /// classic preset turns escapes off: Khatib's APF has none, which is what the baseline shows.
   static LocalParams preset(Method m);
-  /// preset(m) with the additions off: the paper's field exactly as published, for the
-  /// reproduction runs (a scenario's `preset: paper`).
+  /// preset(m) with the additions off (terminal phase, safety envelope, line-of-sight switching):
+  /// the paper's field exactly as published, for the reproduction runs (`preset: paper`).
   static LocalParams paper(Method m);
   Status validate() const;
 };
