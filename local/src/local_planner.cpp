@@ -713,9 +713,13 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     if (!s.in_rock && toward.norm() > 1e-9) {
       // Only the braking of an approach that is under way has priority (down to no approach);
       // moving away from rock, or turning, shares what is left.
+      // Only near the barrier's limit: far from rock (bobbing between roof and floor in mid-air)
+      // a turn keeps its share.
       const Vec3 nrm = toward.normalized();
       const double vn = v.dot(nrm), target_n = std::max(0.0, v_des.dot(nrm));
-      if (vn > target_n) {
+      const double ad = a_max * dt, gap = s.distance - P.robot.radius_m - P.envelope.keep_m;
+      const double limit = -ad + std::sqrt(ad * ad + 2.0 * a_max * std::max(0.0, gap));
+      if (vn > target_n && vn > limit - 2.0 * ad) {
         const double brake_n = std::max((target_n - vn) / dt, -a_max);
         const double rest = std::sqrt(std::max(0.0, a_max * a_max - brake_n * brake_n));
         acc = brake_n * nrm + clampNorm(Vec3((v_des - v) / dt - brake_n * nrm), rest);
