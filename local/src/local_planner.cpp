@@ -354,14 +354,15 @@ bool LocalPlanner::stoppingRunClear(const Vec3& q, const Vec3& v, double dt, dou
   if (speed < 1e-9) return true;
   const double reach = speed * dt + speed * speed / (2.0 * a_max);
   const double step = 0.5 * world_.field->resolution();
-  const int n = std::min(kMaxSightSamples, std::max(1, int(std::ceil(reach / step))));
-  for (int k = 1; k <= n; ++k) {
-    const Vec3 p = q + v * (reach / speed * double(k) / double(n));
-    if (world_.field->distance(p) - rr < floor) return false;
-    for (const StaticSphere& s : world_.static_obstacles)
-      if ((p - s.center).norm() - s.radius - rr < std::min(floor, (q - s.center).norm() - s.radius - rr - 1e-6))
-        return false;
+  const Vec3 end = q + v * (reach / speed);
+  // A sphere against the run's segment exactly; rock sampled every half voxel along it.
+  for (const StaticSphere& s : world_.static_obstacles) {
+    const double now = (q - s.center).norm() - s.radius - rr;
+    if ((nearestOnSegment(s.center, q, end) - s.center).norm() - s.radius - rr < std::min(floor, now - 1e-6)) return false;
   }
+  const int n = std::min(kMaxSightSamples, std::max(1, int(std::ceil(reach / step))));
+  for (int k = 1; k <= n; ++k)
+    if (world_.field->distance(q + (end - q) * (double(k) / double(n))) - rr < floor) return false;
   return true;
 }
 
@@ -698,10 +699,9 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
       v_des = best;
     }
   }
-  // Near rock by design (a goal by a rib or the floor): the speed toward rock stays what still
-  // stops the robot short of it, whatever the field or the safety check asked for.
   // The safety envelope (EnvelopeParams): whatever the field, the escape or the safety check
   // asked for, the speed toward rock and movers stays what still stops the robot short of them.
+  // Off, the terminal phase still caps toward rock: its goal is near rock by design.
   if (P.envelope.enabled) v_des = capTowardRock(q, v_des, dt, moving, moving_count);
   else if (terminal) v_des = capTowardRock(q, v_des, dt);
   Vec3 acc = clampNorm((v_des - v) / dt, a_max);
