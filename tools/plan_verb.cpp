@@ -33,7 +33,7 @@ struct PlanArgs {
   std::string unknown = "rock", out, picture;
   double time_s = 2.0, margin = 0.2, clearance_weight = 0.05, max_slope = 15.0;
   int seed = 1, iterations = 1500;
-  bool quiet = false, farthest_ends = false, refine = false;
+  bool quiet = false, farthest_ends = false, refine = false, no_cache = false;
 };
 
 StatusOr<GlobalPlannerParams> paramsFrom(const PlanArgs& a) {
@@ -104,7 +104,7 @@ int runPlan(const PlanArgs& a) {
   if (Status s = checkOutputPath(a.out, "--out"); !s.ok()) return report(s);
   if (Status s = checkOutputPath(a.picture, "--picture"); !s.ok()) return report(s);
 
-  StatusOr<map::World> world = loadWorld(a.map_path, *policy, a.quiet);
+  StatusOr<map::World> world = loadWorld(a.map_path, *policy, a.quiet, a.no_cache);
   if (!world.ok()) return report(world.status());
   const LoadedMap* loaded = &world->loaded();
   StatusOr<global::GlobalPlanner> planner =
@@ -188,6 +188,7 @@ void registerPlanVerb(CLI::App& app, int* rc) {
                 "Refine the break points jointly (genetic trust region): minimise length + --clearance-weight x\n"
                 "the clearance penalty along the path, every segment re-validated;\n"
                 "the JSON gains \"before\" (unrefined length, clearances, path) and \"refine\"");
+  cmd->add_flag("--no-cache", a->no_cache, "Build the map's octree and distance field afresh: neither read nor write the map cache");
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
   cmd->callback([=] { *rc = runPlan(*a); });
 }

@@ -36,6 +36,7 @@ struct ServeArgs {
   double robot_rate = console::RobotQuota{}.messages_per_s;
   std::string robot_bandwidth = "1M", robot_store_quota = "4G", viewer_queue = "32M";
   bool quiet = false;
+  bool no_cache = false;
 };
 
 // 128 random bits as hex: the operator token when no file gives one.
@@ -96,7 +97,7 @@ int runServe(const ServeArgs& args) {
   // Bad options are said before the map loads (which takes a while).
   if (Status s = options.validate(); !s.ok()) return report(s);
 
-  StatusOr<map::World> world = loadWorld(args.map, map::UnknownPolicy::kRock, args.quiet);
+  StatusOr<map::World> world = loadWorld(args.map, map::UnknownPolicy::kRock, args.quiet, args.no_cache);
   if (!world.ok()) return report(world.status());
   StatusOr<std::unique_ptr<console::Store>> store = console::Store::open(args.db);
   if (!store.ok()) return report(store.status());
@@ -155,6 +156,7 @@ void registerServeVerb(CLI::App& app, int* rc) {
                   "Bytes queued for one viewer, its snapshot included (K, M, G suffixes): a viewer too slow for "
                   "what cannot be dropped is closed (1013)")
       ->capture_default_str();
+  cmd->add_flag("--no-cache", args->no_cache, "Build the map's octree and distance field afresh: neither read nor write the map cache");
   cmd->add_flag("-q,--quiet", args->quiet, "No progress bar");
   cmd->callback([args, rc] { *rc = runServe(*args); });
 }

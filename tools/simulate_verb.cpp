@@ -52,6 +52,7 @@ struct SimulateArgs {
   std::string replay;  // CAMPAIGN:INDEX
   bool quiet = false;
   bool no_refine = false, refine_replans = false;
+  bool no_cache = false;
   // --batch
   std::string map;
   std::string csv;
@@ -616,7 +617,7 @@ int run(const SimulateArgs& a) {
   std::optional<map::World> world;
   StatusOr<Environment> env = Environment::openSpace();
   if (sc->map_path) {
-    StatusOr<map::World> w = loadWorld(*sc->map_path, map::UnknownPolicy::kRock, a.quiet);
+    StatusOr<map::World> w = loadWorld(*sc->map_path, map::UnknownPolicy::kRock, a.quiet, a.no_cache);
     if (!w.ok()) return report(w.status());
     world.emplace(std::move(w).value());
     env = Environment::borrow(*world);
@@ -746,7 +747,7 @@ int runBatch(const SimulateArgs& a) {
   if (a.jobs < 1) return report(invalidArgument("--jobs must be >= 1 (got " + std::to_string(a.jobs) + ")"));
   if (!a.picture.empty() || !a.html.empty()) return report(invalidArgument("--picture and --html are for one run, not --batch"));
   const auto wall0 = std::chrono::steady_clock::now();
-  StatusOr<BatchSetup> setup = loadBatchSetup(a.scenario, a.map);
+  StatusOr<BatchSetup> setup = loadBatchSetup(a.scenario, a.map, a.no_cache);
   if (!setup.ok()) return report(setup.status());
   const std::string& map_path = *setup->base.map_path;
   fusion::BatchParams bp;
@@ -838,6 +839,7 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   cmd->add_option("--live-token-file", args->live_token_file,
                   "With --live: the robot's credential, a file whose first line is its token (from the console's "
                   "--robot-tokens file, or the operator token file for a single robot)");
+  cmd->add_flag("--no-cache", args->no_cache, "Build the map's octree and distance field afresh: neither read nor write the map cache");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   cmd->callback([args, rc, cmd] {
     args->batch_given = cmd->count("--batch") > 0;

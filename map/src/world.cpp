@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "adit/map/world.hpp"
 
+#include "map_cache_io.hpp"
+
 #include <chrono>
 #include <utility>
 
@@ -13,6 +15,7 @@ struct World::Parts {
   LoadedMap loaded;
   DistanceField field;
   WorldTimes times;
+  MapCacheReport cache;
 };
 
 namespace {
@@ -27,6 +30,7 @@ World& World::operator=(World&&) noexcept = default;
 World::~World() = default;
 
 StatusOr<World> World::load(const std::string& path, const WorldOptions& options) {
+  if (options.cache.enabled && !options.load.crop) return MapCacheIo::loadThroughCache(path, options);
   const auto t0 = std::chrono::steady_clock::now();
   ADIT_ASSIGN_OR_RETURN(LoadedMap loaded, loadMapAndSurvey(path, options.load));
   const double load_s = secondsSince(t0);
@@ -54,8 +58,10 @@ StatusOr<World> World::fromParts(LoadedMap loaded, DistanceField field, std::str
 }
 
 World World::copy() const {
-  return World(std::make_unique<Parts>(parts_->path, LoadedMap{parts_->loaded.map.deepCopy(), parts_->loaded.survey},
-                                       parts_->field, parts_->times));
+  World w(std::make_unique<Parts>(parts_->path, LoadedMap{parts_->loaded.map.deepCopy(), parts_->loaded.survey},
+                                  parts_->field, parts_->times));
+  w.parts_->cache = parts_->cache;
+  return w;
 }
 
 const std::string& World::path() const { return parts_->path; }
@@ -67,5 +73,11 @@ const SurveyNetwork* World::survey() const { return parts_->loaded.survey ? &*pa
 const LoadedMap& World::loaded() const { return parts_->loaded; }
 LoadedMap& World::loaded() { return parts_->loaded; }
 const WorldTimes& World::times() const { return parts_->times; }
+void MapCacheIo::record(World& world, MapCacheReport report, const WorldTimes& times) {
+  world.parts_->cache = std::move(report);
+  world.parts_->times = times;
+}
+
+const MapCacheReport& World::cacheReport() const { return parts_->cache; }
 
 }  // namespace adit::map
