@@ -17,6 +17,7 @@
 #include "common/cli.hpp"
 #include "common/points_csv.hpp"
 #include "common/figure.hpp"
+#include "common/phase_times.hpp"
 #include "common/plan_output.hpp"
 #include "verbs.hpp"
 
@@ -80,6 +81,7 @@ PlanRefinementInfo refinePlan(const global::GlobalPlanner& planner, const Distan
 }
 
 int runPlan(const PlanArgs& a) {
+  PhaseTimes phases;
   // Everything about the request is checked before the (possibly long) map load.
   if (a.farthest_ends == (!a.start.empty() || !a.goal.empty()) || (!a.farthest_ends && (a.start.empty() || a.goal.empty())))
     return report(invalidArgument("give --start and --goal, or --farthest-ends (not both)"));
@@ -104,8 +106,11 @@ int runPlan(const PlanArgs& a) {
   if (Status s = checkOutputPath(a.out, "--out"); !s.ok()) return report(s);
   if (Status s = checkOutputPath(a.picture, "--picture"); !s.ok()) return report(s);
 
+  phases.mark("arguments");
   StatusOr<map::World> world = loadWorld(a.map_path, *policy, a.quiet, a.no_cache);
   if (!world.ok()) return report(world.status());
+  phases.mark("map other");
+  phases.splitWorld("map other", world->times());
   const LoadedMap* loaded = &world->loaded();
   StatusOr<global::GlobalPlanner> planner =
       global::GlobalPlanner::create(loaded->map, world->field(), *params, world->survey());
@@ -123,12 +128,14 @@ int runPlan(const PlanArgs& a) {
                    planner->graph().nodes()[std::size_t(ends->second)].name.c_str(), goal->x(), goal->y(), goal->z());
   }
 
+  phases.mark("roadway graph");
   GlobalPlanResult r = planner->plan(*start, *goal);
   const int code = exitCodeFor(r);
   if (!r.solved()) std::fprintf(stderr, "adit: %s: %s\n", global::outcomeName(r.outcome), r.message.c_str());
   std::optional<PlanRefinementInfo> refined;
   if (a.refine && r.solved()) refined = refinePlan(*planner, world->field(), &r, a.quiet);
   const PlanRefinementInfo* before = refined ? &*refined : nullptr;
+  phases.mark("planning");
 
   if (!a.out.empty()) {
     Status s = writePlan(r, a.out, before);
@@ -152,6 +159,12 @@ int runPlan(const PlanArgs& a) {
     if (!a.out.empty()) std::fprintf(stderr, "wrote %s\n", a.out.c_str());
     if (!a.picture.empty()) std::fprintf(stderr, "wrote %s\n", a.picture.c_str());
   }
+  phases.mark("output");
+  // Freed here, not at exit, so that the time line says what freeing the world costs.
+  planner = internalError("freed");
+  world = internalError("freed");
+  phases.mark("teardown");
+  if (!a.quiet) phases.print();
   return code;
 }
 

@@ -33,6 +33,7 @@
 #include "adit/map/size_estimate.hpp"
 #include "common/cli.hpp"
 #include "common/figure.hpp"
+#include "common/phase_times.hpp"
 #include "common/plan_output.hpp"
 #include "common/progress.hpp"
 #include "verbs.hpp"
@@ -564,6 +565,7 @@ int run(const SimulateArgs& a) {
   if (a.batch_given && !a.replay.empty()) return report(invalidArgument("--replay is one run, not --batch"));
   if (a.batch_given && !a.live.empty()) return report(invalidArgument("--live is one run, not --batch"));
   if (a.batch_given) return runBatch(a);
+  PhaseTimes phases;
   if (!a.replay.empty() && !a.scenario.empty())
     return report(invalidArgument("--replay CAMPAIGN:INDEX takes no SCENARIO file (got " + a.scenario + ")"));
   if (a.scenario.empty() && a.replay.empty())
@@ -614,6 +616,7 @@ int run(const SimulateArgs& a) {
                  sc->map_path ? sc->map_path->c_str() : "");
   // The scenario's map is loaded once: the referee's true world borrows it and the navigator's
   // believed world starts from its copy (loading it twice was most of a short run's wall time).
+  phases.mark("scenario");
   std::optional<map::World> world;
   StatusOr<Environment> env = Environment::openSpace();
   if (sc->map_path) {
@@ -622,6 +625,8 @@ int run(const SimulateArgs& a) {
     world.emplace(std::move(w).value());
     env = Environment::borrow(*world);
     if (!env.ok()) return report(env.status());
+    phases.mark("map other");
+    phases.splitWorld("map other", world->times());
   }
   std::optional<fusion::NavigatedRun> nav;
   StatusOr<SimulationResult> r = internalError("not run");
@@ -658,6 +663,9 @@ int run(const SimulateArgs& a) {
     if (!n.ok()) return report(n.status());
     nav = std::move(n).value();
     r = nav->run;
+    phases.mark("simulation");
+    phases.split("simulation", "belief+navigator", nav->setup_time_s);
+    phases.split("simulation", "planning", nav->initial_plan_time_s);
     // Drawn and exported: the path the run started with.
     sc->expected_path = nav->initial_path;
   } else {
@@ -665,6 +673,7 @@ int run(const SimulateArgs& a) {
     if (sc->subgoal_mode == SubgoalMode::kGaTrustRegion)
       options.subgoals = fusion::subgoalFunction(sc->params, fusion::subgoalParamsFor(*sc));
     r = simulate(*sc, *env, options);
+    phases.mark("simulation");
   }
   if (!r.ok()) return report(r.status());
   const map::Polyline* replanned = nav && nav->replans > 0 ? &nav->final_path : nullptr;
@@ -676,6 +685,7 @@ int run(const SimulateArgs& a) {
     if (Status s = runFigure(*sc, *env, *r, true, replanned).render(a.picture); !s.ok()) return report(s);
   if (!a.html.empty())
     if (Status s = writePage(*sc, runFigure(*sc, *env, *r, false, replanned), *r, a.html); !s.ok()) return report(s);
+  phases.mark("output");
   if (!a.quiet) {
     if (nav && nav->refinement) {
       const fusion::PlanRefinement& f = *nav->refinement;
@@ -692,7 +702,15 @@ int run(const SimulateArgs& a) {
       std::fprintf(stderr, ", %d sub-goal periods (mean %.0f us)", r->subgoals.periods, r->subgoals.time_mean_us);
     std::fputc('\n', stderr);
   }
-  return r->arrived() && !live_lost ? kExitOk : kExitFailure;
+  const int rc = r->arrived() && !live_lost ? kExitOk : kExitFailure;
+  // Freed here, not at exit, so that the time line says what freeing the world costs.
+  r = internalError("freed");
+  nav.reset();
+  env = Environment::openSpace();
+  world.reset();
+  phases.mark("teardown");
+  if (!a.quiet) phases.print();
+  return rc;
 }
 
 // --- `adit simulate --batch N`: randomized navigated runs on one map (issue 8) ---------------

@@ -4,6 +4,7 @@
 #include "map_cache_io.hpp"
 
 #include <chrono>
+#include <cstring>
 #include <utility>
 
 namespace adit::map {
@@ -32,10 +33,21 @@ World::~World() = default;
 StatusOr<World> World::load(const std::string& path, const WorldOptions& options) {
   if (options.cache.enabled && !options.load.crop) return MapCacheIo::loadThroughCache(path, options);
   const auto t0 = std::chrono::steady_clock::now();
-  ADIT_ASSIGN_OR_RETURN(LoadedMap loaded, loadMapAndSurvey(path, options.load));
+  // The pruning stage is timed through the progress callback: it is voxelize()'s last stage.
+  std::chrono::steady_clock::time_point prune0{}, prune1{};
+  LoadOptions load = options.load;
+  load.progress = [&](const char* stage, double f) {
+    if (std::strcmp(stage, kPruneStage) == 0) (f <= 0.0 ? prune0 : prune1) = std::chrono::steady_clock::now();
+    if (options.load.progress) options.load.progress(stage, f);
+  };
+  ADIT_ASSIGN_OR_RETURN(LoadedMap loaded, loadMapAndSurvey(path, load));
   const double load_s = secondsSince(t0);
   StatusOr<World> w = build(std::move(loaded), path, options);
-  if (w.ok()) w->parts_->times.load_s = load_s;
+  if (w.ok()) {
+    w->parts_->times.load_s = load_s;
+    if (prune1 > prune0 && prune0.time_since_epoch().count() != 0)
+      w->parts_->times.prune_s = std::chrono::duration<double>(prune1 - prune0).count();
+  }
   return w;
 }
 

@@ -38,6 +38,7 @@ struct WorldOptions {
 /// Wall time of each phase of World::load, so a verb can say where its start-up went.
 struct WorldTimes {
   double load_s = 0.0;   ///< reading the file and, for a survey, voxelizing it
+  double prune_s = 0.0;  ///< of load_s: pruning the voxelized octree and its statistics (kPruneStage)
   double field_s = 0.0;  ///< the distance transform
   double cache_read_s = 0.0;   ///< looking for, reading and checking cache files
   double cache_write_s = 0.0;  ///< writing the cache after a build
