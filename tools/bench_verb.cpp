@@ -41,7 +41,7 @@ struct BenchArgs {
   int runs = 2, pairs = 4, movingai_problems = 10, movingai_subdivision = 3;
   double movingai_max_length = 60.0;
   double time_s = 2.0;
-  bool no_baseline = false, no_grid = false, quiet = false;
+  bool no_baseline = false, no_grid = false, quiet = false, no_cache = false;
 };
 
 struct Run {
@@ -261,7 +261,7 @@ int runBench(const BenchArgs& a) {
   if (map_paths.empty() && a.movingai.empty()) map_paths.push_back("maps/district.yaml");
   bool header = false;  // printed once a map has loaded: a bad first map leaves stdout empty
   for (const std::string& path : map_paths) {
-    StatusOr<map::World> world = loadWorld(path, UnknownPolicy::kRock, a.quiet);
+    StatusOr<map::World> world = loadWorld(path, UnknownPolicy::kRock, a.quiet, a.no_cache);
     if (!world.ok()) return report(world.status());
     if (!std::exchange(header, true))
       std::printf("%-22s %-22s %5s %8s %9s %9s %9s %9s %9s %7s %8s\n", "map", "planner", "runs", "success", "first_ms",
@@ -397,6 +397,7 @@ void registerBenchVerb(CLI::App& app, int* rc) {
                   "Only MovingAI problems with a published optimum up to this many voxels")->capture_default_str();
   cmd->add_flag("--no-baseline", a->no_baseline, "Skip plain OMPL in the bounding box");
   cmd->add_flag("--no-grid", a->no_grid, "Skip the grid optimum (no length ratios)");
+  cmd->add_flag("--no-cache", a->no_cache, "Build the map's octree and distance field afresh: neither read nor write the map cache");
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
   cmd->callback([=] { *rc = runBench(*a); });
 }

@@ -47,6 +47,7 @@ struct CampaignArgs {
   double t_max = 0.0, max_separation = 0.0;  // the generator's unless given
   bool t_max_given = false, max_separation_given = false;
   bool quiet = false;
+  bool no_cache = false;
   // merge
   std::vector<std::string> inputs;
   std::string report, csv, html;
@@ -101,7 +102,7 @@ int runShard(const CampaignArgs& a) {
   StatusOr<std::string> hash = map::fileContentHash(a.map);
   if (!hash.ok()) return report(hash.status());
   id.map_hash = *hash;
-  StatusOr<BatchSetup> setup = loadBatchSetup("", a.map);
+  StatusOr<BatchSetup> setup = loadBatchSetup("", a.map, a.no_cache);
   if (!setup.ok()) return report(setup.status());
   // Bad generator ranges show in the first scenario: refuse them before forking.
   if (StatusOr<local::Scenario> first = fusion::makeBatchScenario(setup->base, setup->roadways, setup->truth, bp, k);
@@ -442,6 +443,7 @@ void registerCampaignVerb(CLI::App& app, int* rc) {
   run->add_option("--t-max", args->t_max, "Simulated-time cap per scenario [s] (overrides the generator's t_max)");
   run->add_option("--max-separation", args->max_separation,
                   "Largest start-goal distance [m] (overrides the generator's separation maximum)");
+  run->add_flag("--no-cache", args->no_cache, "Build the map's octree and distance field afresh: neither read nor write the map cache");
   run->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   run->callback([args, rc, run] {
     args->t_max_given = run->count("--t-max") > 0;

@@ -176,6 +176,9 @@ void addConvertOptions(CLI::App* cmd, ConvertArgs* a) {
                                            "'{shape: rectangle, width: 4, height: 3}'");
   cmd->add_option("--height", a->height, "ROS map_server maps: extrude free and occupied cells from z = 0 to this [m] "
                                          "(default 2)");
+  cmd->add_flag("--cache", a->cache,
+                "Also build OUT's octree and distance field and write its map cache, so that the first verb to load "
+                "OUT reads it instead of building them");
   cmd->add_flag("--json", a->json, "Print a JSON summary (counts, origin, timings) on stdout");
 }
 

@@ -15,6 +15,7 @@ namespace adit::tools {
 struct ConvertArgs {
   std::string in, out, unknown = "rock";
   bool quiet = false, json = false;
+  bool cache = false;  // --cache: write OUT's map cache too
   std::optional<double> resolution;
   std::string seed, trajectory, origin, up = "z";
   std::string sections, section;  // DXF centrelines

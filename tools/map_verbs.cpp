@@ -41,6 +41,7 @@ struct MapArgs {
   bool quiet = false;
   std::string max_memory;  // empty: 2G (budgetOf), 4G for an import (runImportConvert)
   std::string crop;
+  bool no_cache = false;  // query and graph: --no-cache
 };
 
 void addMapArgs(CLI::App* cmd, MapArgs* a) {
@@ -80,6 +81,40 @@ StatusOr<LoadedMap> load(const MapArgs& a, ProgressBar& bar) {
   StatusOr<LoadedMap> loaded = loadMapAndSurvey(a.path, options);
   bar.finish();
   return loaded;
+}
+
+void addCacheFlag(CLI::App* cmd, MapArgs* a) {
+  cmd->add_flag("--no-cache", a->no_cache,
+                "Build the map's octree and distance field afresh: neither read nor write the map cache");
+}
+
+WorldOptions cacheWorldOptions(const MapArgs& a, ProgressBar& bar) {
+  WorldOptions wo;
+  wo.load.progress = bar.callback();
+  if (StatusOr<UnknownPolicy> p = parseUnknownPolicy(a.unknown); p.ok()) wo.load.unknown_policy = *p;
+  if (StatusOr<MemoryBudget> b = budgetOf(a); b.ok()) wo.load.max_memory_bytes = b->max_bytes;
+  wo.cache = verbCacheOptions(a.no_cache);
+  // A cropped map is another world than the file's: never cached.
+  wo.cache.enabled = wo.cache.enabled && a.crop.empty();
+  return wo;
+}
+
+// The world from the map cache, if it is asked for and holds a valid one; NotFound otherwise,
+// with what was refused in `report` (for storeWorld after the build).
+StatusOr<World> cachedWorld(const MapArgs& a, ProgressBar& bar, MapCacheReport* report) {
+  const WorldOptions wo = cacheWorldOptions(a, bar);
+  if (!wo.cache.enabled) return notFound("no cache");
+  StatusOr<World> w = findCachedWorld(a.path, wo, report);
+  bar.finish();
+  if (w.ok() && !a.quiet) logCacheReport(*w);
+  return w;
+}
+
+void storeWorld(const MapArgs& a, ProgressBar& bar, World& world, MapCacheReport report) {
+  const WorldOptions wo = cacheWorldOptions(a, bar);
+  if (!wo.cache.enabled) return;
+  storeCachedWorld(world, wo, std::move(report));
+  if (!a.quiet) logCacheReport(world);
 }
 
 std::string fmtCount(std::uint64_t n) {
@@ -203,7 +238,7 @@ int runInfo(const MapArgs& a, bool json) {
   return kExitOk;
 }
 
-int runConvert(const MapArgs& a, const std::string& out, ConvertArgs c) {
+int runConvertOnly(const MapArgs& a, const std::string& out, ConvertArgs c) {
   c.in = a.path;
   c.out = out;
   c.unknown = a.unknown;
@@ -226,6 +261,26 @@ int runConvert(const MapArgs& a, const std::string& out, ConvertArgs c) {
   return kExitOk;
 }
 
+// `--cache`: OUT loaded through the map cache, which writes it (asked for by name, so
+// ADIT_NO_MAP_CACHE does not apply). Not writable anywhere: exit 1.
+int runConvert(const MapArgs& a, const std::string& out, const ConvertArgs& c) {
+  const int rc = runConvertOnly(a, out, c);
+  if (rc != kExitOk || !c.cache) return rc;
+  ProgressBar bar(a.quiet);
+  WorldOptions wo;
+  wo.load.progress = bar.callback();
+  if (StatusOr<UnknownPolicy> p = parseUnknownPolicy(a.unknown); p.ok()) wo.load.unknown_policy = *p;
+  wo.cache.enabled = true;
+  StatusOr<World> world = World::load(out, wo);
+  bar.finish();
+  if (!world.ok()) return report(world.status());
+  if (!a.quiet) logCacheReport(*world);
+  const MapCacheReport& r = world->cacheReport();
+  if (r.used.empty() && r.written.empty())
+    return report(internalError(out + ": --cache: the map cache could not be written: " + r.write_error));
+  return kExitOk;
+}
+
 int runQuery(const MapArgs& a, const std::string& points_file, const std::vector<std::string>& points,
              const std::string& out_path) {
   std::vector<Vec3> pts;
@@ -243,6 +298,9 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
   }
   if (pts.empty()) return report(invalidArgument("no points given: use --points FILE.csv or x,y,z arguments"));
   ProgressBar bar(a.quiet);
+  MapCacheReport cache_report;
+  StatusOr<World> world = cachedWorld(a, bar, &cache_report);
+  if (!world.ok()) {
   StatusOr<LoadedMap> loaded = load(a, bar);
   if (!loaded.ok()) return report(loaded.status());
   // Counted without allocating a tile: `--unknown free` on a large box used to take minutes and
@@ -258,9 +316,11 @@ int runQuery(const MapArgs& a, const std::string& points_file, const std::vector
   WorldOptions wo;
   wo.load.progress = bar.callback();
   wo.max_field_blocks = max_tiles;
-  StatusOr<World> world = World::build(std::move(loaded).value(), a.path, wo);
+  world = World::build(std::move(loaded).value(), a.path, wo);
   bar.finish();
   if (!world.ok()) return report(world.status());
+  storeWorld(a, bar, *world, std::move(cache_report));
+  }
   const DistanceField* df = &world->field();
   // All input is validated before the first byte of output; rows are streamed (no copy of the
   // whole table in memory). Coordinates echo the input exactly so rows join back to it.
@@ -339,13 +399,18 @@ int runGraph(const MapArgs& a, const GraphArgs& g) {
   if (!budget.ok()) return report(budget.status());
   if (!a.max_memory.empty()) params.max_graph_memory_bytes = budget->max_bytes;
   ProgressBar bar(a.quiet);
-  StatusOr<LoadedMap> loaded = load(a, bar);
-  if (!loaded.ok()) return report(loaded.status());
-  WorldOptions wo;
-  wo.load.progress = bar.callback();
-  StatusOr<World> world = World::build(std::move(loaded).value(), a.path, wo);
-  bar.finish();
-  if (!world.ok()) return report(world.status());
+  MapCacheReport cache_report;
+  StatusOr<World> world = cachedWorld(a, bar, &cache_report);
+  if (!world.ok()) {
+    StatusOr<LoadedMap> loaded = load(a, bar);
+    if (!loaded.ok()) return report(loaded.status());
+    WorldOptions wo;
+    wo.load.progress = bar.callback();
+    world = World::build(std::move(loaded).value(), a.path, wo);
+    bar.finish();
+    if (!world.ok()) return report(world.status());
+    storeWorld(a, bar, *world, std::move(cache_report));
+  }
   const DistanceField* field = &world->field();
   const SurveyNetwork* survey = world->survey();
   StatusOr<global::GlobalPlanner> planner = global::GlobalPlanner::create(world->map(), *field, params, survey);
@@ -427,6 +492,7 @@ void registerMapVerbs(CLI::App& app, int* rc) {
     CLI::App* cmd = map->add_subcommand(
         "query", "State, distance to rock and its gradient at points; CSV x,y,z,state,distance,gx,gy,gz");
     addMapArgs(cmd, a.get());
+    addCacheFlag(cmd, a.get());
     cmd->add_option("POINTS", *pts, "Points as x,y,z (metres)");
     cmd->add_option("--points", *file, "CSV file with one x,y,z per line (header and # comments allowed)");
     cmd->add_option("-o,--out", *out, "Write the CSV here instead of stdout");
@@ -461,6 +527,7 @@ void registerMapVerbs(CLI::App& app, int* rc) {
         "graph", "The roadway network adit routes on (the survey's, or built from the robot's free space): "
                  "summary, JSON/GeoJSON/DXF and a picture");
     addMapArgs(cmd, a.get());
+    addCacheFlag(cmd, a.get());
     cmd->add_option("--robot", g->robot, "sphere:r | capsule:r,len | box:x,y,z | cylinder:r,h  [m]")->capture_default_str();
     cmd->add_option("--margin", g->margin, "Safety margin kept from rock beyond the robot [m]")->capture_default_str();
     cmd->add_option("--mode", g->mode, "fly or ground")->capture_default_str();

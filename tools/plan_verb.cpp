@@ -17,6 +17,7 @@
 #include "common/cli.hpp"
 #include "common/points_csv.hpp"
 #include "common/figure.hpp"
+#include "common/phase_times.hpp"
 #include "common/plan_output.hpp"
 #include "verbs.hpp"
 
@@ -33,7 +34,7 @@ struct PlanArgs {
   std::string unknown = "rock", out, picture;
   double time_s = 2.0, margin = 0.2, clearance_weight = 0.05, max_slope = 15.0;
   int seed = 1, iterations = 1500;
-  bool quiet = false, farthest_ends = false, refine = false;
+  bool quiet = false, farthest_ends = false, refine = false, no_cache = false;
 };
 
 StatusOr<GlobalPlannerParams> paramsFrom(const PlanArgs& a) {
@@ -80,6 +81,7 @@ PlanRefinementInfo refinePlan(const global::GlobalPlanner& planner, const Distan
 }
 
 int runPlan(const PlanArgs& a) {
+  PhaseTimes phases;
   // Everything about the request is checked before the (possibly long) map load.
   if (a.farthest_ends == (!a.start.empty() || !a.goal.empty()) || (!a.farthest_ends && (a.start.empty() || a.goal.empty())))
     return report(invalidArgument("give --start and --goal, or --farthest-ends (not both)"));
@@ -104,8 +106,11 @@ int runPlan(const PlanArgs& a) {
   if (Status s = checkOutputPath(a.out, "--out"); !s.ok()) return report(s);
   if (Status s = checkOutputPath(a.picture, "--picture"); !s.ok()) return report(s);
 
-  StatusOr<map::World> world = loadWorld(a.map_path, *policy, a.quiet);
+  phases.mark("arguments");
+  StatusOr<map::World> world = loadWorld(a.map_path, *policy, a.quiet, a.no_cache);
   if (!world.ok()) return report(world.status());
+  phases.mark("map other");
+  phases.splitWorld("map other", world->times());
   const LoadedMap* loaded = &world->loaded();
   StatusOr<global::GlobalPlanner> planner =
       global::GlobalPlanner::create(loaded->map, world->field(), *params, world->survey());
@@ -123,12 +128,14 @@ int runPlan(const PlanArgs& a) {
                    planner->graph().nodes()[std::size_t(ends->second)].name.c_str(), goal->x(), goal->y(), goal->z());
   }
 
+  phases.mark("roadway graph");
   GlobalPlanResult r = planner->plan(*start, *goal);
   const int code = exitCodeFor(r);
   if (!r.solved()) std::fprintf(stderr, "adit: %s: %s\n", global::outcomeName(r.outcome), r.message.c_str());
   std::optional<PlanRefinementInfo> refined;
   if (a.refine && r.solved()) refined = refinePlan(*planner, world->field(), &r, a.quiet);
   const PlanRefinementInfo* before = refined ? &*refined : nullptr;
+  phases.mark("planning");
 
   if (!a.out.empty()) {
     Status s = writePlan(r, a.out, before);
@@ -152,6 +159,12 @@ int runPlan(const PlanArgs& a) {
     if (!a.out.empty()) std::fprintf(stderr, "wrote %s\n", a.out.c_str());
     if (!a.picture.empty()) std::fprintf(stderr, "wrote %s\n", a.picture.c_str());
   }
+  phases.mark("output");
+  // Freed here, not at exit, so that the time line says what freeing the world costs.
+  planner = internalError("freed");
+  world = internalError("freed");
+  phases.mark("teardown");
+  if (!a.quiet) phases.print();
   return code;
 }
 
@@ -188,6 +201,7 @@ void registerPlanVerb(CLI::App& app, int* rc) {
                 "Refine the break points jointly (genetic trust region): minimise length + --clearance-weight x\n"
                 "the clearance penalty along the path, every segment re-validated;\n"
                 "the JSON gains \"before\" (unrefined length, clearances, path) and \"refine\"");
+  cmd->add_flag("--no-cache", a->no_cache, "Build the map's octree and distance field afresh: neither read nor write the map cache");
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
   cmd->callback([=] { *rc = runPlan(*a); });
 }

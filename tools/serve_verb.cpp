@@ -38,6 +38,7 @@ struct ServeArgs {
   double alarm_clearance = console::ServerOptions{}.alarm_clearance_m;
   double alarm_stale_min = console::ServerOptions{}.alarm_stale_min_s;
   bool quiet = false;
+  bool no_cache = false;
 };
 
 // 128 random bits as hex: the operator token when no file gives one.
@@ -100,7 +101,7 @@ int runServe(const ServeArgs& args) {
   // Bad options are said before the map loads (which takes a while).
   if (Status s = options.validate(); !s.ok()) return report(s);
 
-  StatusOr<map::World> world = loadWorld(args.map, map::UnknownPolicy::kRock, args.quiet);
+  StatusOr<map::World> world = loadWorld(args.map, map::UnknownPolicy::kRock, args.quiet, args.no_cache);
   if (!world.ok()) return report(world.status());
   StatusOr<std::unique_ptr<console::Store>> store = console::Store::open(args.db);
   if (!store.ok()) return report(store.status());
@@ -165,6 +166,7 @@ void registerServeVerb(CLI::App& app, int* rc) {
   cmd->add_option("--alarm-stale-min", args->alarm_stale_min,
                   "Telemetry is stale after two of the robot's periods and never sooner than this [s]")
       ->capture_default_str();
+  cmd->add_flag("--no-cache", args->no_cache, "Build the map's octree and distance field afresh: neither read nor write the map cache");
   cmd->add_flag("-q,--quiet", args->quiet, "No progress bar");
   cmd->callback([args, rc] { *rc = runServe(*args); });
 }

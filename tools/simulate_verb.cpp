@@ -33,6 +33,7 @@
 #include "adit/map/size_estimate.hpp"
 #include "common/cli.hpp"
 #include "common/figure.hpp"
+#include "common/phase_times.hpp"
 #include "common/plan_output.hpp"
 #include "common/progress.hpp"
 #include "verbs.hpp"
@@ -52,6 +53,7 @@ struct SimulateArgs {
   std::string replay;  // CAMPAIGN:INDEX
   bool quiet = false;
   bool no_refine = false, refine_replans = false;
+  bool no_cache = false;
   // --batch
   std::string map;
   std::string csv;
@@ -597,6 +599,7 @@ int run(const SimulateArgs& a) {
   if (a.batch_given && !a.replay.empty()) return report(invalidArgument("--replay is one run, not --batch"));
   if (a.batch_given && !a.live.empty()) return report(invalidArgument("--live is one run, not --batch"));
   if (a.batch_given) return runBatch(a);
+  PhaseTimes phases;
   if (!a.replay.empty() && !a.scenario.empty())
     return report(invalidArgument("--replay CAMPAIGN:INDEX takes no SCENARIO file (got " + a.scenario + ")"));
   if (a.scenario.empty() && a.replay.empty())
@@ -647,14 +650,23 @@ int run(const SimulateArgs& a) {
                  sc->map_path ? sc->map_path->c_str() : "");
   // The scenario's map is loaded once: the referee's true world borrows it and the navigator's
   // believed world starts from its copy (loading it twice was most of a short run's wall time).
+  phases.mark("scenario");
   std::optional<map::World> world;
   StatusOr<Environment> env = Environment::openSpace();
   if (sc->map_path) {
-    StatusOr<map::World> w = loadWorld(*sc->map_path, map::UnknownPolicy::kRock, a.quiet);
+    StatusOr<map::World> w = loadWorld(*sc->map_path, map::UnknownPolicy::kRock, a.quiet, a.no_cache);
     if (!w.ok()) return report(w.status());
     world.emplace(std::move(w).value());
     env = Environment::borrow(*world);
     if (!env.ok()) return report(env.status());
+    phases.mark("map other");
+    phases.splitWorld("map other", world->times());
+    // The run needs the nodes (the falls, the sensor's rays): built now from the cached bytes, so
+    // that the time line names it instead of charging it to the first period that asks.
+    if (!world->cacheReport().used.empty()) {
+      (void)world->map().octree();
+      phases.mark("octree from cache");
+    }
   }
   std::optional<fusion::NavigatedRun> nav;
   StatusOr<SimulationResult> r = internalError("not run");
@@ -691,6 +703,9 @@ int run(const SimulateArgs& a) {
     if (!n.ok()) return report(n.status());
     nav = std::move(n).value();
     r = nav->run;
+    phases.mark("simulation");
+    phases.split("simulation", "belief+navigator", nav->setup_time_s);
+    phases.split("simulation", "planning", nav->initial_plan_time_s);
     // Drawn and exported: the path the run started with.
     sc->expected_path = nav->initial_path;
   } else {
@@ -698,6 +713,7 @@ int run(const SimulateArgs& a) {
     if (sc->subgoal_mode == SubgoalMode::kGaTrustRegion)
       options.subgoals = fusion::subgoalFunction(sc->params, fusion::subgoalParamsFor(*sc));
     r = simulate(*sc, *env, options);
+    phases.mark("simulation");
   }
   if (!r.ok()) return report(r.status());
   const map::Polyline* replanned = nav && nav->replans > 0 ? &nav->final_path : nullptr;
@@ -709,6 +725,7 @@ int run(const SimulateArgs& a) {
     if (Status s = runFigure(*sc, *env, *r, true, replanned).render(a.picture); !s.ok()) return report(s);
   if (!a.html.empty())
     if (Status s = writePage(*sc, runFigure(*sc, *env, *r, false, replanned), *r, a.html); !s.ok()) return report(s);
+  phases.mark("output");
   if (!a.quiet) {
     if (nav && nav->refinement) {
       const fusion::PlanRefinement& f = *nav->refinement;
@@ -725,7 +742,15 @@ int run(const SimulateArgs& a) {
       std::fprintf(stderr, ", %d sub-goal periods (mean %.0f us)", r->subgoals.periods, r->subgoals.time_mean_us);
     std::fputc('\n', stderr);
   }
-  return r->arrived() && !live_lost ? kExitOk : kExitFailure;
+  const int rc = r->arrived() && !live_lost ? kExitOk : kExitFailure;
+  // Freed here, not at exit, so that the time line says what freeing the world costs.
+  r = internalError("freed");
+  nav.reset();
+  env = Environment::openSpace();
+  world.reset();
+  phases.mark("teardown");
+  if (!a.quiet) phases.print();
+  return rc;
 }
 
 // --- `adit simulate --batch N`: randomized navigated runs on one map (issue 8) ---------------
@@ -781,7 +806,7 @@ int runBatch(const SimulateArgs& a) {
   if (a.jobs < 1) return report(invalidArgument("--jobs must be >= 1 (got " + std::to_string(a.jobs) + ")"));
   if (!a.picture.empty() || !a.html.empty()) return report(invalidArgument("--picture and --html are for one run, not --batch"));
   const auto wall0 = std::chrono::steady_clock::now();
-  StatusOr<BatchSetup> setup = loadBatchSetup(a.scenario, a.map);
+  StatusOr<BatchSetup> setup = loadBatchSetup(a.scenario, a.map, a.no_cache);
   if (!setup.ok()) return report(setup.status());
   const std::string& map_path = *setup->base.map_path;
   fusion::BatchParams bp;
@@ -873,6 +898,7 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   cmd->add_option("--live-token-file", args->live_token_file,
                   "With --live: the robot's credential, a file whose first line is its token (from the console's "
                   "--robot-tokens file, or the operator token file for a single robot)");
+  cmd->add_flag("--no-cache", args->no_cache, "Build the map's octree and distance field afresh: neither read nor write the map cache");
   cmd->add_flag("-q,--quiet", args->quiet, "No log on stderr");
   cmd->callback([args, rc, cmd] {
     args->batch_given = cmd->count("--batch") > 0;

@@ -176,6 +176,8 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   ADIT_ASSIGN_OR_RETURN(Navigator nav, Navigator::create(std::move(*believed), np, sc.goal));
 
   NavigatedRun out;
+  const auto plan0 = std::chrono::steady_clock::now();
+  out.setup_time_s = std::chrono::duration<double>(plan0 - wall0).count();
   local::SimulationResult& res = out.run;
   res.arrival_tolerance_m = sc.params.monitor.arrival_tolerance_m;
   if (sc.plan_expected_path) {
@@ -196,6 +198,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
   } else {
     ADIT_RETURN_IF_ERROR(nav.setExpectedPath(sc.expected_path));
   }
+  out.initial_plan_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - plan0).count();
   out.initial_path = nav.expectedPath();
   out.refinement = nav.initialRefinement();
   NavigatedObserver* const observer = options.observer;

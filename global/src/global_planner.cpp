@@ -364,9 +364,13 @@ struct GlobalPlanner::Impl {
     if (!map->bounds().contains(*p))
       return fail(GlobalPlanOutcome::kStartOutsideMap, GlobalPlanOutcome::kGoalOutsideMap, "outside the map's bounds " +
                   fmt(map->bounds().min) + " - " + fmt(map->bounds().max));
-    if (map->state(*p) == map::VoxelState::kUnknown && !map->isFree(*p))
-      return fail(GlobalPlanOutcome::kStartUnknown, GlobalPlanOutcome::kGoalUnknown, "in unknown space (rock under --unknown rock)");
-    if (!map->isFree(*p)) return fail(GlobalPlanOutcome::kStartInRock, GlobalPlanOutcome::kGoalInRock, "in rock");
+    // The field was built from the map under its policy and says the same of every voxel; asking
+    // it first leaves a map read from the cache without its octree unless the point is rock.
+    if (!field->isFree(*p)) {
+      if (map->state(*p) == map::VoxelState::kUnknown)
+        return fail(GlobalPlanOutcome::kStartUnknown, GlobalPlanOutcome::kGoalUnknown, "in unknown space (rock under --unknown rock)");
+      return fail(GlobalPlanOutcome::kStartInRock, GlobalPlanOutcome::kGoalInRock, "in rock");
+    }
     if (validity->ground()) {
       const std::optional<Vec3> q = validity->onFloor(*p, 50.0);
       if (!q) return fail(GlobalPlanOutcome::kStartInRock, GlobalPlanOutcome::kGoalInRock, "no floor under it");

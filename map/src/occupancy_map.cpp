@@ -4,6 +4,7 @@
 #include <octomap/OcTree.h>
 
 #include <cmath>
+#include <mutex>
 #include <sstream>
 
 namespace adit::map {
@@ -67,6 +68,26 @@ Status checkExtent(const Aabb& box, double resolution_m) {
   return {};
 }
 
+// Built once, by whichever thread asks first; the bytes are checksummed by the cache reader, so
+// a failure here is a bug, not bad input.
+struct OccupancyMap::LazyTree {
+  LazyTree(std::string d, double r) : data(std::move(d)), resolution(r) {}
+  std::string data;  // OcTree::writeData's stream (lossless: every node's log-odds)
+  double resolution;
+  std::once_flag once;
+  std::shared_ptr<octomap::OcTree> tree;
+  const std::shared_ptr<octomap::OcTree>& shared() {
+    std::call_once(once, [this] {
+      tree = std::make_shared<octomap::OcTree>(resolution);
+      std::istringstream in(data);
+      tree->readData(in);
+      ADIT_DEMAND(bool(in));  // checksummed bytes that do not parse: a bug in the cache writer
+      std::string().swap(data);
+    });
+    return tree;
+  }
+};
+
 OccupancyMap::OccupancyMap(std::shared_ptr<octomap::OcTree> tree, UnknownPolicy policy)
     : tree_(std::move(tree)), policy_(policy) {}
 
@@ -111,18 +132,33 @@ OccupancyMap OccupancyMap::withUnknownPolicy(UnknownPolicy policy) const {
 
 OccupancyMap OccupancyMap::deepCopy() const {
   OccupancyMap copy(tree_, policy_);
+  copy.lazy_ = lazy_;
   copy.stats_ = stats_;
   copy.clone_on_write_ = true;
   return copy;
 }
 
 void OccupancyMap::cloneIfShared() {
+  if (!tree_) {
+    tree_ = lazy_->shared();
+    lazy_.reset();
+  }
   if (!clone_on_write_) return;
   tree_ = std::make_shared<octomap::OcTree>(*tree_);
   clone_on_write_ = false;
 }
 
-double OccupancyMap::resolution() const { return tree_->getResolution(); }
+double OccupancyMap::resolution() const { return tree_ ? tree_->getResolution() : stats_.resolution_m; }
+
+OccupancyMap OccupancyMap::fromOctreeData(std::string data, UnknownPolicy policy, const MapStats& stats) {
+  OccupancyMap map(nullptr, policy);
+  map.lazy_ = std::make_shared<LazyTree>(std::move(data), stats.resolution_m);
+  map.stats_ = stats;
+  return map;
+}
+
+octomap::OcTree& OccupancyMap::tree() const { return tree_ ? *tree_ : *lazy_->shared(); }
+std::shared_ptr<const octomap::OcTree> OccupancyMap::sharedOctree() const { return tree_ ? tree_ : lazy_->shared(); }
 
 namespace {
 // Unknown = voxels of the bounding box that are neither free nor occupied.
@@ -137,8 +173,8 @@ void setUnknownFromBounds(MapStats& s) {
 
 void OccupancyMap::recomputeStats() {
   MapStats s;
-  s.resolution_m = tree_->getResolution();
-  s.octree_nodes = tree_->size();
+  s.resolution_m = tree().getResolution();
+  s.octree_nodes = tree().size();
   forEachLeaf([&](const Vec3& centre, double size, VoxelState state) {
     const auto edge = std::uint64_t(std::llround(size / s.resolution_m));
     (state == VoxelState::kOccupied ? s.occupied_voxels : s.free_voxels) += edge * edge * edge;
@@ -151,17 +187,17 @@ void OccupancyMap::recomputeStats() {
 
 VoxelState OccupancyMap::state(const Vec3& p) const {
   octomap::OcTreeKey key;
-  if (!allFinite(p) || !tree_->coordToKeyChecked(p.x(), p.y(), p.z(), key)) return VoxelState::kUnknown;
-  const octomap::OcTreeNode* node = tree_->search(key);
+  if (!allFinite(p) || !tree().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return VoxelState::kUnknown;
+  const octomap::OcTreeNode* node = tree().search(key);
   if (!node) return VoxelState::kUnknown;
-  return tree_->isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree;
+  return tree().isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree;
 }
 
 bool OccupancyMap::isFree(const Vec3& p) const {
   // The outermost layer of the key range is rock whatever the tree says, so that every free voxel
   // has representable rock around it (the distance field relies on it).
   octomap::OcTreeKey key;
-  if (!allFinite(p) || !tree_->coordToKeyChecked(p.x(), p.y(), p.z(), key)) return false;
+  if (!allFinite(p) || !tree().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return false;
   for (int a = 0; a < 3; ++a)
     if (key[a] == 0 || key[a] == 65535) return false;
   switch (state(p)) {
@@ -173,12 +209,12 @@ bool OccupancyMap::isFree(const Vec3& p) const {
 }
 
 void OccupancyMap::forEachLeaf(const std::function<void(const Vec3&, double, VoxelState)>& fn) const {
-  for (auto it = tree_->begin_leafs(), end = tree_->end_leafs(); it != end; ++it) {
+  for (auto it = tree().begin_leafs(), end = tree().end_leafs(); it != end; ++it) {
     // Centres in double (getX/Y/Z): the iterator's getCoordinate() is a float point3d, whose
     // rounding moves a voxel face off the grid (0.55f - 0.05 > 0.5), so a caller testing whether
     // a voxel meets a plane on a voxel boundary missed both voxels beside it.
     fn(Vec3(it.getX(), it.getY(), it.getZ()), it.getSize(),
-       tree_->isNodeOccupied(*it) ? VoxelState::kOccupied : VoxelState::kFree);
+       tree().isNodeOccupied(*it) ? VoxelState::kOccupied : VoxelState::kFree);
   }
 }
 
@@ -190,7 +226,7 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
   std::vector<octomap::OcTreeKey> keys(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Vec3& p = points[i];
-    if (!allFinite(p) || !tree_->coordToKeyChecked(p.x(), p.y(), p.z(), keys[i])) {
+    if (!allFinite(p) || !tree().coordToKeyChecked(p.x(), p.y(), p.z(), keys[i])) {
       std::ostringstream os;
       os << "point " << i << " (" << p.transpose() << ") is outside the map's key range";
       return outOfRange(os.str());
@@ -207,12 +243,12 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
 // One voxel to `state`. Counts are kept incrementally: a whole-tree pass per sensed batch would
 // dominate the update. Bounds only grow (a voxel set to unknown leaves them as they were).
 void OccupancyMap::applyKey(const octomap::OcTreeKey& key, VoxelState state, MapChange& change) {
-  const octomap::OcTreeNode* node = tree_->search(key);
+  const octomap::OcTreeNode* node = tree().search(key);
   const VoxelState before =
-      node ? (tree_->isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree) : VoxelState::kUnknown;
+      node ? (tree().isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree) : VoxelState::kUnknown;
   if (node) (before == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) -= 1;
-  const double res = tree_->getResolution();
-  const octomap::point3d c = tree_->keyToCoord(key);
+  const double res = tree().getResolution();
+  const octomap::point3d c = tree().keyToCoord(key);
   const Vec3 centre(c.x(), c.y(), c.z());
   if (before != state) {
     (state == VoxelState::kOccupied ? change.to_occupied : state == VoxelState::kFree ? change.to_free : change.to_unknown) += 1;
@@ -220,18 +256,18 @@ void OccupancyMap::applyKey(const octomap::OcTreeKey& key, VoxelState state, Map
     change.box.extend(centre + Vec3::Constant(0.5 * res));
   }
   if (state == VoxelState::kUnknown) {
-    if (node) tree_->deleteNode(key);
+    if (node) tree().deleteNode(key);
     return;
   }
-  const float value = state == VoxelState::kOccupied ? tree_->getClampingThresMaxLog() : tree_->getClampingThresMinLog();
-  tree_->setNodeValue(key, value);
+  const float value = state == VoxelState::kOccupied ? tree().getClampingThresMaxLog() : tree().getClampingThresMinLog();
+  tree().setNodeValue(key, value);
   (state == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) += 1;
   stats_.bounds.extend(centre - Vec3::Constant(0.5 * res));
   stats_.bounds.extend(centre + Vec3::Constant(0.5 * res));
 }
 
 void OccupancyMap::finishUpdate() {
-  stats_.octree_nodes = tree_->size();
+  stats_.octree_nodes = tree().size();
   setUnknownFromBounds(stats_);
 }
 
@@ -242,7 +278,7 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
     return invalidArgument(os.str());
   }
   octomap::OcTreeKey origin_key;
-  if (!allFinite(origin) || !tree_->coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) {
+  if (!allFinite(origin) || !tree().coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) {
     std::ostringstream os;
     os << "insertRays: the origin (" << origin.transpose() << ") is outside the map's key range";
     return outOfRange(os.str());
@@ -260,8 +296,8 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
     const bool hit = d <= max_range_m;
     const Vec3 end = hit ? p : Vec3(origin + (p - origin) * (max_range_m / d));
     octomap::OcTreeKey end_key;
-    if (!allFinite(p) || !tree_->coordToKeyChecked(end.x(), end.y(), end.z(), end_key) ||
-        !tree_->computeRayKeys(o, octomap::point3d(float(end.x()), float(end.y()), float(end.z())), ray)) {
+    if (!allFinite(p) || !tree().coordToKeyChecked(end.x(), end.y(), end.z(), end_key) ||
+        !tree().computeRayKeys(o, octomap::point3d(float(end.x()), float(end.y()), float(end.z())), ray)) {
       std::ostringstream os;
       os << "insertRays: return " << i << " (" << p.transpose() << ") is not finite or its ray leaves the map's key range";
       return outOfRange(os.str());
@@ -287,11 +323,11 @@ void OccupancyMap::lineOfSight(const Vec3& origin, const std::vector<Vec3>& targ
   const octomap::point3d o(float(origin.x()), float(origin.y()), float(origin.z()));
   for (std::size_t i = 0; i < targets.size(); ++i) {
     const Vec3& p = targets[i];
-    if (!allFinite(p) || !tree_->computeRayKeys(o, octomap::point3d(float(p.x()), float(p.y()), float(p.z())), ray))
+    if (!allFinite(p) || !tree().computeRayKeys(o, octomap::point3d(float(p.x()), float(p.y()), float(p.z())), ray))
       continue;
     bool clear = true;
     for (const octomap::OcTreeKey& k : ray) {
-      const octomap::point3d c = tree_->keyToCoord(k);
+      const octomap::point3d c = tree().keyToCoord(k);
       const Vec3 centre(c.x(), c.y(), c.z());
       if (!isFree(centre) || (opaque && opaque(centre))) {
         clear = false;

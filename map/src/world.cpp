@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "adit/map/world.hpp"
 
+#include "map_cache_io.hpp"
+
 #include <chrono>
+#include <cstring>
 #include <utility>
 
 namespace adit::map {
@@ -13,6 +16,7 @@ struct World::Parts {
   LoadedMap loaded;
   DistanceField field;
   WorldTimes times;
+  MapCacheReport cache;
 };
 
 namespace {
@@ -27,11 +31,23 @@ World& World::operator=(World&&) noexcept = default;
 World::~World() = default;
 
 StatusOr<World> World::load(const std::string& path, const WorldOptions& options) {
+  if (options.cache.enabled && !options.load.crop) return MapCacheIo::loadThroughCache(path, options);
   const auto t0 = std::chrono::steady_clock::now();
-  ADIT_ASSIGN_OR_RETURN(LoadedMap loaded, loadMapAndSurvey(path, options.load));
+  // The pruning stage is timed through the progress callback: it is voxelize()'s last stage.
+  std::chrono::steady_clock::time_point prune0{}, prune1{};
+  LoadOptions load = options.load;
+  load.progress = [&](const char* stage, double f) {
+    if (std::strcmp(stage, kPruneStage) == 0) (f <= 0.0 ? prune0 : prune1) = std::chrono::steady_clock::now();
+    if (options.load.progress) options.load.progress(stage, f);
+  };
+  ADIT_ASSIGN_OR_RETURN(LoadedMap loaded, loadMapAndSurvey(path, load));
   const double load_s = secondsSince(t0);
   StatusOr<World> w = build(std::move(loaded), path, options);
-  if (w.ok()) w->parts_->times.load_s = load_s;
+  if (w.ok()) {
+    w->parts_->times.load_s = load_s;
+    if (prune1 > prune0 && prune0.time_since_epoch().count() != 0)
+      w->parts_->times.prune_s = std::chrono::duration<double>(prune1 - prune0).count();
+  }
   return w;
 }
 
@@ -54,8 +70,10 @@ StatusOr<World> World::fromParts(LoadedMap loaded, DistanceField field, std::str
 }
 
 World World::copy() const {
-  return World(std::make_unique<Parts>(parts_->path, LoadedMap{parts_->loaded.map.deepCopy(), parts_->loaded.survey},
-                                       parts_->field, parts_->times));
+  World w(std::make_unique<Parts>(parts_->path, LoadedMap{parts_->loaded.map.deepCopy(), parts_->loaded.survey},
+                                  parts_->field, parts_->times));
+  w.parts_->cache = parts_->cache;
+  return w;
 }
 
 const std::string& World::path() const { return parts_->path; }
@@ -67,5 +85,11 @@ const SurveyNetwork* World::survey() const { return parts_->loaded.survey ? &*pa
 const LoadedMap& World::loaded() const { return parts_->loaded; }
 LoadedMap& World::loaded() { return parts_->loaded; }
 const WorldTimes& World::times() const { return parts_->times; }
+void MapCacheIo::record(World& world, MapCacheReport report, const WorldTimes& times) {
+  world.parts_->cache = std::move(report);
+  world.parts_->times = times;
+}
+
+const MapCacheReport& World::cacheReport() const { return parts_->cache; }
 
 }  // namespace adit::map

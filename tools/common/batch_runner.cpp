@@ -20,6 +20,7 @@
 
 #include "adit/map/map_io.hpp"
 #include "adit/map/content_hash.hpp"
+#include "common/plan_output.hpp"
 
 namespace adit::tools {
 
@@ -89,7 +90,7 @@ fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams
 
 }  // namespace
 
-StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std::string& map) {
+StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std::string& map, bool no_cache) {
   StatusOr<local::Scenario> sc = internalError("no base");
   if (!scenario_file.empty()) {
     sc = local::loadScenario(scenario_file);
@@ -105,7 +106,9 @@ StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std:
   if (!scenario_file.empty() && !map.empty()) sc->map_path = map;
   if (!sc->map_path) return invalidArgument(sc->file + ": map: --batch needs a map");
   const std::string& map_path = *sc->map_path;
-  ADIT_ASSIGN_OR_RETURN(map::World believed, map::World::load(map_path));
+  map::WorldOptions options;
+  options.cache = verbCacheOptions(no_cache);
+  ADIT_ASSIGN_OR_RETURN(map::World believed, map::World::load(map_path, options));
   fusion::BatchRoadways roadways;
   if (believed.survey()) {
     roadways = fusion::BatchRoadways::fromSurvey(*believed.survey());

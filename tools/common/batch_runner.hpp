@@ -49,7 +49,7 @@ struct BatchSetup {
 /// given), else the district rescue robot (radius 0.4 m, v_max 1 m/s, sensor 8 m, tian2016) on
 /// `map`. A map without a survey (a scan or mesh converted to .bt, a .bt/.ot) has its roadways
 /// drawn from the free-space roadway graph for the base robot. Errors name the file.
-StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std::string& map);
+StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std::string& map, bool no_cache = false);
 
 /// Runs scenario `indices` of the batch `params` on min(jobs, indices.size()) forked workers,
 /// feeding `bar` (stage `stage`). The rows come back in the order of `indices`. A scenario that

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <cstdio>
 #include <iomanip>
 #include <sstream>
 
@@ -16,13 +17,29 @@ namespace adit::tools {
 
 using map::Vec3;
 
-StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet) {
+map::MapCacheOptions verbCacheOptions(bool no_cache) {
+  map::MapCacheOptions o;
+  o.enabled = !no_cache && !map::mapCacheDisabledByEnvironment();
+  return o;
+}
+
+void logCacheReport(const map::World& world) {
+  const map::MapCacheReport& r = world.cacheReport();
+  for (const std::string& why : r.refused) std::fprintf(stderr, "map cache: refused %s; rebuilding\n", why.c_str());
+  if (!r.used.empty()) std::fprintf(stderr, "map cache: read %s (%.3f s)\n", r.used.c_str(), r.read_s);
+  if (!r.written.empty()) std::fprintf(stderr, "map cache: wrote %s (%.3f s)\n", r.written.c_str(), r.write_s);
+  if (!r.write_error.empty()) std::fprintf(stderr, "map cache: not written: %s\n", r.write_error.c_str());
+}
+
+StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet, bool no_cache) {
   ProgressBar bar(quiet);
   map::WorldOptions options;
   options.load.unknown_policy = policy;
   options.load.progress = bar.callback();
+  options.cache = verbCacheOptions(no_cache);
   StatusOr<map::World> world = map::World::load(path, options);
   bar.finish();
+  if (world.ok() && !quiet) logCacheReport(*world);
   return world;
 }
 

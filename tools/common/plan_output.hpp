@@ -18,8 +18,14 @@
 
 namespace adit::tools {
 
-/// map::World::load with the progress bar on stderr (none when `quiet`).
-StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet);
+/// map::World::load with the progress bar on stderr (none when `quiet`), through the map cache
+/// unless `no_cache` (--no-cache) or ADIT_NO_MAP_CACHE; what the cache did is logged on stderr.
+StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet, bool no_cache = false);
+
+/// WorldOptions::cache as the verbs use it: on unless `no_cache` or ADIT_NO_MAP_CACHE.
+map::MapCacheOptions verbCacheOptions(bool no_cache);
+/// "map cache: ..." lines on stderr for what the cache did (nothing when it was not asked for).
+void logCacheReport(const map::World& world);
 
 /// sphere:r | capsule:r,len | box:x,y,z | cylinder:r,h (metres).
 StatusOr<map::RobotShape> parseRobot(const std::string& text);

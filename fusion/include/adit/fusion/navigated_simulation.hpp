@@ -63,6 +63,10 @@ struct NavigatedRun {
   std::optional<PlanRefinement> refinement;
   double end_time_s = 0.0;             ///< simulated time when the run ended
   double wall_time_s = 0.0;            ///< the whole simulation, map loading included
+  /// Of wall_time_s: the believed world (a copy of NavigatedOptions::believed, or loaded) and the
+  /// navigator made from it; the initial plan with its refinement. The rest is the run itself.
+  double setup_time_s = 0.0;
+  double initial_plan_time_s = 0.0;
 };
 
 /// Watches, and may steer, a navigated run while it goes: the live link to the operations console

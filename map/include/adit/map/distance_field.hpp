@@ -97,6 +97,7 @@ class DistanceField {
   const DistanceFieldStats& stats() const;
 
  private:
+  friend struct MapCacheIo;
   struct Impl;
   explicit DistanceField(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;

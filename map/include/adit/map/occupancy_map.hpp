@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "adit/status.hpp"
@@ -131,17 +132,27 @@ class OccupancyMap {
   void lineOfSight(const Vec3& origin, const std::vector<Vec3>& targets, std::vector<char>& visible,
                    const std::function<bool(const Vec3&)>& opaque = {}) const;
 
-  const octomap::OcTree& octree() const { return *tree_; }
-  std::shared_ptr<const octomap::OcTree> sharedOctree() const { return tree_; }
+  /// A map read from the map cache holds its octree as bytes until something needs the nodes:
+  /// building 2.6 million nodes is most of a cached load, and planning reads the field only.
+  /// These (and every query above but resolution() and stats()) build it on first use.
+  const octomap::OcTree& octree() const { return tree(); }
+  std::shared_ptr<const octomap::OcTree> sharedOctree() const;
 
  private:
+  friend struct MapCacheIo;
+  struct LazyTree;
   OccupancyMap(std::shared_ptr<octomap::OcTree> tree, UnknownPolicy policy);
+  // A map whose octree is OcTree::writeData's stream `data`, built on first use; `stats` are
+  // the built map's (the cache checked both).
+  static OccupancyMap fromOctreeData(std::string data, UnknownPolicy policy, const MapStats& stats);
+  octomap::OcTree& tree() const;
   void recomputeStats();
   void applyKey(const octomap::OcTreeKey& key, VoxelState state, MapChange& change);
   void finishUpdate();
   void cloneIfShared();
 
-  std::shared_ptr<octomap::OcTree> tree_;
+  std::shared_ptr<octomap::OcTree> tree_;  // null while lazy_ holds the octree as bytes
+  std::shared_ptr<LazyTree> lazy_;
   bool clone_on_write_ = false;  // tree_ belongs to the map deepCopy() was taken from
   UnknownPolicy policy_ = UnknownPolicy::kRock;
   MapStats stats_;

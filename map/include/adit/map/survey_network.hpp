@@ -63,6 +63,9 @@ StatusOr<SurveyNetwork> loadSurvey(const std::string& path, std::uint64_t max_me
 /// voxels in the box except at the cut ends (no revolve where a run ends inside the grown box).
 StatusOr<SurveyNetwork> cropNetwork(const SurveyNetwork& network, const Aabb& box);
 
+/// The progress stage of voxelize() that prunes the octree and counts its voxels (the last).
+inline constexpr const char* kPruneStage = "pruning octree";
+
 struct VoxelizeOptions {
   UnknownPolicy unknown_policy = UnknownPolicy::kRock;
   /// Refuse larger maps: OctoMap needs about 45 bytes a voxel while building (before pruning),

@@ -19,6 +19,7 @@
 #include <string>
 
 #include "adit/map/distance_field.hpp"
+#include "adit/map/map_cache.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/occupancy_map.hpp"
 #include "adit/status.hpp"
@@ -29,12 +30,18 @@ struct WorldOptions {
   LoadOptions load;  ///< the map loader's (unknown policy, progress, memory budget, crop)
   /// The field refuses maps whose free space would need more tiles (DistanceField::build).
   std::uint64_t max_field_blocks = std::uint64_t{1} << 20;
+  /// Read the world from the map cache when a valid one is there, else build it and write one
+  /// (map_cache.hpp). Off by default; ignored with a crop.
+  MapCacheOptions cache;
 };
 
 /// Wall time of each phase of World::load, so a verb can say where its start-up went.
 struct WorldTimes {
   double load_s = 0.0;   ///< reading the file and, for a survey, voxelizing it
+  double prune_s = 0.0;  ///< of load_s: pruning the voxelized octree and its statistics (kPruneStage)
   double field_s = 0.0;  ///< the distance transform
+  double cache_read_s = 0.0;   ///< looking for, reading and checking cache files
+  double cache_write_s = 0.0;  ///< writing the cache after a build
 };
 
 class World {
@@ -67,8 +74,11 @@ class World {
   const LoadedMap& loaded() const;
   LoadedMap& loaded();
   const WorldTimes& times() const;
+  /// What the map cache did for this world (all empty when the cache was not asked for).
+  const MapCacheReport& cacheReport() const;
 
  private:
+  friend struct MapCacheIo;
   struct Parts;
   explicit World(std::unique_ptr<Parts> parts);
   std::unique_ptr<Parts> parts_;

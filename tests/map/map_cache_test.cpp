@@ -1,0 +1,309 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The map cache: a world read back from it is the world a fresh build gives (every voxel's
+// state, distance, gradient and nearest rock voxel; every octree leaf), and a cache file that is
+// corrupt, truncated, of another version, of another map or of another policy is refused and
+// rebuilt, never trusted. A map in a folder that cannot be written is cached in the user's
+// folder instead. Oracle: World::load with the cache off.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <linux/fs.h>
+#include <sys/ioctl.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <tuple>
+
+#include "adit/map/content_hash.hpp"
+#include "adit/map/file_io.hpp"
+#include "adit/map/map_cache.hpp"
+#include "adit/map/world.hpp"
+#include "support/survey_example.hpp"
+
+namespace adit::map {
+namespace {
+
+namespace fs = std::filesystem;
+
+class MapCache : public testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = testing::TempDir() + "adit_map_cache_" + std::to_string(::getpid()) + "_" +
+           testing::UnitTest::GetInstance()->current_test_info()->name();
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ + "/maps");
+    map_ = dir_ + "/maps/mine.yaml";
+    ASSERT_TRUE(writeFileAtomically(map_, [](std::ostream& o) { return bool(o << test::shortIssueSurveyExample()); }).ok());
+    options_.cache.enabled = true;
+    options_.cache.user_dir = dir_ + "/user-cache";
+  }
+  void TearDown() override {
+    setImmutable(dir_ + "/maps", false);
+    fs::permissions(dir_ + "/maps", fs::perms::owner_all, fs::perm_options::add);
+    fs::remove_all(dir_);
+  }
+  // chattr +i: the one way to make a folder unwritable for root, who ignores permission bits.
+  static bool setImmutable(const std::string& path, bool on) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_DIRECTORY);
+    if (fd < 0) return false;
+    int flags = 0;
+    bool ok = ::ioctl(fd, FS_IOC_GETFLAGS, &flags) == 0;
+    flags = on ? (flags | FS_IMMUTABLE_FL) : (flags & ~FS_IMMUTABLE_FL);
+    ok = ok && ::ioctl(fd, FS_IOC_SETFLAGS, &flags) == 0;
+    ::close(fd);
+    return ok;
+  }
+  std::string beside() const { return mapCachePaths(map_, UnknownPolicy::kRock, options_.cache).beside; }
+  StatusOr<World> load() const { return World::load(map_, options_); }
+
+  std::string dir_, map_;
+  WorldOptions options_;
+};
+
+// Every voxel centre of the bounds grown by two voxels: state, and the field's every answer.
+void expectSameWorld(const World& a, const World& b) {
+  ASSERT_EQ(a.map().resolution(), b.map().resolution());
+  const MapStats& sa = a.map().stats();
+  const MapStats& sb = b.map().stats();
+  EXPECT_EQ(sa.free_voxels, sb.free_voxels);
+  EXPECT_EQ(sa.occupied_voxels, sb.occupied_voxels);
+  EXPECT_EQ(sa.unknown_voxels, sb.unknown_voxels);
+  EXPECT_EQ(sa.octree_nodes, sb.octree_nodes);
+  EXPECT_EQ(sa.bounds.min, sb.bounds.min);
+  EXPECT_EQ(sa.bounds.max, sb.bounds.max);
+  EXPECT_EQ(a.field().stats().blocks, b.field().stats().blocks);
+  EXPECT_EQ(a.field().stats().free_voxels, b.field().stats().free_voxels);
+  EXPECT_EQ(a.field().stats().max_distance_m, b.field().stats().max_distance_m);
+  const double res = a.map().resolution();
+  const Vec3 lo = sa.bounds.min - Vec3::Constant(2 * res), hi = sa.bounds.max + Vec3::Constant(2 * res);
+  std::size_t voxels = 0, free = 0;
+  for (double z = lo.z() + 0.5 * res; z < hi.z(); z += res)
+    for (double y = lo.y() + 0.5 * res; y < hi.y(); y += res)
+      for (double x = lo.x() + 0.5 * res; x < hi.x(); x += res) {
+        const Vec3 p(x, y, z);
+        ++voxels;
+        ASSERT_EQ(a.map().state(p), b.map().state(p)) << p.transpose();
+        ASSERT_EQ(a.field().isFree(p), b.field().isFree(p)) << p.transpose();
+        free += a.field().isFree(p);
+        const DistanceSample da = a.field().query(p), db = b.field().query(p);
+        ASSERT_EQ(da.distance, db.distance) << p.transpose();
+        ASSERT_EQ(da.gradient, db.gradient) << p.transpose();
+        ASSERT_EQ(da.nearest, db.nearest) << p.transpose();
+        ASSERT_EQ(a.field().nearestRockVoxel(p), b.field().nearestRockVoxel(p)) << p.transpose();
+      }
+  EXPECT_GT(free, 1000u) << "the map should have roadway in it (" << voxels << " voxels visited)";
+  // The octree, leaf by leaf.
+  std::map<std::tuple<double, double, double, double>, VoxelState> la, lb;
+  a.map().forEachLeaf([&](const Vec3& c, double s, VoxelState v) { la[{c.x(), c.y(), c.z(), s}] = v; });
+  b.map().forEachLeaf([&](const Vec3& c, double s, VoxelState v) { lb[{c.x(), c.y(), c.z(), s}] = v; });
+  EXPECT_EQ(la, lb);
+}
+
+World freshWorld(const std::string& path) {
+  StatusOr<World> w = World::load(path);
+  EXPECT_TRUE(w.ok()) << w.status().message();
+  return std::move(w).value();
+}
+
+TEST_F(MapCache, ACachedLoadIsTheWorldAFreshBuildGives) {
+  StatusOr<World> first = load();
+  ASSERT_TRUE(first.ok()) << first.status().message();
+  EXPECT_TRUE(first->cacheReport().used.empty());
+  EXPECT_EQ(first->cacheReport().written, beside());
+  ASSERT_TRUE(fs::exists(beside()));
+  StatusOr<World> cached = load();
+  ASSERT_TRUE(cached.ok()) << cached.status().message();
+  EXPECT_EQ(cached->cacheReport().used, beside());
+  EXPECT_TRUE(cached->cacheReport().refused.empty());
+  EXPECT_TRUE(cached->cacheReport().written.empty());
+  ASSERT_NE(cached->survey(), nullptr);  // parsed again from the survey file
+  EXPECT_EQ(cached->survey()->roadways.size(), 2u);
+  expectSameWorld(freshWorld(map_), *cached);
+}
+
+TEST_F(MapCache, ACachedWorldChangesLikeAFreshOne) {
+  // The navigator writes into its belief: the octree read from the cache must take writes and
+  // the field update as a built one does.
+  ASSERT_TRUE(load().ok());
+  StatusOr<World> cached = load();
+  ASSERT_TRUE(cached.ok());
+  ASSERT_FALSE(cached->cacheReport().used.empty());
+  World fresh = freshWorld(map_);
+  const std::vector<Vec3> rubble = {{10.1, 0.1, 1.1}, {10.3, 0.1, 1.1}, {10.1, 0.3, 1.3}};
+  for (World* w : {&fresh, &*cached}) {
+    MapChange change;
+    ASSERT_TRUE(w->map().setVoxels(rubble, VoxelState::kOccupied, &change).ok());
+    ASSERT_EQ(change.to_occupied, 3u);
+    ASSERT_TRUE(w->field().update(w->map(), change.box).ok());
+  }
+  expectSameWorld(fresh, *cached);
+}
+
+TEST_F(MapCache, ACopyOfACachedWorldSharesNothingAChangeReaches) {
+  ASSERT_TRUE(load().ok());
+  StatusOr<World> cached = load();
+  ASSERT_TRUE(cached.ok());
+  World belief = cached->copy();
+  const Vec3 p(10.1, 0.1, 1.1);
+  ASSERT_EQ(cached->map().state(p), VoxelState::kFree);
+  ASSERT_TRUE(belief.map().setVoxel(p, VoxelState::kOccupied).ok());
+  EXPECT_EQ(belief.map().state(p), VoxelState::kOccupied);
+  EXPECT_EQ(cached->map().state(p), VoxelState::kFree);
+}
+
+// Flips one byte at `offset` from the end (or the start) of the cache file.
+void flipByte(const std::string& path, std::int64_t offset) {
+  std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+  const auto size = std::int64_t(fs::file_size(path));
+  const std::int64_t at = offset >= 0 ? offset : size + offset;
+  f.seekg(at);
+  char c = 0;
+  f.get(c);
+  f.seekp(at);
+  f.put(char(c ^ 0x40));
+}
+
+TEST_F(MapCache, ACorruptCacheIsRefusedAndRebuilt) {
+  ASSERT_TRUE(load().ok());
+  const auto size = std::int64_t(fs::file_size(beside()));
+  // A byte in the header, in the statistics or the octree after it, in the middle of the tiles
+  // and in the last tile: the sections lie back to back, every byte under a checksum.
+  for (std::int64_t offset : {std::int64_t(20), std::int64_t(300),
+                              size / 2, std::int64_t(-7)}) {
+    flipByte(beside(), offset);
+    StatusOr<World> w = load();
+    ASSERT_TRUE(w.ok()) << w.status().message();
+    EXPECT_TRUE(w->cacheReport().used.empty()) << "offset " << offset;
+    ASSERT_EQ(w->cacheReport().refused.size(), 1u) << "offset " << offset;
+    EXPECT_NE(w->cacheReport().refused[0].find(beside()), std::string::npos) << w->cacheReport().refused[0];
+    EXPECT_EQ(w->cacheReport().written, beside());
+    // Rebuilt (the same size; the build times it records differ), and the next load reads it.
+    EXPECT_EQ(std::int64_t(fs::file_size(beside())), size) << "offset " << offset;
+    StatusOr<World> again = load();
+    ASSERT_TRUE(again.ok());
+    EXPECT_EQ(again->cacheReport().used, beside());
+  }
+}
+
+TEST_F(MapCache, ATruncatedCacheIsRefusedAndRebuilt) {
+  ASSERT_TRUE(load().ok());
+  const auto size = fs::file_size(beside());
+  for (std::uintmax_t keep : {std::uintmax_t(0), std::uintmax_t(100), std::uintmax_t(5000), size / 2, size - 1}) {
+    fs::resize_file(beside(), keep);
+    StatusOr<World> w = load();
+    ASSERT_TRUE(w.ok()) << w.status().message();
+    EXPECT_TRUE(w->cacheReport().used.empty()) << "kept " << keep;
+    ASSERT_EQ(w->cacheReport().refused.size(), 1u) << "kept " << keep;
+    EXPECT_EQ(fs::file_size(beside()), size);
+  }
+  // Longer than it says is no better than shorter.
+  { std::ofstream(beside(), std::ios::app | std::ios::binary) << "tail"; }
+  StatusOr<World> w = load();
+  ASSERT_TRUE(w.ok());
+  ASSERT_EQ(w->cacheReport().refused.size(), 1u);
+  EXPECT_NE(w->cacheReport().refused[0].find("after the last section"), std::string::npos) << w->cacheReport().refused[0];
+}
+
+TEST_F(MapCache, AForeignCacheIsRefusedAndRebuilt) {
+  ASSERT_TRUE(load().ok());
+  StatusOr<MapCacheKey> key = mapCacheKey(map_, UnknownPolicy::kRock);
+  ASSERT_TRUE(key.ok());
+  World fresh = freshWorld(map_);
+  // Another version, another map (same size, one number changed), another policy.
+  MapCacheKey other_version = *key;
+  other_version.version = kMapCacheVersion + 1;
+  MapCacheKey other_map = *key;
+  other_map.map_hash ^= 1;
+  MapCacheKey other_policy = *key;
+  other_policy.policy = UnknownPolicy::kFree;
+  const std::pair<MapCacheKey, const char*> cases[] = {
+      {other_version, "version"}, {other_map, "another map"}, {other_policy, "policy"}};
+  for (const auto& [foreign, why] : cases) {
+    ASSERT_TRUE(writeMapCache(fresh, foreign, beside()).ok());
+    StatusOr<World> w = load();
+    ASSERT_TRUE(w.ok()) << w.status().message();
+    EXPECT_TRUE(w->cacheReport().used.empty()) << why;
+    ASSERT_EQ(w->cacheReport().refused.size(), 1u) << why;
+    EXPECT_NE(w->cacheReport().refused[0].find(why), std::string::npos) << w->cacheReport().refused[0];
+    EXPECT_EQ(w->cacheReport().written, beside());
+  }
+  // An edited map makes its old cache foreign.
+  ASSERT_TRUE(writeFileAtomically(map_, [](std::ostream& o) {
+                std::string s = test::shortIssueSurveyExample();
+                s.replace(s.find("S3: [30, 8, 4]"), 14, "S3: [30, 9, 4]");
+                return bool(o << s);
+              }).ok());
+  StatusOr<World> edited = load();
+  ASSERT_TRUE(edited.ok());
+  ASSERT_EQ(edited->cacheReport().refused.size(), 1u);
+  EXPECT_NE(edited->cacheReport().refused[0].find("another map"), std::string::npos);
+  expectSameWorld(freshWorld(map_), *edited);
+}
+
+TEST_F(MapCache, AReadOnlyMapFolderFallsBackToTheUserFolder) {
+  fs::permissions(dir_ + "/maps", fs::perms::owner_write | fs::perms::group_write | fs::perms::others_write,
+                  fs::perm_options::remove);
+  if (::geteuid() == 0) setImmutable(dir_ + "/maps", true);
+  if (::access((dir_ + "/maps").c_str(), W_OK) == 0 && std::ofstream(dir_ + "/maps/probe"))
+    GTEST_SKIP() << "cannot make a folder read-only here (root on a file system without chattr +i)";
+  const MapCachePaths where = mapCachePaths(map_, UnknownPolicy::kRock, options_.cache);
+  ASSERT_EQ(where.user.rfind(options_.cache.user_dir + "/", 0), 0u) << where.user;
+  StatusOr<World> first = load();
+  ASSERT_TRUE(first.ok()) << first.status().message();
+  EXPECT_EQ(first->cacheReport().written, where.user);
+  EXPECT_FALSE(fs::exists(where.beside));
+  StatusOr<World> cached = load();
+  ASSERT_TRUE(cached.ok());
+  EXPECT_EQ(cached->cacheReport().used, where.user);
+  expectSameWorld(freshWorld(map_), *cached);
+}
+
+TEST_F(MapCache, OffLoadsNeitherReadNorWrite) {
+  options_.cache.enabled = false;
+  StatusOr<World> w = load();
+  ASSERT_TRUE(w.ok());
+  EXPECT_FALSE(fs::exists(beside()));
+  EXPECT_TRUE(w->cacheReport().used.empty() && w->cacheReport().written.empty());
+}
+
+TEST_F(MapCache, AMissingMapIsTheLoadersErrorNotTheCaches) {
+  fs::remove(map_);
+  StatusOr<World> w = load();
+  ASSERT_FALSE(w.ok());
+  EXPECT_NE(w.status().message().find("mine.yaml"), std::string::npos) << w.status().message();
+}
+
+TEST(MapCacheEnvironment, TheVariableTurnsItOff) {
+  const char* was = std::getenv("ADIT_NO_MAP_CACHE");
+  const std::string saved = was ? was : "";
+  ::setenv("ADIT_NO_MAP_CACHE", "1", 1);
+  EXPECT_TRUE(mapCacheDisabledByEnvironment());
+  ::setenv("ADIT_NO_MAP_CACHE", "0", 1);
+  EXPECT_FALSE(mapCacheDisabledByEnvironment());
+  ::unsetenv("ADIT_NO_MAP_CACHE");
+  EXPECT_FALSE(mapCacheDisabledByEnvironment());
+  if (was) ::setenv("ADIT_NO_MAP_CACHE", saved.c_str(), 1);
+}
+
+TEST(Checksum64, SeesEveryByteAndItsPlace) {
+  std::string a(1000, 'x');
+  const std::uint64_t h = checksum64(a.data(), a.size());
+  for (std::size_t i : {std::size_t(0), std::size_t(7), std::size_t(31), std::size_t(500), std::size_t(999)}) {
+    std::string b = a;
+    b[i] ^= 1;
+    EXPECT_NE(checksum64(b.data(), b.size()), h) << i;
+  }
+  EXPECT_NE(checksum64(a.data(), a.size() - 1), h);
+  std::string swapped = a;
+  swapped.replace(0, 16, "0123456789abcdef");
+  std::string swapped2 = a;
+  swapped2.replace(0, 16, "89abcdef01234567");
+  EXPECT_NE(checksum64(swapped.data(), swapped.size()), checksum64(swapped2.data(), swapped2.size()));
+}
+
+}  // namespace
+}  // namespace adit::map
