@@ -36,6 +36,8 @@ Status NavigatorParams::validate() const {
   ADIT_RETURN_IF_ERROR(global.validate());
   ADIT_RETURN_IF_ERROR(local.validate());
   if (max_stuck_replans < 0) return invalidArgument("max_stuck_replans: must be >= 0");
+  if (!(replan_back_off_m >= 0.0 && replan_back_off_m <= 10.0))
+    return invalidArgument("replan_back_off_m: must be in [0, 10] m");
   if (subgoals) ADIT_RETURN_IF_ERROR(subgoal.validate());
   return {};
 }
@@ -107,7 +109,7 @@ struct Navigator::Impl {
   // An operator command's replan from the robot's position; caller holds the exclusive lock.
   Status operatorReplan(const std::string& reason, bool refine) {
     const auto r0 = std::chrono::steady_clock::now();
-    StatusOr<global::GlobalPlanResult> r = planFrom(position, refine);
+    StatusOr<global::GlobalPlanResult> r = planFrom(position, refine, true);
     ++replans;
     if (!r.ok()) {
       events.push_back({last_t_s, "no_route", reason, secondsSince(r0), {}, r.status().message()});
@@ -227,9 +229,17 @@ struct Navigator::Impl {
 
   // Global plan from `from`, refined if `refine`; fills `path` or says why not. Caller holds the
   // exclusive lock.
-  StatusOr<global::GlobalPlanResult> planFrom(const Vec3& from, bool refine) {
+  // `robot_there`: `from` is where the robot stands (a replan), not a start someone chose; one
+  // inside the margin is backed off from rather than refused.
+  StatusOr<global::GlobalPlanResult> planFrom(const Vec3& from, bool refine, bool robot_there) {
     last_refine_time_s = 0.0;
     global::GlobalPlanResult r = global->plan(from, goal);
+    std::optional<Vec3> backed;
+    if (!r.solved() && robot_there && r.outcome == global::GlobalPlanOutcome::kStartInRock &&
+        params.replan_back_off_m > 0.0) {
+      backed = global->backOff(from, params.replan_back_off_m);
+      if (backed) r = global->plan(*backed, goal);
+    }
     if (!r.solved()) {
       return failedPrecondition(std::string("no route from ") + pointText(from) + " to the goal: " + r.message);
     }
@@ -239,6 +249,8 @@ struct Navigator::Impl {
       if (!initial_refinement) initial_refinement = std::move(ref);
     }
     path = r.path;
+    if (backed && (path.points.empty() || (path.points.front() - from).norm() > 1e-9))
+      path.points.insert(path.points.begin(), from);
     local->reset();
     return r;
   }
@@ -306,7 +318,7 @@ Status Navigator::plan(const Vec3& start) {
   std::unique_lock lock(impl_->mutex);
   impl_->initial_refinement.reset();
   if (allFinite(start)) impl_->position = start;
-  ADIT_ASSIGN_OR_RETURN(global::GlobalPlanResult r, impl_->planFrom(start, impl_->params.refine_plan));
+  ADIT_ASSIGN_OR_RETURN(global::GlobalPlanResult r, impl_->planFrom(start, impl_->params.refine_plan, false));
   (void)r;
   return {};
 }
@@ -400,7 +412,7 @@ NavigatorCycle Navigator::run(double t_s, const local::RobotState& state, const 
     const auto r0 = std::chrono::steady_clock::now();
     if (!changed.empty()) m.global->mapChanged(changed);
     StatusOr<global::GlobalPlanResult> r =
-        m.planFrom(state.position, m.params.refine_plan && m.params.refine_replans);
+        m.planFrom(state.position, m.params.refine_plan && m.params.refine_replans, true);
     out.replan_time_s = secondsSince(r0);
     out.replanned = true;
     ++m.replans;

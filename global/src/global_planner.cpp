@@ -669,6 +669,35 @@ Status GlobalPlanner::validatePath(const Polyline& path) const { return validate
 
 bool GlobalPlanner::stateValid(const Vec3& c) const { return impl_->validity->stateValid(c); }
 
+std::optional<Vec3> GlobalPlanner::backOff(const Vec3& c, double max_move_m) const {
+  const RobotValidity& v = *impl_->validity;
+  const map::DistanceField& f = *impl_->field;
+  if (!map::allFinite(c) || !(max_move_m >= 0.0) || !f.isFree(c)) return std::nullopt;
+  Vec3 q = c;
+  if (v.ground()) {
+    const std::optional<Vec3> on = v.onFloor(q, 2.0 * v.halfHeight() + max_move_m);
+    if (!on) return std::nullopt;
+    q = *on;
+  }
+  // Up the gradient the clearance grows by about a step per step until the nearest rock changes;
+  // a ridge between two ribs (both too close) stops it, and the pose is then refused.
+  const double step = 0.5 * f.resolution(), start_distance = f.distance(q);
+  for (double moved = (q - c).norm(); moved <= max_move_m + 1e-9; moved += step) {
+    if (v.stateValid(q)) return q;
+    const map::DistanceSample s = f.query(q);
+    if (s.in_rock || s.gradient.squaredNorm() < 0.25) return std::nullopt;
+    Vec3 next = q + step * s.gradient.normalized();
+    if (v.ground()) {
+      const std::optional<Vec3> on = v.onFloor(next + Vec3(0, 0, step), 2.0 * step + v.halfHeight());
+      if (!on) return std::nullopt;
+      next = *on;
+    }
+    if (f.distance(next) + 1e-9 < start_distance) return std::nullopt;  // never closer to rock than it stood
+    q = next;
+  }
+  return std::nullopt;
+}
+
 const RoadwayGraph& GlobalPlanner::graph() const { return impl_->graph; }
 RoadwayGraph& GlobalPlanner::graph() { return impl_->graph; }
 const GlobalPlannerParams& GlobalPlanner::params() const { return impl_->params; }

@@ -122,6 +122,47 @@ TEST(Navigator, RoofFallAcrossTheOnlyRoadwayStopsWithNoRoute) {
   EXPECT_EQ(later.command.velocity, Vec3::Zero());
 }
 
+// A replan from where the robot stands inside the planner's margin (0.6 m from the north rib;
+// the planner wants 0.7 m) is not refused: it starts up the field from the nearest valid pose and
+// the path begins at the robot. With the back-off turned off the same cycle ends no_route.
+TEST(Navigator, ReplanFromInsideTheMarginBacksOffInsteadOfRefusing) {
+  const Vec3 pressed(10, 1.4, 1.6);
+  const std::vector<Vec3> boulder = ball(Vec3(20, -1.3, 1.6), 1.0);  // on the axis, passable to the north
+  for (const double back_off : {1.0, 0.0}) {
+    StatusOr<map::LoadedMap> loaded = map::loadMapAndSurvey(kMap);
+    ASSERT_TRUE(loaded.ok()) << loaded.status().message();
+    NavigatorParams p;
+    p.local.robot.radius_m = 0.4;
+    p.replan_back_off_m = back_off;
+    StatusOr<Navigator> nav = Navigator::create(std::move(loaded).value(), p, kGoal);
+    ASSERT_TRUE(nav.ok()) << nav.status().message();
+    ASSERT_TRUE(nav->plan(kStart).ok());
+    nav->read([&](const map::OccupancyMap&, const map::DistanceField& f) {
+      ASSERT_GT(f.distance(pressed), 0.4);  // the robot is clear of rock ...
+      ASSERT_LT(f.distance(pressed), 0.7);  // ... but inside the margin
+    });
+    const NavigatorCycle c = nav->cycle(5.0, at(pressed), boulder, {}, 0.1);
+    EXPECT_TRUE(c.replanned);
+    if (back_off > 0.0) {
+      EXPECT_EQ(c.status, NavigatorStatus::kDriving);
+      const map::Polyline path = nav->expectedPath();
+      ASSERT_GE(path.points.size(), 3u);
+      EXPECT_LT((path.points.front() - pressed).norm(), 1e-9);
+      nav->read([&](const map::OccupancyMap&, const map::DistanceField& f) {
+        EXPECT_GE(f.distance(path.points[1]), 0.7 - 1e-6);  // the backed-off start is valid
+        EXPECT_LT((path.points[1] - pressed).norm(), 1.0 + 1e-9);
+        EXPECT_LT(path.points[1].y(), pressed.y());  // away from the north rib
+      });
+      ASSERT_FALSE(nav->events().empty());
+      EXPECT_EQ(nav->events().back().type, "replan");
+    } else {
+      EXPECT_EQ(c.status, NavigatorStatus::kNoRoute);
+      ASSERT_FALSE(nav->events().empty());
+      EXPECT_NE(nav->events().back().message.find("does not fit"), std::string::npos) << nav->events().back().message;
+    }
+  }
+}
+
 // NavigatorParams::subgoals: a sub-goal in the annulus around the robot at the start of each
 // period t0 (1 s), held in between; without, none.
 TEST(Navigator, SubgoalsAreSelectedOncePerPeriod) {

@@ -191,6 +191,32 @@ TEST(GlobalPlanner, EndpointsInRockOrOutsideAreRefused) {
   EXPECT_TRUE(isInvalidEndpoint(r.outcome));
 }
 
+// backOff: a pose inside the margin climbs the field to the nearest valid pose (brute force: no
+// valid pose on the same line is closer); a valid pose is itself; rock, a roadway too narrow for
+// the robot anywhere, and a limit shorter than the way out are refused.
+TEST(GlobalPlanner, BackOffClimbsToTheNearestValidPose) {
+  World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 12.0));
+  GlobalPlanner planner = w.planner(rrtConnect());
+  const Vec3 pressed(6, 1.45, 1.5);  // 0.55 m from the north rib: clear of rock, inside the margin
+  ASSERT_FALSE(planner.stateValid(pressed));
+  const std::optional<Vec3> q = planner.backOff(pressed, 1.0);
+  ASSERT_TRUE(q.has_value());
+  EXPECT_TRUE(planner.stateValid(*q));
+  EXPECT_NEAR(q->x(), pressed.x(), 0.05);
+  EXPECT_LT(q->y(), pressed.y());
+  double nearest = 1e9;  // the first valid pose straight south, in 1 cm steps
+  for (double d = 0.0; d <= 1.0; d += 0.01)
+    if (planner.stateValid(pressed - Vec3(0, d, 0))) { nearest = d; break; }
+  EXPECT_LE((*q - pressed).norm(), nearest + 0.5 * w.map.resolution() + 1e-9);
+  EXPECT_EQ(planner.backOff(Vec3(6, 0, 1.5), 1.0), std::optional<Vec3>(Vec3(6, 0, 1.5)));
+  EXPECT_FALSE(planner.backOff(Vec3(6, 2.5, 1.5), 1.0).has_value());  // in rock
+  EXPECT_FALSE(planner.backOff(pressed, 0.05).has_value());           // the way out is longer
+  EXPECT_FALSE(planner.backOff(Vec3(6, std::nan(""), 1.5), 1.0).has_value());
+  World narrow(test::straightRoadway(CrossSection::rectangle(1.0, 3.0), 12.0));
+  GlobalPlanner np = narrow.planner(rrtConnect());
+  EXPECT_FALSE(np.backOff(Vec3(6, 0.1, 1.5), 1.0).has_value());  // no pose in it fits
+}
+
 TEST(GlobalPlanner, RevalidationCatchesACorruptedPath) {
   World w(test::bentRoadway(CrossSection::rectangle(4.0, 3.0), 0.2));
   GlobalPlanner planner = w.planner(rrtConnect());

@@ -63,6 +63,11 @@ struct NavigatorParams {
   /// Replans allowed for kStuck verdicts (a blocked path always replans); beyond, the navigator
   /// reports kStuck instead of replanning forever.
   int max_stuck_replans = 3;
+  /// A replan starts where the robot is. Inside the global planner's safety margin (it swerved,
+  /// or rock was sensed beside it) that start is refused; the replan then starts from the nearest
+  /// valid pose up the distance field, at most this far [m], the path beginning with the robot's
+  /// own position. 0: refuse (the run ends no_route).
+  double replan_back_off_m = 1.0;
   /// plan() refines the expected path's break points (refinePlan, plan_refinement.hpp: genetic
   /// trust region, every segment re-validated by the global planner's motion check). It runs
   /// inside plan()'s exclusive lock: readers wait for it (0.1-1.8 s on the district's paths).

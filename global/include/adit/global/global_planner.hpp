@@ -23,6 +23,7 @@
 ///   if (r.solved()) follow(r.path); else std::cerr << r.message;
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,13 @@ class GlobalPlanner {
   /// The robot may stand at `c` (ground mode: c is its centre above the floor); the grid
   /// optimum and the tests ask this.
   bool stateValid(const map::Vec3& c) const;
+
+  /// A robot pressed inside the safety margin (after an evasive manoeuvre, or a fall beside it)
+  /// is not in rock, but plan() refuses it as a start. This is the nearest pose it may stand at,
+  /// reached from `c` by climbing the distance field in half-voxel steps (ground mode: kept on
+  /// the floor), at most `max_move_m` away; nullopt when `c` is in rock or no such pose is that
+  /// close. `c` itself when it is already valid.
+  std::optional<map::Vec3> backOff(const map::Vec3& c, double max_move_m) const;
 
   const RoadwayGraph& graph() const;
   RoadwayGraph& graph();
