@@ -571,14 +571,14 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
           delta = v_ro > kClosingSpeed ? w.approach_factor : v_ro < -kClosingSpeed ? w.recede_factor : 1.0;
         }
         const double f = fuzzyRepulsionGain(o.rho, bearing(heading, o.point - q), w.view_range_m, half_view);
-        return goalAwareRepulsion(prox, q, sub_goal, w.K_2 * delta * f, wang_rho0, w.n);
+        return goalAwareRepulsion(prox, q, sub_goal, w.K_2 * delta * f, wang_rho0, w.n, w.goal_factor_cap_m);
       }
       case Method::kVff:
       case Method::kCvff:
         if (P.vff.compound) *no_potential += cvffVelocityRepulsion(prox, o.v_rel, P.vff.M_v, P.vff.p0_m);
         return vffRepulsion(prox, P.vff.M_p, P.vff.p0_m);
       case Method::kUuv: {
-        const TermValue rep = goalAwareRepulsion(prox, q, sub_goal, P.uuv.k_rep, P.uuv.rho0_m, 2.0);
+        const TermValue rep = goalAwareRepulsion(prox, q, sub_goal, P.uuv.k_rep, P.uuv.rho0_m, 2.0, P.uuv.goal_factor_cap_m);
         const Vec3 b = o.point - q;
         if (rep.dq.norm() > 0.0 && b.dot(heading) > 0.0) {
           // Turn the velocity toward the free side: -d, d = (a x b) x a.

@@ -75,6 +75,7 @@ Status Wang2014Params::validate() const {
             "in (0, 180]")
       .positive("sensing_radius_m", sensing_radius_m)
       .nonNegative("approach_factor", approach_factor).nonNegative("recede_factor", recede_factor)
+      .nonNegative("goal_factor_cap_m", goal_factor_cap_m)
       .status();
 }
 
@@ -89,6 +90,7 @@ Status UuvParams::validate() const {
   return Checker("UuvParams")
       .nonNegative("k_att", k_att).positive("conic_distance_m", conic_distance_m).nonNegative("k_rep", k_rep)
       .positive("rho0_m", rho0_m).nonNegative("rotation_gain", rotation_gain)
+      .nonNegative("goal_factor_cap_m", goal_factor_cap_m)
       .status();
 }
 
@@ -150,6 +152,8 @@ LocalParams LocalParams::paper(Method m) {
   p.terminal.enabled = false;
   p.envelope.enabled = false;
   p.envelope.sight_switch = false;
+  p.wang2014.goal_factor_cap_m = 0.0;
+  p.uuv.goal_factor_cap_m = 0.0;
   return p;
 }
 

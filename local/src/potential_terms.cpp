@@ -126,13 +126,20 @@ bool inFieldOfView(const Vec3& q, const Vec3& heading, const Vec3& point, double
   return c >= std::cos(half_angle_rad) - 1e-12;
 }
 
-TermValue goalAwareRepulsion(const Proximity& p, const Vec3& q, const Vec3& goal, double K, double rho0, double n) {
+TermValue goalAwareRepulsion(const Proximity& p, const Vec3& q, const Vec3& goal, double K, double rho0, double n,
+                             double goal_cap) {
   TermValue t;
   if (p.rho > rho0) return t;
   const double rho = std::max(p.rho, kMinRho);
   const double k = 1.0 / rho - 1.0 / rho0;
   Vec3 g_goal;
-  const double rg = powNorm(q - goal, n, &g_goal);
+  double rg;
+  if (goal_cap > 0.0 && (q - goal).norm() > goal_cap) {
+    rg = std::pow(goal_cap, n);
+    g_goal.setZero();
+  } else {
+    rg = powNorm(q - goal, n, &g_goal);
+  }
   t.u = 0.5 * K * k * k * rg;
   t.dq = -K * k / (rho * rho) * rg * p.grad + 0.5 * K * k * k * g_goal;
   return t;

@@ -38,7 +38,7 @@ if(EXISTS /usr/bin/chromium AND ADIT_BUILD_TOOLS)
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/console/browser_console.sh $<TARGET_FILE:adit>
                    $<TARGET_FILE:adit_console_feed> ${PROJECT_SOURCE_DIR}/maps/district.yaml
                    ${CMAKE_CURRENT_BINARY_DIR}/console_browser $<TARGET_FILE:animation_page_demo>)
-  set_tests_properties(console_browser PROPERTIES LABELS cli TIMEOUT 300
+  set_tests_properties(console_browser PROPERTIES LABELS cli TIMEOUT 600
                        ENVIRONMENT ADIT_TEST_SLOWDOWN=${ADIT_TEST_SLOWDOWN})
 endif()
 # The whole loop with the centre SIGKILLed and restarted mid-run: every message stored once.

@@ -75,6 +75,12 @@ struct Wang2014Params {
   double sensing_radius_m = 2.0;      ///< r: rho_0 while the goal is farther than r
   double approach_factor = 2.0;       ///< delta for an approaching obstacle
   double recede_factor = 0.5;         ///< delta for a receding obstacle
+  /// The Ge-Cui factor rho_g^n stops growing beyond this goal distance [m] (0: unbounded, as
+  /// published). Unbounded, a goal 23 m away multiplies the repulsion by 529: in a roadway whose
+  /// floor, roof and ribs all lie within rho_0 the walls ahead in the field of view then push
+  /// the robot back harder than the goal pulls, and it crawls. Bounded, the factor still
+  /// vanishes at the goal (its purpose) and the gains keep their size in metres near it.
+  double goal_factor_cap_m = 2.0;
   Status validate() const;
   /// One field list for YAML overrides, dumps and docs.
   template <class V>
@@ -82,6 +88,7 @@ struct Wang2014Params {
     v("k_att", k_att); v("K_2", K_2); v("n", n); v("view_range_m", view_range_m);
     v("view_half_angle_deg", view_half_angle_deg); v("sensing_radius_m", sensing_radius_m);
     v("approach_factor", approach_factor); v("recede_factor", recede_factor);
+    v("goal_factor_cap_m", goal_factor_cap_m);
   }
 };
 
@@ -111,12 +118,16 @@ struct UuvParams {
   double k_rep = 1.0;          ///< repulsion gain
   double rho0_m = 2.0;         ///< influence distance
   double rotation_gain = 1.0;  ///< tangential force, as a fraction of the repulsion magnitude
+  /// As Wang2014Params::goal_factor_cap_m: rho_g^2 bounded beyond this goal distance [m] (0: as
+  /// published). Unbounded, the repulsion and the rotation force it scales dwarf the bounded
+  /// attraction far from the goal, and the vehicle is spun round the roadway.
+  double goal_factor_cap_m = 2.0;
   Status validate() const;
   /// One field list for YAML overrides, dumps and docs.
   template <class V>
   void visit(V& v) {
     v("k_att", k_att); v("conic_distance_m", conic_distance_m); v("k_rep", k_rep); v("rho0_m", rho0_m);
-    v("rotation_gain", rotation_gain);
+    v("rotation_gain", rotation_gain); v("goal_factor_cap_m", goal_factor_cap_m);
   }
 };
 
@@ -228,7 +239,8 @@ struct LocalParams {
   /// The paper's values for `m`, with this project's additions on (the terminal phase). The
   /// classic preset turns escapes off: Khatib's APF has none, which is what the baseline shows.
   static LocalParams preset(Method m);
-  /// preset(m) with the additions off (terminal phase, safety envelope, line-of-sight switching):
+  /// preset(m) with the additions off (terminal phase, bounded Ge-Cui factor, safety envelope,
+  /// line-of-sight switching):
   /// the paper's field exactly as published, for the reproduction runs (`preset: paper`).
   static LocalParams paper(Method m);
   Status validate() const;

@@ -85,8 +85,11 @@ TermValue tianRepulsion(const Proximity& p, const Vec3& v_rel, const Vec3& a_rel
 /// (unit or zero; a zero heading sees all around) centred at q. Bounds are inclusive.
 bool inFieldOfView(const Vec3& q, const Vec3& heading, const Vec3& point, double range, double half_angle_rad);
 
-/// Ge-Cui goal-aware repulsion: U = 1/2 K (1/rho - 1/rho0)^2 |q - q_g|^n inside rho0.
-TermValue goalAwareRepulsion(const Proximity& p, const Vec3& q, const Vec3& goal, double K, double rho0, double n);
+/// Ge-Cui goal-aware repulsion: U = 1/2 K (1/rho - 1/rho0)^2 |q - q_g|^n inside rho0. With
+/// `goal_cap` > 0 the goal distance in the factor is min(|q - q_g|, goal_cap) (constant, so no
+/// pull toward the goal, beyond it).
+TermValue goalAwareRepulsion(const Proximity& p, const Vec3& q, const Vec3& goal, double K, double rho0, double n,
+                             double goal_cap = 0.0);
 
 /// Shrinking influence range: r while the goal is farther than r, else the goal distance.
 double shrinkingInfluenceRange(double goal_distance, double sensing_radius);
