@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // A robot's navigation against the installed library: load the mine map, plan the expected path,
-// sense a roof fall across it, and replan around it. Exit 0 when the new path keeps clear of the
-// fall and the robot drives on; 1 otherwise; 2 when the map cannot be read.
+// sense a roof fall across it, and replan around it. Exit 0 when the first path crosses the fall,
+// the new one keeps clear of it and the robot drives on; 1 otherwise; 2 when the map cannot be read.
 //
 //   navigator_consumer MAP.yaml      (the bundled maps/district.yaml, as the district rescue)
 #include <algorithm>
@@ -33,6 +33,23 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "plan: %s\n", s.message().c_str());
     return 1;
   }
+  // How close a path comes to the fall's centre: every vertex and every point between them at 1 %
+  // of the segment.
+  const auto closestToFall = [&fall](const map::Polyline& path) {
+    double closest = 1e9;
+    for (std::size_t i = 0; i + 1 < path.points.size(); ++i)
+      for (double s = 0; s <= 1.0; s += 0.01)
+        closest = std::min(closest, (path.points[i] + s * (path.points[i + 1] - path.points[i]) - fall).norm());
+    return closest;
+  };
+  // The fall must block the first plan, or a replan would prove nothing.
+  const double before = closestToFall(nav->expectedPath());
+  std::printf("planned: %zu break points, passing %.2f m from the fall's centre\n",
+              nav->expectedPath().points.size(), before);
+  if (before >= 3.0) {
+    std::fprintf(stderr, "the planned path does not cross the fall\n");
+    return 1;
+  }
   // The roof fall: rock voxels (0.25 m apart) filling a 3 m ball, as a lidar would return them.
   std::vector<map::Vec3> rock;
   for (double x = -3; x <= 3; x += 0.25)
@@ -46,12 +63,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "no replan around the fall (status %s)\n", fusion::navigatorStatusName(c.status));
     return 1;
   }
-  // Every vertex and every point between them at 0.1 m keeps 3 m + the robot's radius from the fall.
+  // The new path keeps 3 m + the robot's radius from the fall's centre.
   const map::Polyline path = nav->expectedPath();
-  double closest = 1e9;
-  for (std::size_t i = 0; i + 1 < path.points.size(); ++i)
-    for (double s = 0; s <= 1.0; s += 0.01)
-      closest = std::min(closest, (path.points[i] + s * (path.points[i + 1] - path.points[i]) - fall).norm());
+  const double closest = closestToFall(path);
   std::printf("replanned in %.3f s around the fall: %zu break points, closest %.2f m from its centre\n",
               c.replan_time_s, path.points.size(), closest);
   if (closest < 3.0 + 0.4) return 1;

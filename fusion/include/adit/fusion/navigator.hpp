@@ -121,7 +121,7 @@ struct NavigatorCycle {
   bool operator_replanned = false;
 };
 
-/// The robot's status as the operations console names it (console/doc/protocol.md): following,
+/// The robot's status as the operations console names it (its telemetry's `status`): following,
 /// yielding, detouring (the local step while driving), replanning (this cycle, or an operator
 /// command since the last, replanned), stuck, no_route, paused, manual, arrived. `collision` is
 /// the referee's word, not the navigator's. A refused cycle (non-finite input) reads "stuck".

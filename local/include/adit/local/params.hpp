@@ -51,8 +51,9 @@ struct Tian2016Params {
   double K_v = 0.5;       ///< repulsion closing-speed gain
   double K_a = 0.5;       ///< repulsion closing-acceleration gain
   double rho0_m = 2.0;    ///< influence distance rho_0
-  /// Interpretation (spec §1.3): the position term also applies when not closing in, so that a
-  /// robot sliding along a wall still feels it.
+  /// An interpretation: Tian, Gao & Zhang 2016 (eq. 12) give the repulsion only while the robot
+  /// closes in; here the position term also applies when it does not, so that a robot sliding
+  /// along a wall still feels it.
   bool position_term_always = true;
   Status validate() const;
   /// One field list for YAML overrides, dumps and docs.
@@ -139,7 +140,9 @@ struct RobotLimits {
   Status validate() const;
 };
 
-/// Progress monitor and escape (local minima and oscillation), spec "Known traps".
+/// Progress monitor and escape: potential fields are known to trap a robot in local minima (where
+/// attraction and repulsion cancel) and in oscillation between obstacles; the monitor notices that
+/// the distance to the goal stops shrinking and tries escapes before it declares the robot stuck.
 struct MonitorParams {
   double window_s = 4.0;           ///< progress is judged over this much time
   /// Waiting for closing moving obstacles is not held against the robot, up to this much time
@@ -171,7 +174,7 @@ struct MonitorParams {
   }
 };
 
-/// The terminal phase (issue 20), for every model: in a roadway every point lies within some
+/// The terminal phase, for every model: in a roadway every point lies within some
 /// rock's repulsion range, so a goal near the floor or a rib is not the minimum of the field and
 /// the robot would rest, or circle, short of it. Once the goal is within range_m and in line of
 /// sight of the robot's sphere (the segment robot→goal clear of rock and static obstacles by the
@@ -195,7 +198,7 @@ struct TerminalParams {
   }
 };
 
-/// The safety envelope (issue 16), for every model and every mode of step(): after the field's
+/// The safety envelope, for every model and every mode of step(): after the field's
 /// command and the moving-obstacle check, the speed toward rock and toward each moving obstacle
 /// is capped so that the robot can still brake at a_max, a period late, before its clearance
 /// drops below keep_m: the braking-distance barrier of a control-barrier-function safety filter,

@@ -20,7 +20,8 @@
 ///   t_max: 300
 ///   seed: 1
 ///
-/// Issue 8 (run by adit::fusion::simulateNavigated, not by simulate() below):
+/// Navigated runs: a planned expected path, a sensor and roof falls (run by
+/// adit::fusion::simulateNavigated, not by simulate() below):
 ///
 ///   expected_path: plan          # plan it with the global layer on the scenario's map
 ///   robot: {sensor_range: 8}     # rock within this range of the robot is sensed [m]

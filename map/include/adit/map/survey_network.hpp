@@ -3,7 +3,8 @@
 /// @file
 /// The survey roadway network, adit's main input: survey stations (points on the roadway floor),
 /// named cross-sections, and roadways that run a section along a centreline through stations.
-/// loadSurvey() reads the `maps/*.yaml` schema (see maps/README.md) and reports any mistake with
+/// loadSurvey() reads a survey YAML file (`name`, `resolution`, `rock_shell`, then `stations`,
+/// `sections` and `roadways`, the fields of SurveyNetwork below) and reports any mistake with
 /// file, line and field; voxelize() turns the network into an OccupancyMap: free inside every
 /// section swept along its centreline (floor flat across the section, junctions open), a shell
 /// of occupied rock around it, and unknown (= rock by default) beyond.
