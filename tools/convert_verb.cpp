@@ -236,7 +236,11 @@ int runImportConvert(const ConvertArgs& a) {
   p.max_ray_m = a.max_ray;
   p.hull_cell_m = a.hull_cell;
   if (a.thin && (!std::isfinite(*a.thin) || *a.thin < 0))
-    return report(invalidArgument("--thin must be a finite distance >= 0 m (0: off), got " + std::to_string(*a.thin)));
+  {
+    std::ostringstream os;
+    os << *a.thin;
+    return report(invalidArgument("--thin must be a finite distance >= 0 m (0: off), got " + os.str()));
+  }
   p.thin_radius_m = a.thin;
   p.max_memory_bytes = max_memory_bytes;
   p.unknown_policy = *policy;

@@ -37,10 +37,11 @@ Status ImportParams::validate() const {
     os << *thin_radius_m;
     if (!std::isfinite(*thin_radius_m) || *thin_radius_m < 0)
       return invalidArgument("thin radius must be a finite distance >= 0 m (0: off), got " + os.str());
-    // The test per voxel looks at a window of (4 r + 1)^3 voxels: keep it a local test.
-    if (*thin_radius_m / resolution_m > kMaxThinVoxels + 0.5)
-      return invalidArgument("thin radius " + os.str() + " m is more than " + std::to_string(kMaxThinVoxels) +
-                             " voxels at " + std::to_string(resolution_m) + " m resolution");
+    // The test per voxel looks at a window of (2 r + 1)^3 voxels: keep it a local test.
+    if (*thin_radius_m / resolution_m > kMaxThinVoxels + 0.5) {
+      os << " m is more than " << kMaxThinVoxels << " voxels at " << resolution_m << " m resolution";
+      return invalidArgument("thin radius " + os.str());
+    }
   }
   if (max_wall_distance_m / resolution_m > 250)
     return invalidArgument("max wall distance must be at most 250 voxels (" + std::to_string(250 * resolution_m) +
