@@ -321,8 +321,9 @@ bool inThickRock(Grid& grid, const Cell& c, int k, std::vector<int>& sum) {
 
 // Clears scanned rock (surface and plugs) that the opening removes and that borders free space,
 // directly or through other such cells (a speckle blob's inner voxels). Decided on the free space
-// as recovered, then applied, so the order of the visits does not matter. Returns the count.
-std::uint64_t clearThinRock(Grid& grid, int k) {
+// as recovered, then applied, so the order of the visits does not matter. Returns the count;
+// `stack_bytes`: the peak of its work list (at most one entry per cleared cell).
+std::uint64_t clearThinRock(Grid& grid, int k, std::uint64_t* stack_bytes) {
   static constexpr int kFaces[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   std::vector<int> sum;
   std::vector<Cell> stack;
@@ -331,6 +332,7 @@ std::uint64_t clearThinRock(Grid& grid, int k) {
     if (inThickRock(grid, c, k, sum)) return;
     b.flags[i] |= kThin;
     stack.push_back(c);
+    *stack_bytes = std::max<std::uint64_t>(*stack_bytes, stack.capacity() * sizeof(Cell));
   };
   for (std::size_t bi = 0; bi < grid.brickCount(); ++bi) {
     Brick& b = grid.brick(bi);
@@ -579,10 +581,10 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
   }
   if (free_count == 0) return failedPrecondition("no free space was recovered (no ray crossed open space)");
   const int thin_k = int(std::lround(params.thin_radius_m.value_or(res) * inv));
-  std::uint64_t thin = 0;
+  std::uint64_t thin = 0, thin_bytes = 0;
   if (thin_k > 0) {
     report("thin rock", 0.0);
-    thin = clearThinRock(grid, thin_k);
+    thin = clearThinRock(grid, thin_k, &thin_bytes);
     free_count += thin;
     report("thin rock", 1.0);
   }
@@ -605,7 +607,7 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
   tree->updateInnerOccupancy();
   tree->prune();
   report("building octree", 1.0);
-  const std::uint64_t working = grid.bytes() + plane_bytes;
+  const std::uint64_t working = grid.bytes() + plane_bytes + thin_bytes;
   ADIT_ASSIGN_OR_RETURN(OccupancyMap map, OccupancyMap::create(std::move(tree), params.unknown_policy));
   return ImportResult{std::move(map), source, inputs, surface.size(), closed, free_count, thin, working};
 }

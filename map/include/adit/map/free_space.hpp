@@ -66,7 +66,7 @@ struct ImportResult {
   std::uint64_t closed_voxels = 0;    ///< occupied: holes plugged by the closing
   std::uint64_t free_voxels = 0;      ///< including the thin rock cleared
   std::uint64_t thin_cleared = 0;     ///< scanned voxels cleared as thin rock (speckle, cables)
-  std::uint64_t working_bytes = 0;    ///< peak size of the working grid
+  std::uint64_t working_bytes = 0;    ///< peak size of the working grid (and the thin-rock work list)
 };
 
 /// The whole import: surface voxels, free-space recovery, octree. Exactly one of seed/trajectory
