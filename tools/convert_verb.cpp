@@ -167,6 +167,8 @@ void addConvertOptions(CLI::App* cmd, ConvertArgs* a) {
                                        "(default 0: off)");
   cmd->add_option("--hull-cell", a->hull_cell, "Hull test on lines this thick [m] (default: one voxel); "
                                                "raise it for sparse scans");
+  cmd->add_option("--thin", a->thin, "Clear scanned rock no thicker than this where it borders free space "
+                                     "(noise points, cables, speckle) [m] (default: one voxel; 0: off)");
   cmd->add_option("--max-ray", a->max_ray, "With --trajectory: ignore points farther than this from every pose [m]");
   cmd->add_option("--max-memory-mb", a->max_memory_mb, "Deprecated: --max-memory SIZE (kept for old scripts; warns)");
   cmd->add_option("--max-points", a->max_points, "Refuse files announcing more points (default 5e8)");
@@ -233,6 +235,13 @@ int runImportConvert(const ConvertArgs& a) {
   p.closing_radius_m = a.close;
   p.max_ray_m = a.max_ray;
   p.hull_cell_m = a.hull_cell;
+  if (a.thin && (!std::isfinite(*a.thin) || *a.thin < 0))
+  {
+    std::ostringstream os;
+    os << *a.thin;
+    return report(invalidArgument("--thin must be a finite distance >= 0 m (0: off), got " + os.str()));
+  }
+  p.thin_radius_m = a.thin;
   p.max_memory_bytes = max_memory_bytes;
   p.unknown_policy = *policy;
   std::optional<Vec3> seed_in;
@@ -309,7 +318,8 @@ int runImportConvert(const ConvertArgs& a) {
     j["origin_source"] = requested_origin ? "--origin" : automatic ? "automatic" : "none";
     j["up"] = a.up;
     j["free_space"] = freeSpaceSourceName(r->source);
-    j["voxels"] = {{"surface", r->surface_voxels}, {"closed", r->closed_voxels}, {"free", r->free_voxels}};
+    j["voxels"] = {{"surface", r->surface_voxels}, {"closed", r->closed_voxels}, {"free", r->free_voxels},
+                  {"thin_cleared", r->thin_cleared}};
     j["free_volume_m3"] = double(r->free_voxels) * v3;
     j["working_mib"] = double(r->working_bytes) / 1048576.0;
     j["seconds"] = {{"read", read_s}, {"build", build_s}};
@@ -319,12 +329,12 @@ int runImportConvert(const ConvertArgs& a) {
   }
   if (!a.quiet)
     std::fprintf(stderr,
-                 "wrote %s: %llu %s -> %llu surface voxels, %llu plugged, %llu free (%.0f m3) by %s; "
-                 "read %.2f s, build %.2f s\n",
+                 "wrote %s: %llu %s -> %llu surface voxels, %llu plugged, %llu free (%.0f m3) by %s, "
+                 "%llu thin rock voxels cleared; read %.2f s, build %.2f s\n",
                  a.out.c_str(), (unsigned long long)r->inputs, g->isMesh() ? "triangles" : "points",
                  (unsigned long long)r->surface_voxels, (unsigned long long)r->closed_voxels,
                  (unsigned long long)r->free_voxels, double(r->free_voxels) * v3, freeSpaceSourceName(r->source),
-                 read_s, build_s);
+                 (unsigned long long)r->thin_cleared, read_s, build_s);
   return kExitOk;
 }
 

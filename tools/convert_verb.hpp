@@ -21,6 +21,7 @@ struct ConvertArgs {
   std::string sections, section;  // DXF centrelines
   double height = 2.0;
   double max_wall_distance = 5.0, close = 0.0, max_ray = 60.0, hull_cell = 0.0;
+  std::optional<double> thin;  // --thin: unset = one voxel
   /// --max-memory as given (empty: the import's default, 4G); --max-memory-mb is its old spelling.
   std::string max_memory;
   std::optional<double> max_memory_mb;

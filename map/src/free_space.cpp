@@ -17,6 +17,10 @@
 
 namespace adit::map {
 
+namespace {
+constexpr int kMaxThinVoxels = 16;
+}  // namespace
+
 using internal::BitVoxelSet;
 using internal::keyOf;
 
@@ -28,6 +32,17 @@ Status ImportParams::validate() const {
     return invalidArgument("closing radius must be >= 0 and below the max wall distance");
   if (!std::isfinite(hull_cell_m) || hull_cell_m < 0) return invalidArgument("hull cell must be >= 0");
   if (!std::isfinite(max_ray_m) || max_ray_m <= 0) return invalidArgument("max ray length must be > 0");
+  if (thin_radius_m) {
+    std::ostringstream os;
+    os << *thin_radius_m;
+    if (!std::isfinite(*thin_radius_m) || *thin_radius_m < 0)
+      return invalidArgument("thin radius must be a finite distance >= 0 m (0: off), got " + os.str());
+    // The test per voxel looks at a window of (2 r + 1)^3 voxels: keep it a local test.
+    if (*thin_radius_m / resolution_m > kMaxThinVoxels + 0.5) {
+      os << " m is more than " << kMaxThinVoxels << " voxels at " << resolution_m << " m resolution";
+      return invalidArgument("thin radius " + os.str());
+    }
+  }
   if (max_wall_distance_m / resolution_m > 250)
     return invalidArgument("max wall distance must be at most 250 voxels (" + std::to_string(250 * resolution_m) +
                            " m at this resolution)");
@@ -88,7 +103,7 @@ StatusOr<std::vector<VoxelKey>> meshVoxelKeys(const Geometry& mesh, double res, 
 
 namespace {
 
-enum : std::uint8_t { kSurface = 1, kClosed = 2, kFree = 4, kEroded = 8 };
+enum : std::uint8_t { kSurface = 1, kClosed = 2, kFree = 4, kEroded = 8, kThinSeen = 16, kThin = 32 };
 constexpr std::uint8_t kFar = 255;
 constexpr int kB = 8, kBV = kB * kB * kB;
 
@@ -271,6 +286,88 @@ class PoseIndex {
   double cell_;
   std::unordered_map<std::uint64_t, std::vector<std::size_t>> buckets_;
 };
+
+bool isFreeCell(Grid& grid, int x, int y, int z) {
+  if (!grid.inside(x, y, z)) return false;
+  const Brick* b = grid.find(x, y, z);
+  return b && (b->flags[Grid::cell(x, y, z)] & kFree);
+}
+
+// True when `c` lies in some cube of (k + 1)^3 cells holding no free cell: the opening of the
+// rock (everything not free, the unknown beyond the walls included) by that cube keeps it.
+// Free cells of the window [c - k, c + k]^3 are summed into a 3-D prefix table `sum`, so each of
+// the (k + 1)^3 cubes through `c` is tested in constant time.
+bool inThickRock(Grid& grid, const Cell& c, int k, std::vector<int>& sum) {
+  const int w = 2 * k + 1, s = w + 1;
+  sum.assign(std::size_t(s) * s * s, 0);
+  auto at = [&](int x, int y, int z) -> int& { return sum[(std::size_t(z) * s + y) * s + x]; };
+  for (int z = 1; z <= w; ++z)
+    for (int y = 1; y <= w; ++y)
+      for (int x = 1; x <= w; ++x)
+        at(x, y, z) = int(isFreeCell(grid, c[0] + x - 1 - k, c[1] + y - 1 - k, c[2] + z - 1 - k)) + at(x - 1, y, z) +
+                      at(x, y - 1, z) + at(x, y, z - 1) - at(x - 1, y - 1, z) - at(x - 1, y, z - 1) -
+                      at(x, y - 1, z - 1) + at(x - 1, y - 1, z - 1);
+  // Cube [a, a + k]^3 in window cells, a in [0, k]^3: its free count from eight corners.
+  for (int az = 0; az <= k; ++az)
+    for (int ay = 0; ay <= k; ++ay)
+      for (int ax = 0; ax <= k; ++ax) {
+        const int bx = ax + k + 1, by = ay + k + 1, bz = az + k + 1;
+        const int n = at(bx, by, bz) - at(ax, by, bz) - at(bx, ay, bz) - at(bx, by, az) + at(ax, ay, bz) +
+                      at(ax, by, az) + at(bx, ay, az) - at(ax, ay, az);
+        if (n == 0) return true;
+      }
+  return false;
+}
+
+// Clears scanned rock (surface and plugs) that the opening removes and that borders free space,
+// directly or through other such cells (a speckle blob's inner voxels). Decided on the free space
+// as recovered, then applied, so the order of the visits does not matter. Returns the count;
+// `stack_bytes`: the peak of its work list (at most one entry per cleared cell).
+std::uint64_t clearThinRock(Grid& grid, int k, std::uint64_t* stack_bytes) {
+  static constexpr int kFaces[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  std::vector<int> sum;
+  std::vector<Cell> stack;
+  auto visit = [&](Brick& b, int i, const Cell& c) {
+    b.flags[i] |= kThinSeen;
+    if (inThickRock(grid, c, k, sum)) return;
+    b.flags[i] |= kThin;
+    stack.push_back(c);
+    *stack_bytes = std::max<std::uint64_t>(*stack_bytes, stack.capacity() * sizeof(Cell));
+  };
+  for (std::size_t bi = 0; bi < grid.brickCount(); ++bi) {
+    Brick& b = grid.brick(bi);
+    const auto& bc = grid.brickCoord(bi);
+    for (int i = 0; i < kBV; ++i) {
+      if (!(b.flags[i] & (kSurface | kClosed)) || (b.flags[i] & kThinSeen)) continue;
+      const Cell c{bc[0] * kB + (i % kB), bc[1] * kB + (i / kB) % kB, bc[2] * kB + i / (kB * kB)};
+      bool borders = false;
+      for (const auto& f : kFaces) borders = borders || isFreeCell(grid, c[0] + f[0], c[1] + f[1], c[2] + f[2]);
+      if (borders) visit(b, i, c);
+    }
+  }
+  while (!stack.empty()) {
+    const Cell c = stack.back();
+    stack.pop_back();
+    for (const auto& f : kFaces) {
+      const Cell m{c[0] + f[0], c[1] + f[1], c[2] + f[2]};
+      Brick* mb = grid.inside(m[0], m[1], m[2]) ? grid.find(m[0], m[1], m[2]) : nullptr;
+      const int mi = Grid::cell(m[0], m[1], m[2]);
+      if (mb && (mb->flags[mi] & (kSurface | kClosed)) && !(mb->flags[mi] & kThinSeen)) visit(*mb, mi, m);
+    }
+  }
+  std::uint64_t cleared = 0;
+  for (std::size_t bi = 0; bi < grid.brickCount(); ++bi) {
+    Brick& b = grid.brick(bi);
+    for (int i = 0; i < kBV; ++i) {
+      if (b.flags[i] & kThin) {
+        b.flags[i] = kFree;
+        ++cleared;
+      }
+      b.flags[i] &= std::uint8_t(~kThinSeen);
+    }
+  }
+  return cleared;
+}
 
 std::string fmtPoint(const Vec3& p) {
   std::ostringstream os;
@@ -483,6 +580,14 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
     report("flood fill", 1.0);
   }
   if (free_count == 0) return failedPrecondition("no free space was recovered (no ray crossed open space)");
+  const int thin_k = int(std::lround(params.thin_radius_m.value_or(res) * inv));
+  std::uint64_t thin = 0, thin_bytes = 0;
+  if (thin_k > 0) {
+    report("thin rock", 0.0);
+    thin = clearThinRock(grid, thin_k, &thin_bytes);
+    free_count += thin;
+    report("thin rock", 1.0);
+  }
 
   auto tree = std::make_shared<octomap::OcTree>(res);
   const float free_value = tree->getClampingThresMinLog(), rock_value = tree->getClampingThresMaxLog();
@@ -502,9 +607,9 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
   tree->updateInnerOccupancy();
   tree->prune();
   report("building octree", 1.0);
-  const std::uint64_t working = grid.bytes() + plane_bytes;
+  const std::uint64_t working = grid.bytes() + plane_bytes + thin_bytes;
   ADIT_ASSIGN_OR_RETURN(OccupancyMap map, OccupancyMap::create(std::move(tree), params.unknown_policy));
-  return ImportResult{std::move(map), source, inputs, surface.size(), closed, free_count, working};
+  return ImportResult{std::move(map), source, inputs, surface.size(), closed, free_count, thin, working};
 }
 
 }  // namespace adit::map

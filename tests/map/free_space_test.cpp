@@ -157,6 +157,83 @@ TEST(FreeSpace, MemoryBudgetIsEstimatedAndRefused) {
   EXPECT_NE(r.status().message().find("voxels"), std::string::npos) << r.status().message();
 }
 
+// Speckle, a cable and a bump on the wall (one voxel thick) inside the generated tube, beside a
+// pillar two voxels thick: noise points a merged scan leaves in an open roadway.
+std::vector<Vec3> noise() {
+  std::vector<Vec3> pts = {{3.1, 0.1, 1.5}, {5.1, -0.9, 2.1}, {9.3, 0.5, 0.7}, {6.1, 1.9, 1.5}};
+  for (double x = 2.05; x < 10; x += 0.1) pts.emplace_back(x, 1.1, 2.5);  // a cable below the roof
+  for (double z = 0.9; z < 1.3; z += 0.1) pts.emplace_back(4.1, -1.1, z);  // a short vertical stick
+  return pts;
+}
+
+std::vector<Vec3> pillar() {  // 0.4 m x 0.4 m (2 x 2 voxels) from floor to roof at x = 8, y = -0.8
+  std::vector<Vec3> pts;
+  for (double x : {8.1, 8.3})
+    for (double y : {-0.9, -0.7})
+      for (double z = 0.05; z < 3.0; z += 0.1) pts.emplace_back(x, y, z);
+  return pts;
+}
+
+std::uint64_t occupiedLeaves(const OccupancyMap& m) {
+  std::uint64_t n = 0;
+  m.forEachLeaf([&](const Vec3&, double size, VoxelState s) {
+    if (s == VoxelState::kOccupied) n += std::uint64_t(std::llround(std::pow(size / m.resolution(), 3)));
+  });
+  return n;
+}
+
+TEST(FreeSpace, ThinRockIsClearedAndThickRockStays) {
+  std::vector<Vec3> clean = TubeScan{}.points(), noisy;
+  const std::vector<Vec3> p2 = pillar();
+  clean.insert(clean.end(), p2.begin(), p2.end());
+  noisy = clean;
+  const std::vector<Vec3> n = noise();
+  noisy.insert(noisy.end(), n.begin(), n.end());
+
+  ImportParams off = seeded({6, 0, 1.5});
+  off.thin_radius_m = 0.0;
+  const ImportResult kept = importOrFail(cloud(noisy), off);
+  EXPECT_EQ(kept.thin_cleared, 0u);
+  EXPECT_EQ(kept.map.state({3.1, 0.1, 1.5}), VoxelState::kOccupied);
+  EXPECT_EQ(kept.map.state({6.1, 1.1, 2.5}), VoxelState::kOccupied);
+
+  // The default: one voxel. Every noise voxel goes, nothing else does: the cleaned map holds
+  // exactly the rock of the scan without the noise (walls, floor, roof and the pillar).
+  const ImportResult cleaned = importOrFail(cloud(noisy), seeded({6, 0, 1.5}));
+  const ImportResult reference = importOrFail(cloud(clean), seeded({6, 0, 1.5}));
+  EXPECT_EQ(reference.thin_cleared, 0u);
+  EXPECT_EQ(cleaned.thin_cleared, cleaned.surface_voxels - reference.surface_voxels);
+  EXPECT_GE(cleaned.thin_cleared, 40u + 4u + 2u);
+  EXPECT_EQ(cleaned.free_voxels, reference.free_voxels);
+  EXPECT_EQ(occupiedLeaves(cleaned.map), occupiedLeaves(reference.map));
+  for (const Vec3& q : n) EXPECT_TRUE(cleaned.map.isFree(q)) << q.transpose();
+  for (const Vec3& q : p2) EXPECT_EQ(cleaned.map.state(q), VoxelState::kOccupied) << q.transpose();
+  const std::vector<Vec3> walls = TubeScan{}.points();
+  std::size_t eroded = 0;
+  for (const Vec3& q : walls) eroded += cleaned.map.state(q) != VoxelState::kOccupied;
+  EXPECT_EQ(eroded, 0u);
+
+  // A radius of two voxels also takes the two-voxel pillar (no thicker than 0.4 m), not the walls.
+  ImportParams wide = seeded({6, 0, 1.5});
+  wide.thin_radius_m = 0.4;
+  const ImportResult wider = importOrFail(cloud(noisy), wide);
+  EXPECT_GE(wider.thin_cleared, cleaned.thin_cleared + 4 * 12);
+  EXPECT_TRUE(wider.map.isFree({8.1, -0.9, 1.5}));
+  eroded = 0;
+  for (const Vec3& q : walls) eroded += wider.map.state(q) != VoxelState::kOccupied;
+  EXPECT_EQ(eroded, 0u);
+}
+
+TEST(FreeSpace, BadThinRadiusIsNamed) {
+  for (double bad : {-0.1, std::nan(""), HUGE_VAL, 10.0}) {
+    ImportParams p = seeded({6, 0, 1.5});
+    p.thin_radius_m = bad;
+    const Status s = p.validate();
+    ASSERT_FALSE(s.ok()) << bad;
+    EXPECT_NE(s.message().find("thin radius"), std::string::npos) << s.message();
+  }
+}
+
 TEST(FreeSpace, VoxelKeysAreDeduplicated) {
   const std::vector<Vec3> pts = {{0.01, 0.01, 0.01}, {0.02, 0.03, 0.04}, {0.5, 0, 0}};
   EXPECT_EQ(occupiedVoxelKeys(pts, 0.2).size(), 2u);

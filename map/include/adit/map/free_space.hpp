@@ -13,6 +13,12 @@
 ///    holed floor or over a holed roof that test fails, so free space cannot run round the outside.
 /// Everything not recovered stays unknown, i.e. rock under adit's default policy. The input's
 /// bounding box is the grid: nothing is ever filled outside it.
+/// Last, thin rock is cleared: a sparse or merged scan leaves single occupied voxels in the open
+/// roadway and on its walls (noise points, cables, scanner artefacts) that cut the robot's free
+/// space into pieces although the roadway is open. A scanned voxel that lies in no all-rock cube
+/// of edge `thin_radius_m` + one voxel (a morphological opening of the rock, which counts the
+/// unknown beyond the walls) and that borders free space, directly or through other such voxels,
+/// becomes free. Walls backed by rock, and pillars thicker than the radius, are never touched.
 ///
 ///   ImportParams p;
 ///   p.resolution_m = 0.2;
@@ -41,6 +47,9 @@ struct ImportParams {
   /// wall gap; coarser is more forgiving of sparse scans, finer is tighter.
   double hull_cell_m = 0.0;
   double max_ray_m = 60.0;           ///< rays longer than this (point to nearest pose) are skipped
+  /// Clear scanned rock no thicker than this [m] where it borders free space (unset: one voxel,
+  /// i.e. single-voxel speckle, lines and sheets; 0: off). At most 16 voxels.
+  std::optional<double> thin_radius_m;
   std::uint64_t max_memory_bytes = std::uint64_t{4} << 30;  ///< working grid budget
   UnknownPolicy unknown_policy = UnknownPolicy::kRock;
   Status validate() const;
@@ -55,8 +64,9 @@ struct ImportResult {
   std::uint64_t inputs = 0;           ///< points, or triangles for a mesh
   std::uint64_t surface_voxels = 0;   ///< occupied: the scanned surface
   std::uint64_t closed_voxels = 0;    ///< occupied: holes plugged by the closing
-  std::uint64_t free_voxels = 0;
-  std::uint64_t working_bytes = 0;    ///< peak size of the working grid
+  std::uint64_t free_voxels = 0;      ///< including the thin rock cleared
+  std::uint64_t thin_cleared = 0;     ///< scanned voxels cleared as thin rock (speckle, cables)
+  std::uint64_t working_bytes = 0;    ///< peak size of the working grid (and the thin-rock work list)
 };
 
 /// The whole import: surface voxels, free-space recovery, octree. Exactly one of seed/trajectory
