@@ -21,6 +21,7 @@
 #include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
+#include "common/json_output.hpp"
 #include "common/points_csv.hpp"
 #include "common/progress.hpp"
 
@@ -43,7 +44,8 @@ Status writeOriginSidecar(const std::string& out, const Vec3& origin, bool autom
   j["origin"] = {origin.x(), origin.y(), origin.z()};
   j["origin_source"] = automatic ? "automatic" : "--origin";
   j["meaning"] = "map coordinates = input coordinates - origin";
-  return writeFileAtomically(out + ".origin.json", [&](std::ostream& f) { return bool(f << j.dump(2) << "\n"); });
+  return writeFileAtomically(out + ".origin.json",
+                             [&](std::ostream& f) { return bool(f << stamped("adit.map.origin", j).dump(2) << "\n"); });
 }
 
 std::string lowerExtension(const std::string& path) {
@@ -138,7 +140,7 @@ int convertRosMap(const ConvertArgs& a, const Vec3& origin, UnknownPolicy policy
     j["resolution_m"] = map->resolution();
     j["height_m"] = a.height;
     j["voxels"] = {{"free", map->stats().free_voxels}, {"occupied", map->stats().occupied_voxels}};
-    std::cout << j.dump(2) << "\n";
+    std::cout << stamped("adit.map.convert", j).dump(2) << "\n";
     std::cout.flush();
     if (!std::cout) return report(internalError("cannot write the summary to stdout"));
   }
@@ -310,10 +312,10 @@ int runImportConvert(const ConvertArgs& a) {
     j["up"] = a.up;
     j["free_space"] = freeSpaceSourceName(r->source);
     j["voxels"] = {{"surface", r->surface_voxels}, {"closed", r->closed_voxels}, {"free", r->free_voxels}};
-    j["free_volume_m3"] = double(r->free_voxels) * v3;
-    j["working_mib"] = double(r->working_bytes) / 1048576.0;
-    j["seconds"] = {{"read", read_s}, {"build", build_s}};
-    std::cout << j.dump(2) << "\n";
+    j["free_volume_m3"] = roundTo(double(r->free_voxels) * v3, 6);
+    j["working_mib"] = roundTo(double(r->working_bytes) / 1048576.0, 3);
+    j["seconds"] = {{"read", us(read_s)}, {"build", us(build_s)}};
+    std::cout << stamped("adit.map.convert", j).dump(2) << "\n";
     std::cout.flush();
     if (!std::cout) return report(internalError("cannot write the summary to stdout"));
   }
