@@ -28,6 +28,7 @@
 #include "adit/local/simulator.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/content_hash.hpp"
+#include "adit/map/readers/import.hpp"
 #include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
 #include "adit/map/size_estimate.hpp"
@@ -588,6 +589,18 @@ Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& 
 
 int runBatch(const SimulateArgs& a);
 
+// An OctoMap, a scan or a mesh handed over as the SCENARIO would fail in the YAML parser on its
+// bytes ("unknown escape character"); say what it is and what to run instead. (A survey YAML is
+// recognised by the scenario parser itself.)
+Status refuseMapAsScenario(const std::string& path) {
+  if (path.empty()) return Status();
+  const StatusOr<map::MapFormat> format = map::formatFromPath(path);
+  const bool octomap = format.ok() && *format != map::MapFormat::kSurveyYaml;
+  if (!octomap && !map::isImportFormat(path)) return Status();
+  return invalidArgument(path + ": this is a map, not a scenario: name it as `map:` in a scenario, run a batch on it with "
+                         "`adit simulate --batch N --map " + path + "`, or plan on it with `adit plan --map " + path + "`");
+}
+
 // The JSON to `out` (atomically), or to stdout when `out` is empty.
 Status writeJson(const nlohmann::ordered_json& j, const std::string& out) {
   const std::string json = j.dump(2) + "\n";
@@ -627,6 +640,7 @@ int run(const SimulateArgs& a) {
   if (!a.live_token_file.empty() && a.live.empty()) return report(invalidArgument("--live-token-file needs --live URL"));
   if ((a.live_hold || a.live_lockstep) && a.live.empty())
     return report(invalidArgument(std::string(a.live_hold ? "--live-hold" : "--live-lockstep") + " needs --live URL"));
+  if (Status s = refuseMapAsScenario(a.scenario); !s.ok()) return report(s);
   StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
   if (!sc.ok()) return report(sc.status());
   // The run keeps a record of every period (trajectory, then its JSON): refused up front when
