@@ -150,7 +150,7 @@ int runShard(const CampaignArgs& a) {
   j["failures"] = failures;
   j["jobs"] = std::min<int>(a.jobs, int(indices.size()));
   j["wall_time"] = us(std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count());
-  j = stamped("adit.campaign.shard", j);
+  j = stamped("adit.campaign.shard", std::move(j));
   if (Status s = writeText(base + ".json", j.dump(2) + "\n"); !s.ok()) return report(s);
   if (!a.quiet)
     std::fprintf(stderr, "adit: shard %d of %d: %lld arrived of %lld, %lld errors, %lld collisions among arrivals, %.1f s -> %s.json\n",
@@ -407,7 +407,7 @@ int merge(const CampaignArgs& a) {
     for (const auto& r : rows) csv += r.second + "\n";
     if (Status s = writeText(a.csv, csv); !s.ok()) return report(s);
   }
-  j = stamped("adit.campaign.report", j);
+  j = stamped("adit.campaign.report", std::move(j));
   if (!a.html.empty())
     if (Status s = writeText(a.html, reportPage(j)); !s.ok()) return report(s);
   const std::string text = j.dump(2) + "\n";

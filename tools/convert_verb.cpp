@@ -147,7 +147,7 @@ int convertRosMap(const ConvertArgs& a, const Vec3& origin, UnknownPolicy policy
     j["resolution_m"] = map->resolution();
     j["height_m"] = a.height;
     j["voxels"] = {{"free", map->stats().free_voxels}, {"occupied", map->stats().occupied_voxels}};
-    std::cout << stamped("adit.map.convert", j).dump(2) << "\n";
+    std::cout << stamped("adit.map.convert", std::move(j)).dump(2) << "\n";
     std::cout.flush();
     if (!std::cout) return report(internalError("cannot write the summary to stdout"));
   }
@@ -336,7 +336,7 @@ int runImportConvert(const ConvertArgs& a) {
     j["free_volume_m3"] = roundTo(double(r->free_voxels) * v3, 6);
     j["working_mib"] = roundTo(double(r->working_bytes) / 1048576.0, 3);
     j["seconds"] = {{"read", us(read_s)}, {"build", us(build_s)}};
-    std::cout << stamped("adit.map.convert", j).dump(2) << "\n";
+    std::cout << stamped("adit.map.convert", std::move(j)).dump(2) << "\n";
     std::cout.flush();
     if (!std::cout) return report(internalError("cannot write the summary to stdout"));
   }

@@ -144,7 +144,7 @@ int runGeometryInfo(const MapArgs& a, bool json) {
     else j["bounds"] = {{"min", mmPoint(box.min)}, {"max", mmPoint(box.max)}};
     j["viewpoint"] = g->viewpoint ? mmPoint(*g->viewpoint) : nlohmann::ordered_json();
     j["to_voxel_map"] = next;
-    std::cout << stamped("adit.map.geometry_info", j).dump(2) << "\n";
+    std::cout << stamped("adit.map.geometry_info", std::move(j)).dump(2) << "\n";
     return kExitOk;
   }
   std::printf("file         %s\n", a.path.c_str());
@@ -206,7 +206,7 @@ int runInfo(const MapArgs& a, bool json) {
       j["survey"] = {{"name", n.name}, {"stations", n.stations.size()}, {"sections", n.sections.size()},
                      {"roadways", n.roadways.size()}, {"rock_shell_m", mm(n.rock_shell_m)}};
     }
-    std::cout << stamped("adit.map.info", j).dump(2) << "\n";
+    std::cout << stamped("adit.map.info", std::move(j)).dump(2) << "\n";
     return kExitOk;
   }
   const Vec3 size = s.bounds.size();

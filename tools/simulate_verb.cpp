@@ -735,7 +735,7 @@ int run(const SimulateArgs& a) {
 
   nlohmann::ordered_json j = toJson(*sc, *r);
   if (nav) addNavigatorJson(j, *sc, *nav);
-  if (Status s = writeJson(stamped("adit.simulate", j), a.out); !s.ok()) return report(s);
+  if (Status s = writeJson(stamped("adit.simulate", std::move(j)), a.out); !s.ok()) return report(s);
   if (!a.picture.empty())
     if (Status s = runFigure(*sc, *env, *r, true, replanned).render(a.picture); !s.ok()) return report(s);
   if (!a.html.empty())
@@ -810,7 +810,7 @@ nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base,
   j["step_time_us"] = {{"p50", p50.empty() ? 0.0 : tenthUs(stepTimePercentile(p50, 0.5))},
                        {"p99", p99.empty() ? 0.0 : tenthUs(stepTimePercentile(p99, 0.99))}};
   j["wall_time"] = us(wall_s);
-  return stamped("adit.simulate.batch", j);
+  return stamped("adit.simulate.batch", std::move(j));
 }
 
 int runBatch(const SimulateArgs& a) {

@@ -148,7 +148,7 @@ nlohmann::ordered_json graphJson(const RoadwayGraph& g, const map::DistanceField
   }
   j["nodes"] = nodes;
   j["edges"] = edges;
-  return stamped("adit.roadway_graph", j);
+  return stamped("adit.roadway_graph", std::move(j));
 }
 
 nlohmann::ordered_json graphGeoJson(const RoadwayGraph& g, const map::DistanceField& field, const GraphContext& c) {

@@ -24,13 +24,14 @@ namespace adit::tools {
 inline constexpr int kSchemaVersion = 1;
 
 /// `j` with "schema": `schema` and "schema_version" as its first keys, its own keys after them in
-/// their order (a document that already has them keeps its values, in the front).
-inline nlohmann::ordered_json stamped(const std::string& schema, const nlohmann::ordered_json& j) {
+/// their order (any "schema" or "schema_version" of its own is replaced). Taken by value and its
+/// members moved: a simulation's trajectory is not copied.
+inline nlohmann::ordered_json stamped(const std::string& schema, nlohmann::ordered_json j) {
   nlohmann::ordered_json out;
   out["schema"] = schema;
   out["schema_version"] = kSchemaVersion;
   for (auto it = j.begin(); it != j.end(); ++it)
-    if (it.key() != "schema" && it.key() != "schema_version") out[it.key()] = it.value();
+    if (it.key() != "schema" && it.key() != "schema_version") out[it.key()] = std::move(it.value());
   return out;
 }
 

@@ -140,7 +140,7 @@ nlohmann::ordered_json planJson(const global::GlobalPlanResult& r, const PlanRef
                    {"time", us(refinement->time_s)},
                    {"iterations", refinement->iterations}};
   }
-  return stamped("adit.plan", j);
+  return stamped("adit.plan", std::move(j));
 }
 
 Status writePlan(const global::GlobalPlanResult& r, const std::string& path, const PlanRefinementInfo* refinement) {
