@@ -31,6 +31,7 @@
 #include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
 #include "common/cli.hpp"
+#include "common/json_output.hpp"
 #include "common/progress.hpp"
 #include "verbs.hpp"
 
@@ -148,7 +149,8 @@ int runShard(const CampaignArgs& a) {
   j["stats"] = stats.toJson();
   j["failures"] = failures;
   j["jobs"] = std::min<int>(a.jobs, int(indices.size()));
-  j["wall_time"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  j["wall_time"] = us(std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count());
+  j = stamped("adit.campaign.shard", std::move(j));
   if (Status s = writeText(base + ".json", j.dump(2) + "\n"); !s.ok()) return report(s);
   if (!a.quiet)
     std::fprintf(stderr, "adit: shard %d of %d: %lld arrived of %lld, %lld errors, %lld collisions among arrivals, %.1f s -> %s.json\n",
@@ -385,8 +387,8 @@ int merge(const CampaignArgs& a) {
   j["stats"] = total.toJson();
   const double n = double(total.scenarios);
   const long long arrived = total.outcomes["arrived"];
-  j["success_rate"] = arrived / n;
-  j["mean_arrival_time"] = arrived > 0 ? Json(total.arrival_time_ms / 1000.0 / double(arrived)) : Json(nullptr);
+  j["success_rate"] = ratio(arrived / n);
+  j["mean_arrival_time"] = arrived > 0 ? Json(us(total.arrival_time_ms / 1000.0 / double(arrived))) : Json(nullptr);
   // The rates behind the plots of outcome against scenario features (the plots: not done).
   Json by_feature;
   for (const auto& [feature, buckets] : total.by_feature)
@@ -395,7 +397,7 @@ int merge(const CampaignArgs& a) {
       for (const auto& c : counts) runs += c.second;
       const auto it = counts.find("arrived");
       const long long ok = it == counts.end() ? 0 : it->second;
-      by_feature[feature][label] = {{"scenarios", runs}, {"success_rate", double(ok) / double(runs)}};
+      by_feature[feature][label] = {{"scenarios", runs}, {"success_rate", ratio(double(ok) / double(runs))}};
     }
   j["success_rate_by_feature"] = by_feature;
   j["failures"] = failure_list;
@@ -405,6 +407,7 @@ int merge(const CampaignArgs& a) {
     for (const auto& r : rows) csv += r.second + "\n";
     if (Status s = writeText(a.csv, csv); !s.ok()) return report(s);
   }
+  j = stamped("adit.campaign.report", std::move(j));
   if (!a.html.empty())
     if (Status s = writeText(a.html, reportPage(j)); !s.ok()) return report(s);
   const std::string text = j.dump(2) + "\n";

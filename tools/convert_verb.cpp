@@ -21,6 +21,7 @@
 #include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
+#include "common/json_output.hpp"
 #include "common/points_csv.hpp"
 #include "common/progress.hpp"
 
@@ -36,6 +37,13 @@ std::string xyz(const Vec3& v) {
   return b;
 }
 
+// As --seed takes it, to the millimetre.
+std::string seedText(const Vec3& v) {
+  char b[128];
+  std::snprintf(b, sizeof b, "%.3f,%.3f,%.3f", v.x(), v.y(), v.z());
+  return b;
+}
+
 // The .bt format has no room for metadata, so a shifted map gets a sidecar beside it.
 Status writeOriginSidecar(const std::string& out, const Vec3& origin, bool automatic) {
   nlohmann::ordered_json j;
@@ -43,7 +51,8 @@ Status writeOriginSidecar(const std::string& out, const Vec3& origin, bool autom
   j["origin"] = {origin.x(), origin.y(), origin.z()};
   j["origin_source"] = automatic ? "automatic" : "--origin";
   j["meaning"] = "map coordinates = input coordinates - origin";
-  return writeFileAtomically(out + ".origin.json", [&](std::ostream& f) { return bool(f << j.dump(2) << "\n"); });
+  return writeFileAtomically(out + ".origin.json",
+                             [&](std::ostream& f) { return bool(f << stamped("adit.map.origin", j).dump(2) << "\n"); });
 }
 
 std::string lowerExtension(const std::string& path) {
@@ -138,7 +147,7 @@ int convertRosMap(const ConvertArgs& a, const Vec3& origin, UnknownPolicy policy
     j["resolution_m"] = map->resolution();
     j["height_m"] = a.height;
     j["voxels"] = {{"free", map->stats().free_voxels}, {"occupied", map->stats().occupied_voxels}};
-    std::cout << j.dump(2) << "\n";
+    std::cout << stamped("adit.map.convert", std::move(j)).dump(2) << "\n";
     std::cout.flush();
     if (!std::cout) return report(internalError("cannot write the summary to stdout"));
   }
@@ -153,7 +162,9 @@ int convertRosMap(const ConvertArgs& a, const Vec3& origin, UnknownPolicy policy
 
 void addConvertOptions(CLI::App* cmd, ConvertArgs* a) {
   cmd->add_option("--resolution", a->resolution, "Voxel edge [m] for imported data (default 0.2; overrides a survey's)");
-  cmd->add_option("--seed", a->seed, "Flood fill the free space from this point x,y,z inside a roadway (input frame)");
+  cmd->add_option("--seed", a->seed, "Flood fill the free space from this point x,y,z inside a roadway (input frame), "
+                                     "or 'auto': the interior point farthest from the walls with scanned surface "
+                                     "above and below (reported)");
   cmd->add_option("--trajectory", a->trajectory,
                   "Scanner poses CSV (x,y,z / x y z qx qy qz qw / t x y z qx qy qz qw / header row): free space "
                   "from rays pose -> point");
@@ -245,7 +256,8 @@ int runImportConvert(const ConvertArgs& a) {
   p.max_memory_bytes = max_memory_bytes;
   p.unknown_policy = *policy;
   std::optional<Vec3> seed_in;
-  if (!a.seed.empty()) {
+  p.auto_seed = a.seed == "auto";
+  if (!a.seed.empty() && !p.auto_seed) {
     StatusOr<Vec3> s = parsePoint(a.seed, "--seed");
     if (!s.ok()) return report(s.status());
     seed_in = *s;
@@ -258,7 +270,7 @@ int runImportConvert(const ConvertArgs& a) {
   }
   // Only a PCD can bring its own viewpoint (and DXF centrelines need none); for the rest say what
   // is missing before reading.
-  if (!seed_in && poses.empty() && ext != ".pcd" && !is_dxf) {
+  if (!seed_in && poses.empty() && !p.auto_seed && ext != ".pcd" && !is_dxf) {
     p.seed.reset();
     Status v = p.validate();
     if (!v.ok()) return report(v);
@@ -283,9 +295,10 @@ int runImportConvert(const ConvertArgs& a) {
   const Vec3 origin = chooseOrigin(box, p.resolution_m, requested_origin, &automatic);
   toMapFrame(&*g, y_up, origin);
   if (seed_in) p.seed = toMapFrame(*seed_in, y_up, origin);
+  p.seed_name = a.seed;  // errors quote the seed as typed, in the input's frame
   for (Vec3& q : poses) q = toMapFrame(q, y_up, origin);
   p.trajectory = poses;
-  if (p.trajectory.empty() && !p.seed && g->viewpoint) p.trajectory.push_back(*g->viewpoint);
+  if (p.trajectory.empty() && !p.seed && !p.auto_seed && g->viewpoint) p.trajectory.push_back(*g->viewpoint);
   if (automatic && !a.quiet)
     std::fprintf(stderr, "coordinates lie far from 0: shifting by origin %s (recorded in %s.origin.json)\n",
                  xyz(origin).c_str(), a.out.c_str());
@@ -297,6 +310,14 @@ int runImportConvert(const ConvertArgs& a) {
     return report(Status(s.code(), a.in + ": " + s.message()));
   }
   const auto t_build = Clock::now();
+  // The seed in the input's frame (what --seed takes): map frame + origin, Y-up turned back.
+  std::optional<Vec3> seed_used;
+  if (r->seed) {
+    const Vec3 q = *r->seed + origin;
+    seed_used = y_up ? Vec3(q.x(), q.z(), -q.y()) : q;
+  }
+  if (p.auto_seed && seed_used)
+    std::fprintf(stderr, "seed auto: chose %s (input frame)\n", seedText(*seed_used).c_str());
   if (!a.quiet) std::fprintf(stderr, "writing %s ...\n", a.out.c_str());
   Status w = writeOctomap(r->map, a.out);
   if (!w.ok()) return report(w);
@@ -318,12 +339,14 @@ int runImportConvert(const ConvertArgs& a) {
     j["origin_source"] = requested_origin ? "--origin" : automatic ? "automatic" : "none";
     j["up"] = a.up;
     j["free_space"] = freeSpaceSourceName(r->source);
+    j["seed"] = seed_used ? mmPoint(*seed_used) : nlohmann::ordered_json();
+    j["seed_source"] = !seed_used ? "none" : p.auto_seed ? "auto" : "--seed";
     j["voxels"] = {{"surface", r->surface_voxels}, {"closed", r->closed_voxels}, {"free", r->free_voxels},
                   {"thin_cleared", r->thin_cleared}};
-    j["free_volume_m3"] = double(r->free_voxels) * v3;
-    j["working_mib"] = double(r->working_bytes) / 1048576.0;
-    j["seconds"] = {{"read", read_s}, {"build", build_s}};
-    std::cout << j.dump(2) << "\n";
+    j["free_volume_m3"] = roundTo(double(r->free_voxels) * v3, 6);
+    j["working_mib"] = roundTo(double(r->working_bytes) / 1048576.0, 3);
+    j["seconds"] = {{"read", us(read_s)}, {"build", us(build_s)}};
+    std::cout << stamped("adit.map.convert", std::move(j)).dump(2) << "\n";
     std::cout.flush();
     if (!std::cout) return report(internalError("cannot write the summary to stdout"));
   }

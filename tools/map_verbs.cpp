@@ -20,6 +20,7 @@
 #include "adit/map/size_estimate.hpp"
 #include "adit/map/survey_network.hpp"
 #include "common/cli.hpp"
+#include "common/json_output.hpp"
 #include "common/graph_output.hpp"
 #include "common/plan_output.hpp"
 #include "common/points_csv.hpp"
@@ -140,11 +141,10 @@ int runGeometryInfo(const MapArgs& a, bool json) {
     j[g->isMesh() ? "vertices" : "points"] = g->points.size();
     j["triangles"] = g->triangles.size();
     if (g->points.empty()) j["bounds"] = nullptr;
-    else j["bounds"] = {{"min", {box.min.x(), box.min.y(), box.min.z()}}, {"max", {box.max.x(), box.max.y(), box.max.z()}}};
-    j["viewpoint"] = g->viewpoint ? nlohmann::ordered_json({g->viewpoint->x(), g->viewpoint->y(), g->viewpoint->z()})
-                                  : nlohmann::ordered_json();
+    else j["bounds"] = {{"min", mmPoint(box.min)}, {"max", mmPoint(box.max)}};
+    j["viewpoint"] = g->viewpoint ? mmPoint(*g->viewpoint) : nlohmann::ordered_json();
     j["to_voxel_map"] = next;
-    std::cout << j.dump(2) << "\n";
+    std::cout << stamped("adit.map.geometry_info", std::move(j)).dump(2) << "\n";
     return kExitOk;
   }
   std::printf("file         %s\n", a.path.c_str());
@@ -190,22 +190,23 @@ int runInfo(const MapArgs& a, bool json) {
     j["resolution_m"] = s.resolution_m;
     j["max_extent_m"] = maxMapExtent(s.resolution_m);
     j["unknown_policy"] = unknownPolicyName(map.unknownPolicy());
-    j["bounds"] = {{"min", {s.bounds.min.x(), s.bounds.min.y(), s.bounds.min.z()}},
-                   {"max", {s.bounds.max.x(), s.bounds.max.y(), s.bounds.max.z()}}};
+    j["bounds"] = {{"min", mmPoint(s.bounds.min)}, {"max", mmPoint(s.bounds.max)}};
     j["voxels"] = {{"free", s.free_voxels}, {"occupied", s.occupied_voxels}, {"unknown", s.unknown_voxels}};
-    j["volume_m3"] = {{"free", double(s.free_voxels) * v3}, {"occupied", double(s.occupied_voxels) * v3},
-                      {"unknown", double(s.unknown_voxels) * v3}};
+    // Cubic metres to the litre: a 5 cm voxel is 0.125 l, so whole voxels stay visible.
+    j["volume_m3"] = {{"free", roundTo(double(s.free_voxels) * v3, 6)},
+                      {"occupied", roundTo(double(s.occupied_voxels) * v3, 6)},
+                      {"unknown", roundTo(double(s.unknown_voxels) * v3, 6)}};
     j["octree_nodes"] = s.octree_nodes;
-    j["roadway_length_m"] = has_length ? nlohmann::ordered_json(length) : nlohmann::ordered_json();
+    j["roadway_length_m"] = has_length ? nlohmann::ordered_json(mm(length)) : nlohmann::ordered_json();
     j["roadway_length_method"] = survey ? "survey centrelines" : "footprint estimate";
-    j["roadway_length_estimate_m"] = est ? nlohmann::ordered_json(est->length_m) : nlohmann::ordered_json();
-    j["median_width_m"] = est ? nlohmann::ordered_json(est->median_width_m) : nlohmann::ordered_json();
+    j["roadway_length_estimate_m"] = est ? nlohmann::ordered_json(mm(est->length_m)) : nlohmann::ordered_json();
+    j["median_width_m"] = est ? nlohmann::ordered_json(mm(est->median_width_m)) : nlohmann::ordered_json();
     if (survey) {
       const SurveyNetwork& n = *loaded->survey;
       j["survey"] = {{"name", n.name}, {"stations", n.stations.size()}, {"sections", n.sections.size()},
-                     {"roadways", n.roadways.size()}, {"rock_shell_m", n.rock_shell_m}};
+                     {"roadways", n.roadways.size()}, {"rock_shell_m", mm(n.rock_shell_m)}};
     }
-    std::cout << j.dump(2) << "\n";
+    std::cout << stamped("adit.map.info", std::move(j)).dump(2) << "\n";
     return kExitOk;
   }
   const Vec3 size = s.bounds.size();

@@ -42,7 +42,7 @@ PKGS=(cmake g++ make pkg-config
 # starts its own daemons, never the system's); PostgreSQL's server for the console store's
 # throw-away database (started by the test in a temp dir, never the system's cluster); python3 for
 # the test scripts that read JSON and drive the console over HTTP.
-TEST_PKGS=(chromium slurm-wlm munge postgresql python3)
+TEST_PKGS=(chromium slurm-wlm munge postgresql python3 python3-jsonschema)
 if [ "$mode" != run ]; then PKGS+=("${TEST_PKGS[@]}"); fi
 
 missing=()

@@ -28,11 +28,13 @@
 #include "adit/local/simulator.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/content_hash.hpp"
+#include "adit/map/readers/import.hpp"
 #include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
 #include "adit/map/size_estimate.hpp"
 #include "common/cli.hpp"
 #include "common/figure.hpp"
+#include "common/json_output.hpp"
 #include "common/phase_times.hpp"
 #include "common/plan_output.hpp"
 #include "common/progress.hpp"
@@ -379,40 +381,41 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
   j["terminal_phase"] = sc.params.terminal.enabled;
   j["outcome"] = outcomeName(r.outcome);
   if (!r.message.empty()) j["message"] = r.message;
-  j["arrival_time"] = r.arrived() ? nlohmann::ordered_json(r.arrival_time_s) : nlohmann::ordered_json(nullptr);
-  j["arrival_tolerance"] = r.arrival_tolerance_m;
-  j["path_length"] = r.path_length_m;
-  j["min_clearance"] = std::isfinite(r.min_clearance_m) ? nlohmann::ordered_json(r.min_clearance_m)
-                                                        : nlohmann::ordered_json(nullptr);
+  j["arrival_time"] = r.arrived() ? nlohmann::ordered_json(us(r.arrival_time_s)) : nlohmann::ordered_json(nullptr);
+  j["arrival_tolerance"] = mm(r.arrival_tolerance_m);
+  j["path_length"] = mm(r.path_length_m);
+  j["min_clearance"] = mmOrNull(r.min_clearance_m);
   j["collisions"] = r.collisions;
-  if (r.collisions > 0) j["first_collision"] = {{"t", r.first_collision_t_s}, {"with", r.first_collision_with}};
+  if (r.collisions > 0) j["first_collision"] = {{"t", us(r.first_collision_t_s)}, {"with", r.first_collision_with}};
   j["steps"] = r.steps;
   j["escapes"] = r.escapes;
-  j["final_goal_distance"] = r.final_goal_distance_m;
-  j["step_time_us"] = {{"p50", r.step_time_p50_us}, {"p99", r.step_time_p99_us}};
+  j["final_goal_distance"] = mm(r.final_goal_distance_m);
+  j["step_time_us"] = {{"p50", tenthUs(r.step_time_p50_us)}, {"p99", tenthUs(r.step_time_p99_us)}};
   j["seed"] = sc.seed;
   auto closest = nlohmann::ordered_json::array();
   for (const ClosestApproach& c : r.closest)
     closest.push_back({{"obstacle", c.name},
-                       {"distance", std::isfinite(c.distance_m) ? nlohmann::ordered_json(c.distance_m) : nlohmann::ordered_json(nullptr)},
-                       {"t", c.t_s}});
+                       {"distance", mmOrNull(c.distance_m)},
+                       {"t", us(c.t_s)}});
   j["closest_approaches"] = closest;
   const bool subgoals = sc.subgoal_mode != SubgoalMode::kNone;
   if (subgoals) {
     // How the per-period selection went: periods by outcome (optimized, straight, ...) and its time.
     nlohmann::ordered_json kinds = nlohmann::ordered_json::object();
     for (const auto& [kind, n] : r.subgoals.by_kind) kinds[kind] = n;
-    j["subgoal_period"] = sc.subgoal_period_s;
+    j["subgoal_period"] = us(sc.subgoal_period_s);
     j["subgoal_selection"] = {{"periods", r.subgoals.periods},
                               {"outcomes", kinds},
-                              {"time_us", {{"mean", r.subgoals.time_mean_us}, {"max", r.subgoals.time_max_us}}}};
+                              {"time_us", {{"mean", tenthUs(r.subgoals.time_mean_us)}, {"max", tenthUs(r.subgoals.time_max_us)}}}};
   }
   auto traj = nlohmann::ordered_json::array();
   for (const TrajectorySample& s : r.trajectory) {
-    nlohmann::ordered_json sample{{"t", s.t_s}, {"x", s.position.x()}, {"y", s.position.y()}, {"z", s.position.z()},
-                                  {"vx", s.velocity.x()}, {"vy", s.velocity.y()}, {"vz", s.velocity.z()},
+    // t is step x dt: to the microsecond it reads as the step time (52.9, not 52.900000000000006).
+    nlohmann::ordered_json sample{{"t", us(s.t_s)}, {"x", mm(s.position.x())}, {"y", mm(s.position.y())},
+                                  {"z", mm(s.position.z())}, {"vx", mmPerS(s.velocity.x())},
+                                  {"vy", mmPerS(s.velocity.y())}, {"vz", mmPerS(s.velocity.z())},
                                   {"status", stepStatusName(s.status)}};
-    if (subgoals) sample["subgoal"] = {s.sub_goal.x(), s.sub_goal.y(), s.sub_goal.z()};
+    if (subgoals) sample["subgoal"] = mmPoint(s.sub_goal);
     traj.push_back(std::move(sample));
   }
   j["trajectory"] = traj;
@@ -423,25 +426,24 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
 void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const fusion::NavigatedRun& n) {
   auto pathJson = [](const map::Polyline& p) {
     auto a = nlohmann::ordered_json::array();
-    for (const Vec3& q : p.points) a.push_back({q.x(), q.y(), q.z()});
+    for (const Vec3& q : p.points) a.push_back(mmPoint(q));
     return a;
   };
   j["replans"] = n.replans;
-  j["max_replan_time"] = n.max_replan_time_s;
-  j["max_cycle_time"] = n.max_cycle_time_s;
-  j["min_fall_clearance"] = std::isfinite(n.min_fall_clearance_m) ? nlohmann::ordered_json(n.min_fall_clearance_m)
-                                                                  : nlohmann::ordered_json(nullptr);
-  j["end_time"] = n.end_time_s;
-  j["wall_time"] = n.wall_time_s;
+  j["max_replan_time"] = us(n.max_replan_time_s);
+  j["max_cycle_time"] = us(n.max_cycle_time_s);
+  j["min_fall_clearance"] = mmOrNull(n.min_fall_clearance_m);
+  j["end_time"] = us(n.end_time_s);
+  j["wall_time"] = us(n.wall_time_s);
   auto events = nlohmann::ordered_json::array();
   for (const ScenarioEvent& e : sc.events)
     if (e.t_s <= n.end_time_s + 1e-9)
-      events.push_back({{"t", e.t_s}, {"type", e.type}, {"what", "the ball became rock (true world)"},
-                        {"center", {e.center.x(), e.center.y(), e.center.z()}}, {"radius", e.radius_m}});
+      events.push_back({{"t", us(e.t_s)}, {"type", e.type}, {"what", "the ball became rock (true world)"},
+                        {"center", mmPoint(e.center)}, {"radius", mm(e.radius_m)}});
   for (const fusion::NavigatorEvent& e : n.events) {
-    nlohmann::ordered_json ev{{"t", e.t_s}, {"type", e.type}, {"reason", e.reason}};
-    if (e.type != "map_update_failed") ev["replan_time"] = e.replan_time_s;
-    if (e.refine_time_s > 0.0) ev["refine_time"] = e.refine_time_s;
+    nlohmann::ordered_json ev{{"t", us(e.t_s)}, {"type", e.type}, {"reason", e.reason}};
+    if (e.type != "map_update_failed") ev["replan_time"] = us(e.replan_time_s);
+    if (e.refine_time_s > 0.0) ev["refine_time"] = us(e.refine_time_s);
     if (!e.route.empty()) ev["route"] = e.route;
     if (!e.message.empty()) ev["message"] = e.message;
     events.push_back(ev);
@@ -455,16 +457,16 @@ void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const fusio
   if (n.refinement) {
     // The initial expected path before and after the break-point refinement (initial_path is after).
     auto quality = [](const fusion::PathQuality& q) {
-      return nlohmann::ordered_json{{"length", q.length_m},
-                                    {"min_clearance", q.min_clearance_m},
-                                    {"mean_clearance", q.mean_clearance_m},
+      return nlohmann::ordered_json{{"length", mm(q.length_m)},
+                                    {"min_clearance", mm(q.min_clearance_m)},
+                                    {"mean_clearance", mm(q.mean_clearance_m)},
                                     {"break_points", q.break_points}};
     };
     const fusion::PlanRefinement& f = *n.refinement;
     nlohmann::ordered_json before = quality(f.before);
     before["path"] = pathJson(f.before_path);
     j["refinement"] = {{"outcome", fusion::refineOutcomeName(f.outcome)}, {"message", f.message},
-                       {"time", f.time_s},  {"iterations", f.iterations},
+                       {"time", us(f.time_s)},  {"iterations", f.iterations},
                        {"before", before},  {"after", quality(f.after)}};
   }
 }
@@ -587,6 +589,18 @@ Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& 
 
 int runBatch(const SimulateArgs& a);
 
+// An OctoMap, a scan or a mesh handed over as the SCENARIO would fail in the YAML parser on its
+// bytes ("unknown escape character"); say what it is and what to run instead. (A survey YAML is
+// recognised by the scenario parser itself.)
+Status refuseMapAsScenario(const std::string& path) {
+  if (path.empty()) return Status();
+  const StatusOr<map::MapFormat> format = map::formatFromPath(path);
+  const bool octomap = format.ok() && *format != map::MapFormat::kSurveyYaml;
+  if (!octomap && !map::isImportFormat(path)) return Status();
+  return invalidArgument(path + ": this is a map, not a scenario: name it as `map:` in a scenario, run a batch on it with "
+                         "`adit simulate --batch N --map " + path + "`, or plan on it with `adit plan --map " + path + "`");
+}
+
 // The JSON to `out` (atomically), or to stdout when `out` is empty.
 Status writeJson(const nlohmann::ordered_json& j, const std::string& out) {
   const std::string json = j.dump(2) + "\n";
@@ -626,6 +640,7 @@ int run(const SimulateArgs& a) {
   if (!a.live_token_file.empty() && a.live.empty()) return report(invalidArgument("--live-token-file needs --live URL"));
   if ((a.live_hold || a.live_lockstep) && a.live.empty())
     return report(invalidArgument(std::string(a.live_hold ? "--live-hold" : "--live-lockstep") + " needs --live URL"));
+  if (Status s = refuseMapAsScenario(a.scenario); !s.ok()) return report(s);
   StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
   if (!sc.ok()) return report(sc.status());
   // The run keeps a record of every period (trajectory, then its JSON): refused up front when
@@ -720,7 +735,7 @@ int run(const SimulateArgs& a) {
 
   nlohmann::ordered_json j = toJson(*sc, *r);
   if (nav) addNavigatorJson(j, *sc, *nav);
-  if (Status s = writeJson(j, a.out); !s.ok()) return report(s);
+  if (Status s = writeJson(stamped("adit.simulate", std::move(j)), a.out); !s.ok()) return report(s);
   if (!a.picture.empty())
     if (Status s = runFigure(*sc, *env, *r, true, replanned).render(a.picture); !s.ok()) return report(s);
   if (!a.html.empty())
@@ -783,19 +798,19 @@ nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base,
   j["first"] = a.first;
   j["jobs"] = std::min(a.jobs, a.batch);
   j["outcomes"] = outcomes;
-  j["success_rate"] = arrived / n;
+  j["success_rate"] = ratio(arrived / n);
   j["collisions_among_arrivals"] = bad_arrivals;
   j["arrivals_beyond_tolerance"] = dishonest;
-  j["replans"] = {{"total", replans}, {"runs_with_replans", runs_replanned}, {"mean", replans / n}};
+  j["replans"] = {{"total", replans}, {"runs_with_replans", runs_replanned}, {"mean", ratio(replans / n)}};
   j["no_route"] = outcomes["no_route"];
   j["arrival_time"] = arrival.empty() ? nlohmann::ordered_json(nullptr)
-                                      : nlohmann::ordered_json{{"p50", stepTimePercentile(arrival, 0.5)},
-                                                               {"p90", stepTimePercentile(arrival, 0.9)}};
+                                      : nlohmann::ordered_json{{"p50", us(stepTimePercentile(arrival, 0.5))},
+                                                               {"p90", us(stepTimePercentile(arrival, 0.9))}};
   // Per-run percentiles only are kept: the median run's median step, the 99th-percentile run's p99.
-  j["step_time_us"] = {{"p50", p50.empty() ? 0.0 : stepTimePercentile(p50, 0.5)},
-                       {"p99", p99.empty() ? 0.0 : stepTimePercentile(p99, 0.99)}};
-  j["wall_time"] = wall_s;
-  return j;
+  j["step_time_us"] = {{"p50", p50.empty() ? 0.0 : tenthUs(stepTimePercentile(p50, 0.5))},
+                       {"p99", p99.empty() ? 0.0 : tenthUs(stepTimePercentile(p99, 0.99))}};
+  j["wall_time"] = us(wall_s);
+  return stamped("adit.simulate.batch", std::move(j));
 }
 
 int runBatch(const SimulateArgs& a) {

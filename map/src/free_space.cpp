@@ -22,6 +22,7 @@ constexpr int kMaxThinVoxels = 16;
 }  // namespace
 
 using internal::BitVoxelSet;
+using internal::centreOf;
 using internal::keyOf;
 
 Status ImportParams::validate() const {
@@ -46,7 +47,7 @@ Status ImportParams::validate() const {
   if (max_wall_distance_m / resolution_m > 250)
     return invalidArgument("max wall distance must be at most 250 voxels (" + std::to_string(250 * resolution_m) +
                            " m at this resolution)");
-  if (!seed && trajectory.empty())
+  if (!seed && trajectory.empty() && !auto_seed)
     return invalidArgument("no source of free space: give a seed point inside a roadway (--seed x,y,z) "
                            "or the scanner trajectory (--trajectory poses.csv)");
   if (seed && !seed->allFinite()) return invalidArgument("seed is not finite");
@@ -103,7 +104,9 @@ StatusOr<std::vector<VoxelKey>> meshVoxelKeys(const Geometry& mesh, double res, 
 
 namespace {
 
-enum : std::uint8_t { kSurface = 1, kClosed = 2, kFree = 4, kEroded = 8, kThinSeen = 16, kThin = 32 };
+// kThinSeen/kThin: clearThinRock's marks; kTried: flooded by a seed that auto_seed tried and did
+// not keep.
+enum : std::uint8_t { kSurface = 1, kClosed = 2, kFree = 4, kEroded = 8, kThinSeen = 16, kThin = 32, kTried = 64 };
 constexpr std::uint8_t kFar = 255;
 constexpr int kB = 8, kBV = kB * kB * kB;
 
@@ -369,6 +372,66 @@ std::uint64_t clearThinRock(Grid& grid, int k, std::uint64_t* stack_bytes) {
   return cleared;
 }
 
+// A surface cell within `reach` cells of `c` along `step` (stopping where the distance band ends).
+bool surfaceAlong(Grid& grid, const Cell& c, const std::array<int, 3>& step, int reach) {
+  Cell q = c;
+  for (int i = 0; i < reach; ++i) {
+    for (int k = 0; k < 3; ++k) q[k] += step[k];
+    if (!grid.inside(q[0], q[1], q[2])) return false;
+    const Brick* b = grid.find(q[0], q[1], q[2]);
+    const int qi = Grid::cell(q[0], q[1], q[2]);
+    if (!b || b->dist[qi] == kFar) return false;
+    if (b->flags[qi] & (kSurface | kClosed)) return true;
+  }
+  return false;
+}
+
+// ImportParams::auto_seed: candidates in decreasing distance from the surface (in slices of at
+// most 2^22 cells, so that a large scan does not hold its whole band), the first that has roof
+// and floor above and below and walls on both sides along x or y. Among equally distant cells
+// the one farthest from the box's sides wins (a roadway's middle, not its open scanned end),
+// then grid order.
+std::optional<Cell> chooseSeed(Grid& grid, const Hull& hull, int reach, const std::array<int, 3>& n) {
+  auto candidate = [&](const Brick& b, int i, const Cell& c) {
+    return b.dist[i] != kFar && b.dist[i] > 0 && !(b.flags[i] & (kSurface | kClosed | kTried)) && hull.inside(c);
+  };
+  auto cellOf = [](const std::array<int, 3>& bc, int i) {
+    return Cell{bc[0] * kB + (i % kB), bc[1] * kB + (i / kB) % kB, bc[2] * kB + i / (kB * kB)};
+  };
+  std::vector<std::uint64_t> count(256, 0);
+  for (std::size_t bi = 0; bi < grid.brickCount(); ++bi) {
+    const Brick& b = grid.brick(bi);
+    for (int i = 0; i < kBV; ++i)
+      if (candidate(b, i, cellOf(grid.brickCoord(bi), i))) ++count[b.dist[i]];
+  }
+  constexpr std::uint64_t kSlice = std::uint64_t{1} << 22;
+  auto margin = [&](const Cell& c) { return std::min({c[0], n[0] - 1 - c[0], c[1], n[1] - 1 - c[1]}); };
+  std::vector<std::pair<int, Cell>> slice;
+  for (int hi = 255; hi > 0;) {
+    int lo = hi - 1;
+    std::uint64_t n = count[std::size_t(lo)];
+    while (lo > 1 && n + count[std::size_t(lo - 1)] <= kSlice) n += count[std::size_t(--lo)];
+    slice.clear();
+    for (std::size_t bi = 0; bi < grid.brickCount(); ++bi) {
+      const Brick& b = grid.brick(bi);
+      for (int i = 0; i < kBV; ++i) {
+        const Cell c = cellOf(grid.brickCoord(bi), i);
+        if (b.dist[i] >= lo && b.dist[i] < hi && candidate(b, i, c)) slice.push_back({b.dist[i], c});
+      }
+    }
+    std::stable_sort(slice.begin(), slice.end(), [&](const auto& x, const auto& y) {
+      return x.first != y.first ? x.first > y.first : margin(x.second) > margin(y.second);
+    });
+    for (const auto& [d, c] : slice) {
+      if (!surfaceAlong(grid, c, {0, 0, 1}, reach) || !surfaceAlong(grid, c, {0, 0, -1}, reach)) continue;
+      const bool across_x = surfaceAlong(grid, c, {1, 0, 0}, reach) && surfaceAlong(grid, c, {-1, 0, 0}, reach);
+      if (across_x || (surfaceAlong(grid, c, {0, 1, 0}, reach) && surfaceAlong(grid, c, {0, -1, 0}, reach))) return c;
+    }
+    hi = lo;
+  }
+  return std::nullopt;
+}
+
 std::string fmtPoint(const Vec3& p) {
   std::ostringstream os;
   os << p.x() << "," << p.y() << "," << p.z();
@@ -504,8 +567,36 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
   auto toCell = [&](const Vec3& p) {
     return Cell{keyOf(p.x(), inv) - lo[0], keyOf(p.y(), inv) - lo[1], keyOf(p.z(), inv) - lo[2]};
   };
+  // Free space connected to `c` (6-neighbours, inside the hull and the distance band, not rock).
+  auto flood = [&](const Cell& c) -> std::uint64_t {
+    grid.find(c[0], c[1], c[2])->flags[Grid::cell(c[0], c[1], c[2])] |= kFree;
+    std::uint64_t count = 1;
+    layer.assign(1, c);
+    static constexpr int kSteps[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    std::size_t rounds = 0;
+    while (!layer.empty()) {
+      next.clear();
+      for (const Cell& q : layer)
+        for (const auto& st : kSteps) {
+          const Cell m{q[0] + st[0], q[1] + st[1], q[2] + st[2]};
+          if (!grid.inside(m[0], m[1], m[2])) continue;
+          Brick* mb = grid.find(m[0], m[1], m[2]);
+          if (!mb) continue;
+          const int mi = Grid::cell(m[0], m[1], m[2]);
+          if (mb->dist[mi] == kFar || (mb->flags[mi] & (kSurface | kClosed | kFree)) || !hull.inside(m)) continue;
+          mb->flags[mi] |= kFree;
+          ++count;
+          next.push_back(m);
+        }
+      layer.swap(next);
+      if ((++rounds & 63) == 0) report("flood fill", 0.5);
+    }
+    report("flood fill", 1.0);
+    return count;
+  };
   std::uint64_t free_count = 0;
   FreeSpaceSource source = FreeSpaceSource::kSeedFlood;
+  std::optional<Vec3> chosen_seed;
   if (!params.trajectory.empty()) {
     source = FreeSpaceSource::kTrajectoryRays;
     // Each point is seen from the nearest pose; the ray stops at the first surface or plug it
@@ -537,9 +628,38 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
       if ((pi & 0xffff) == 0) report("trajectory rays", double(pi) / double(geometry.points.size()));
     }
   } else {
-    const Vec3& s = *params.seed;
-    const Cell c = toCell(s);
-    const std::string where = "seed " + fmtPoint(s);
+    Cell c{};
+    if (params.seed) {
+      chosen_seed = *params.seed;
+      c = toCell(*params.seed);
+    } else {
+      // A sparse scan's hull has holes: the best-placed cell may sit in a pocket the flood cannot
+      // leave. Up to kTrials seeds, each outside the earlier ones' floods, are flooded and the
+      // largest flood's seed kept (its flood is redone below).
+      report("choosing a seed", 0.0);
+      constexpr int kTrials = 8;
+      std::optional<Cell> found;
+      std::uint64_t best = 0;
+      for (int trial = 0; trial < kTrials; ++trial) {
+        const std::optional<Cell> t = chooseSeed(grid, hull, R, n);
+        if (!t) break;
+        const std::uint64_t got = flood(*t);
+        if (got > best) best = got, found = t;
+        for (std::size_t bi = 0; bi < grid.brickCount(); ++bi)
+          for (std::uint8_t& f : grid.brick(bi).flags)
+            if (f & kFree) f = std::uint8_t((f & ~kFree) | kTried);
+        report("choosing a seed", double(trial + 1) / kTrials);
+      }
+      if (!found)
+        return invalidArgument("no seed found: no point has scanned surface above and below and walls on both sides "
+                               "within " + std::to_string(params.max_wall_distance_m) +
+                               " m: give a point inside a roadway (--seed x,y,z) or raise --max-wall-distance");
+      c = *found;
+      chosen_seed = Vec3(centreOf(lo[0] + c[0], res), centreOf(lo[1] + c[1], res), centreOf(lo[2] + c[2], res));
+      report("choosing a seed", 1.0);
+    }
+    const std::string where =
+        "seed " + (params.seed_name.empty() || !params.seed ? fmtPoint(*chosen_seed) : params.seed_name);
     if (!grid.inside(c[0], c[1], c[2]))
       return invalidArgument(where + " lies outside the input's bounding box [" + fmtPoint(box.min) + "] .. [" +
                              fmtPoint(box.max) + "]");
@@ -555,29 +675,7 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
     if (!hull.inside(c))
       return invalidArgument(where + " is not inside the scan's hull (no scanned roof above it or no floor below it): "
                                      "move it into a roadway");
-    b->flags[ci] |= kFree;
-    free_count = 1;
-    layer.assign(1, c);
-    static constexpr int kSteps[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    std::size_t rounds = 0;
-    while (!layer.empty()) {
-      next.clear();
-      for (const Cell& q : layer)
-        for (const auto& st : kSteps) {
-          const Cell m{q[0] + st[0], q[1] + st[1], q[2] + st[2]};
-          if (!grid.inside(m[0], m[1], m[2])) continue;
-          Brick* mb = grid.find(m[0], m[1], m[2]);
-          if (!mb) continue;
-          const int mi = Grid::cell(m[0], m[1], m[2]);
-          if (mb->dist[mi] == kFar || (mb->flags[mi] & (kSurface | kClosed | kFree)) || !hull.inside(m)) continue;
-          mb->flags[mi] |= kFree;
-          ++free_count;
-          next.push_back(m);
-        }
-      layer.swap(next);
-      if ((++rounds & 63) == 0) report("flood fill", 0.5);
-    }
-    report("flood fill", 1.0);
+    free_count = flood(c);
   }
   if (free_count == 0) return failedPrecondition("no free space was recovered (no ray crossed open space)");
   const int thin_k = int(std::lround(params.thin_radius_m.value_or(res) * inv));
@@ -609,7 +707,7 @@ StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const Impo
   report("building octree", 1.0);
   const std::uint64_t working = grid.bytes() + plane_bytes + thin_bytes;
   ADIT_ASSIGN_OR_RETURN(OccupancyMap map, OccupancyMap::create(std::move(tree), params.unknown_policy));
-  return ImportResult{std::move(map), source, inputs, surface.size(), closed, free_count, thin, working};
+  return ImportResult{std::move(map), source, inputs, surface.size(), closed, free_count, thin, working, chosen_seed};
 }
 
 }  // namespace adit::map

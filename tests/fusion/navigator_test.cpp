@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The Navigator on the bundled sealed roadway (maps/scenarios/sealed_roadway_map.yaml, one 40 m
+// The Navigator on the bundled sealed roadway (maps/sealed_roadway_map.yaml, one 40 m
 // drift, no other way through): map transactions, the blocked-path verdict, and the one-writer
 // rule with a reader thread running while the navigator writes.
 #include <gtest/gtest.h>
@@ -15,7 +15,7 @@
 namespace adit::fusion {
 namespace {
 
-const std::string kMap = std::string(ADIT_MAPS_DIR) + "/scenarios/sealed_roadway_map.yaml";
+const std::string kMap = std::string(ADIT_MAPS_DIR) + "/sealed_roadway_map.yaml";
 const Vec3 kStart(3, 0, 1.6), kGoal(37, 0, 1.6);
 
 Navigator makeNavigator(bool subgoals = false) {

@@ -69,7 +69,7 @@ TEST(Scenario, ARelativeMapIsTheOneBesideTheScenario) {
 }
 
 TEST(Scenario, ASurveyMapIsNamedAsSuchNotParsedAsAScenario) {
-  const StatusOr<Scenario> s = loadScenario(std::string(ADIT_MAPS_DIR) + "/scenarios/sealed_roadway_map.yaml");
+  const StatusOr<Scenario> s = loadScenario(std::string(ADIT_MAPS_DIR) + "/sealed_roadway_map.yaml");
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.status().message().find("sealed_roadway_map.yaml: this is a survey map, not a scenario"), std::string::npos)
       << s.status().message();

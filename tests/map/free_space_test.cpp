@@ -241,5 +241,33 @@ TEST(FreeSpace, VoxelKeysAreDeduplicated) {
   EXPECT_FALSE(meshVoxelKeys(huge, 0.001, 1000).ok());
 }
 
+// auto_seed on two tubes stacked 5 m apart: the rock between them has scanned surface above and
+// below and lies farther from it (2.5 m) than any point inside a tube (1.5 m), but has no walls
+// beside it; the chosen seed is inside a tube and floods it, and errors name a given seed as
+// seed_name says.
+TEST(FreeSpace, AutoSeedChoosesARoadwayNotTheRockBetweenLevels) {
+  TubeScan t;
+  std::vector<Vec3> pts = t.points();
+  for (const Vec3& q : t.points()) pts.push_back(q + Vec3(0, 0, 8));
+  ImportParams p;
+  p.resolution_m = 0.25;
+  p.auto_seed = true;
+  const ImportResult r = importOrFail(cloud(pts), p);
+  ASSERT_TRUE(r.seed.has_value());
+  const Vec3 s = *r.seed;
+  EXPECT_TRUE(s.x() > 0 && s.x() < 12 && std::abs(s.y()) < 2 && ((s.z() > 0 && s.z() < 3) || (s.z() > 8 && s.z() < 11)))
+      << s.transpose();
+  EXPECT_TRUE(r.map.isFree(s));
+  EXPECT_FALSE(r.map.isFree({6, 0, 5.5}));  // the rock between the levels stays unknown
+  EXPECT_GT(r.free_voxels, 5000u);
+
+  ImportParams named = seeded({6, 0, 0.05}, 0.25);
+  named.seed_name = "500006,4000000,800.05";
+  const StatusOr<ImportResult> bad = buildMapFromGeometry(cloud(pts), named);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("seed 500006,4000000,800.05 lies in a surface voxel"), std::string::npos)
+      << bad.status().message();
+}
+
 }  // namespace
 }  // namespace adit::map

@@ -11,6 +11,7 @@
 
 #include "adit/map/map_io.hpp"
 #include "common/figure.hpp"
+#include "common/json_output.hpp"
 
 namespace adit::tools {
 
@@ -20,9 +21,7 @@ using map::Vec3;
 
 namespace {
 
-// Millimetres are what a survey holds; more digits are float noise.
-double mm(double v) { return std::round(v * 1000.0) / 1000.0; }
-nlohmann::ordered_json point(const Vec3& p) { return {mm(p.x()), mm(p.y()), mm(p.z())}; }
+nlohmann::ordered_json point(const Vec3& p) { return mmPoint(p); }
 
 std::string lowerExtension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
@@ -106,12 +105,10 @@ const char* nodeKind(const RoadwayGraph& g, int node) {
 
 nlohmann::ordered_json graphJson(const RoadwayGraph& g, const map::DistanceField& field, const GraphContext& c) {
   nlohmann::ordered_json j;
-  j["schema"] = "adit.roadway_graph";
-  j["schema_version"] = 1;
   j["map"] = c.map_path;
   j["source"] = c.source;
   j["robot"] = c.robot;
-  j["margin"] = c.margin_m;
+  j["margin"] = mm(c.margin_m);
   j["required_clearance"] = mm(c.required_clearance_m);
   int junctions = 0, ends = 0;
   nlohmann::ordered_json nodes = nlohmann::ordered_json::array();
@@ -147,11 +144,11 @@ nlohmann::ordered_json graphJson(const RoadwayGraph& g, const map::DistanceField
     const global::FreeSpaceGraphInfo& i = g.freeSpaceInfo();
     j["free_space"] = {{"voxels", i.voxels}, {"regions", i.regions}, {"pieces", i.pieces},
                        {"folded_branches", i.folded_branches}, {"memory_bytes", i.memory_bytes},
-                       {"build_seconds", std::round(i.seconds * 1000) / 1000}};
+                       {"build_seconds", us(i.seconds)}};
   }
   j["nodes"] = nodes;
   j["edges"] = edges;
-  return j;
+  return stamped("adit.roadway_graph", std::move(j));
 }
 
 nlohmann::ordered_json graphGeoJson(const RoadwayGraph& g, const map::DistanceField& field, const GraphContext& c) {
@@ -182,7 +179,7 @@ nlohmann::ordered_json graphGeoJson(const RoadwayGraph& g, const map::DistanceFi
   j["type"] = "FeatureCollection";
   // Coordinates are the map's own frame in metres (not WGS84): say so for GIS tools.
   j["name"] = "adit roadway graph of " + c.map_path;
-  j["adit"] = {{"schema_version", 1}, {"coordinates", "map frame, metres"}, {"source", c.source},
+  j["adit"] = {{"schema_version", kSchemaVersion}, {"coordinates", "map frame, metres"}, {"source", c.source},
                {"robot", c.robot}, {"required_clearance", mm(c.required_clearance_m)}};
   j["features"] = features;
   return j;

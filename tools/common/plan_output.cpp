@@ -11,6 +11,7 @@
 
 #include "adit/map/map_io.hpp"
 #include "common/figure.hpp"
+#include "common/json_output.hpp"
 #include "common/progress.hpp"
 
 namespace adit::tools {
@@ -108,7 +109,7 @@ std::string breakPointLabel(std::size_t index) {
 namespace {
 nlohmann::ordered_json pathJson(const map::Polyline& p) {
   nlohmann::ordered_json path = nlohmann::ordered_json::array();
-  for (const Vec3& q : p.points) path.push_back({q.x(), q.y(), q.z()});
+  for (const Vec3& q : p.points) path.push_back(mmPoint(q));
   return path;
 }
 }  // namespace
@@ -117,29 +118,29 @@ nlohmann::ordered_json planJson(const global::GlobalPlanResult& r, const PlanRef
   nlohmann::ordered_json j;
   j["outcome"] = global::outcomeName(r.outcome);
   j["message"] = r.message;
-  j["length"] = r.length_m;
-  j["min_clearance"] = r.min_clearance_m;
-  j["mean_clearance"] = r.mean_clearance_m;
-  j["planning_time"] = r.planning_time_s;
+  j["length"] = mm(r.length_m);
+  j["min_clearance"] = mm(r.min_clearance_m);
+  j["mean_clearance"] = mm(r.mean_clearance_m);
+  j["planning_time"] = us(r.planning_time_s);
   j["planner"] = r.planner;
   j["path"] = pathJson(r.path);
   j["route"] = r.route;
   // Extensions beyond the fixed fields.
-  j["first_path_time"] = r.first_solution_time_s;
+  j["first_path_time"] = us(r.first_solution_time_s);
   j["break_points"] = r.path.size() >= 2 ? r.path.size() - 2 : 0;
   j["time_limited"] = r.time_limited;
   if (refinement) {
-    j["before"] = {{"length", refinement->length_m},
-                   {"min_clearance", refinement->min_clearance_m},
-                   {"mean_clearance", refinement->mean_clearance_m},
+    j["before"] = {{"length", mm(refinement->length_m)},
+                   {"min_clearance", mm(refinement->min_clearance_m)},
+                   {"mean_clearance", mm(refinement->mean_clearance_m)},
                    {"break_points", refinement->path.size() >= 2 ? refinement->path.size() - 2 : 0},
                    {"path", pathJson(refinement->path)}};
     j["refine"] = {{"outcome", refinement->outcome},
                    {"message", refinement->message},
-                   {"time", refinement->time_s},
+                   {"time", us(refinement->time_s)},
                    {"iterations", refinement->iterations}};
   }
-  return j;
+  return stamped("adit.plan", std::move(j));
 }
 
 Status writePlan(const global::GlobalPlanResult& r, const std::string& path, const PlanRefinementInfo* refinement) {
@@ -148,11 +149,12 @@ Status writePlan(const global::GlobalPlanResult& r, const std::string& path, con
     if (format == PlanFormat::kJson) {
       os << planJson(r, refinement).dump(2) << "\n";
     } else {
-      os << "label,x,y,z\n" << std::setprecision(17);
+      os << "label,x,y,z\n";
       const std::vector<Vec3>& p = r.path.points;
       for (std::size_t i = 0; i < p.size(); ++i) {
         const std::string label = i == 0 ? "start" : i + 1 == p.size() ? "goal" : breakPointLabel(i - 1);
-        os << label << "," << p[i].x() << "," << p[i].y() << "," << p[i].z() << "\n";
+        os << label << "," << csvNumber(p[i].x(), 3) << "," << csvNumber(p[i].y(), 3) << "," << csvNumber(p[i].z(), 3)
+           << "\n";
       }
     }
     return bool(os);

@@ -4,7 +4,7 @@
 /// Imported geometry (a registered scan or a mesh of the roadway walls) becomes a navigable map:
 /// the surface becomes occupied voxels, and the free inside of the roadways is recovered either by
 /// casting rays from the scanner trajectory to the points it saw, or by a flood fill from a seed
-/// point the user names. Scans have holes and open ends, so the flood is bounded three ways:
+/// point the user names or the import chooses (`auto_seed`). Scans have holes and open ends, so the flood is bounded three ways:
 ///  - it stays within `max_wall_distance_m` (Chebyshev) of the scanned surface,
 ///  - an optional morphological closing of the surface (radius `closing_radius_m`) plugs holes
 ///    narrower than twice the radius before filling,
@@ -28,6 +28,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "adit/map/occupancy_map.hpp"
@@ -39,6 +40,15 @@ namespace adit::map {
 struct ImportParams {
   double resolution_m = 0.2;
   std::optional<Vec3> seed;     ///< flood-fill start inside a roadway
+  /// Without seed or trajectory: choose the seed. The interior cell farthest from the scanned
+  /// surface (up to max_wall_distance_m) among those with scanned surface straight above and below
+  /// and walls on both sides along x or along y, each within max_wall_distance_m: a roadway's
+  /// inside, not the rock between two scanned levels (no walls beside it) nor the space outside a
+  /// wall (no roof over it). Reported in ImportResult::seed.
+  bool auto_seed = false;
+  /// How errors name the seed, e.g. as the user typed it in the input's frame when the geometry
+  /// was shifted (UTM) or turned (Y up); empty: its coordinates as given here.
+  std::string seed_name;
   std::vector<Vec3> trajectory;  ///< scanner positions: rays from the nearest one to each point
   double max_wall_distance_m = 5.0;  ///< flood only this close to the surface (also bounds memory)
   double closing_radius_m = 0.0;     ///< plug holes narrower than 2 r before flooding (0: off)
@@ -67,10 +77,11 @@ struct ImportResult {
   std::uint64_t free_voxels = 0;      ///< including the thin rock cleared
   std::uint64_t thin_cleared = 0;     ///< scanned voxels cleared as thin rock (speckle, cables)
   std::uint64_t working_bytes = 0;    ///< peak size of the working grid (and the thin-rock work list)
+  std::optional<Vec3> seed;           ///< the flood's seed (given or chosen), centre of its voxel if chosen
 };
 
-/// The whole import: surface voxels, free-space recovery, octree. Exactly one of seed/trajectory
-/// must be given (a trajectory wins if both are). Errors name the seed and why it cannot start
+/// The whole import: surface voxels, free-space recovery, octree. One of seed, trajectory or
+/// auto_seed must be given (a trajectory wins, then a seed). Errors name the seed and why it cannot start
 /// (on the surface, outside the hull, too far from any wall), or the memory estimate.
 StatusOr<ImportResult> buildMapFromGeometry(const Geometry& geometry, const ImportParams& params,
                                             const ProgressFn& progress = {});
