@@ -95,7 +95,9 @@ fi
 echo "screenshot: $SHOT"
 
 # 2. A goal set by a click on the top view: a navigated robot (adit simulate --live) gets it,
-#    accepts it and replans toward it (a `plan` with reason "goal").
+#    accepts it and replans toward it (a `plan` with reason "goal"). The goal lies 125 m ahead so
+#    the robot is still driving when step 3 presses its e-stop (one 24 m ahead was reached in 28 s,
+#    and the simulation had ended before the page's e-stop reached it).
 scenario=$(dirname "$MAP")/scenarios/district_inspection.yaml
 "$ADIT" simulate "$scenario" --live "ws://$hostport" --live-speed 1 --live-token-file "$WORK/token" -q > "$WORK/sim.json" \
   2> "$WORK/sim.log" &
@@ -108,7 +110,7 @@ robot_known || fail "the simulated robot never reported: $(cat "$WORK/sim.log")"
 # for (as above): load it again until the page reports an accepted command (bounded; a command
 # sent by an earlier load is harmless, the robot takes the last goal and the check reads that id).
 for _ in 1 2 3 4 5; do
-  chromium click --dump-dom "http://$hostport/#token=0123456789abcdef0123&robot=district_inspection&goal-click=50,0" > "$WORK/click.html"
+  chromium click --dump-dom "http://$hostport/#token=0123456789abcdef0123&robot=district_inspection&goal-click=150,0" > "$WORK/click.html"
   grep -q '<html[^>]*data-last-command="[0-9]' "$WORK/click.html" && break
   grep -q '<html[^>]*data-errors="0"' "$WORK/click.html" || break
 done
@@ -172,6 +174,7 @@ for r in json.load(sys.stdin):
         print("none" if e is None else "engaged" if e["engaged"] else e["status"])' ; }
 wait_estop() {  # wait_estop STATE
   for _ in $(seq $((100 * SLOWDOWN))); do [ "$(estop_of)" = "$1" ] && return 0; sleep 0.2; done
+  kill -0 "$sim_pid" 2>/dev/null || fail "the simulated robot ended before its e-stop was '$1': $(grep -o '"outcome": "[a-z_]*"' "$WORK/sim.json")"
   fail "the robot's e-stop is '$(estop_of)', not '$1': $(tail -n 5 "$WORK/sim.log")"
 }
 page estop "&estop-click=1" 'data-last-command="[0-9]'
