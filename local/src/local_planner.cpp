@@ -540,23 +540,32 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   }
   cmd.escapes = escapes_;
 
+  // Toward a break point of the path (not the goal) the field's goal-distance terms see the goal
+  // where the path's remaining length puts it, along the same bearing: a break point is not where
+  // the robot stops, and an attraction that fades as it nears (Tian 2016's k_q rho_g^s gives
+  // 0.1 m/s at 1 m) crawled into every corner (tian2016 took 37 s for an 11 m path round a T).
+  Vec3 field_goal = sub_goal;
+  if (!manual && !terminal && !has_subgoal_ && P.terminal.pull_to_go && segment_ + 2 < n) {
+    const double d = (sub_goal - q).norm();
+    if (d > 1e-9 && progress > d) field_goal = q + (sub_goal - q) * (progress / d);
+  }
   // The field of the selected model: attraction, then each obstacle's repulsion (a potential
   // term plus, for CVFF and UUV, forces the papers define without one).
   TermValue total;
   Vec3 extra = Vec3::Zero();
   if (!manual) switch (P.method) {
-    case Method::kClassic: total += classicAttraction(q, sub_goal, P.classic.xi); break;
-    case Method::kTian2016: total += tianAttraction(q, v, a, sub_goal, seg_a, seg_b, P.tian2016); break;
-    case Method::kWang2014: total += classicAttraction(q, sub_goal, P.wang2014.k_att); break;
+    case Method::kClassic: total += classicAttraction(q, field_goal, P.classic.xi); break;
+    case Method::kTian2016: total += tianAttraction(q, v, a, field_goal, seg_a, seg_b, P.tian2016); break;
+    case Method::kWang2014: total += classicAttraction(q, field_goal, P.wang2014.k_att); break;
     case Method::kVff:
     case Method::kCvff:
-      total += cvffAttraction(q, sub_goal, P.vff.K_p);
+      total += cvffAttraction(q, field_goal, P.vff.K_p);
       if (P.vff.compound) extra += cvffVelocityAttraction(v, P.vff.K_v, v_max);
       break;
-    case Method::kUuv: total += boundedAttraction(q, sub_goal, P.uuv.k_att, P.uuv.conic_distance_m); break;
+    case Method::kUuv: total += boundedAttraction(q, field_goal, P.uuv.k_att, P.uuv.conic_distance_m); break;
   }
   const double half_view = P.wang2014.view_half_angle_deg * kPi / 180.0;
-  const double wang_rho0 = shrinkingInfluenceRange((q - sub_goal).norm(), P.wang2014.sensing_radius_m);
+  const double wang_rho0 = shrinkingInfluenceRange((q - field_goal).norm(), P.wang2014.sensing_radius_m);
   auto repulsion = [&](const ObstacleData& o, Vec3* no_potential) -> TermValue {
     const Proximity prox{o.rho, o.grad, o.pivot};
     switch (P.method) {
@@ -571,14 +580,14 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
           delta = v_ro > kClosingSpeed ? w.approach_factor : v_ro < -kClosingSpeed ? w.recede_factor : 1.0;
         }
         const double f = fuzzyRepulsionGain(o.rho, bearing(heading, o.point - q), w.view_range_m, half_view);
-        return goalAwareRepulsion(prox, q, sub_goal, w.K_2 * delta * f, wang_rho0, w.n, w.goal_factor_cap_m);
+        return goalAwareRepulsion(prox, q, field_goal, w.K_2 * delta * f, wang_rho0, w.n, w.goal_factor_cap_m);
       }
       case Method::kVff:
       case Method::kCvff:
         if (P.vff.compound) *no_potential += cvffVelocityRepulsion(prox, o.v_rel, P.vff.M_v, P.vff.p0_m);
         return vffRepulsion(prox, P.vff.M_p, P.vff.p0_m);
       case Method::kUuv: {
-        const TermValue rep = goalAwareRepulsion(prox, q, sub_goal, P.uuv.k_rep, P.uuv.rho0_m, 2.0, P.uuv.goal_factor_cap_m);
+        const TermValue rep = goalAwareRepulsion(prox, q, field_goal, P.uuv.k_rep, P.uuv.rho0_m, 2.0, P.uuv.goal_factor_cap_m);
         const Vec3 b = o.point - q;
         if (rep.dq.norm() > 0.0 && b.dot(heading) > 0.0) {
           // Turn the velocity toward the free side: -d, d = (a x b) x a.

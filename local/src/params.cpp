@@ -150,6 +150,7 @@ LocalParams LocalParams::preset(Method m) {
 LocalParams LocalParams::paper(Method m) {
   LocalParams p = preset(m);
   p.terminal.enabled = false;
+  p.terminal.pull_to_go = false;
   p.envelope.enabled = false;
   p.envelope.sight_switch = false;
   p.wang2014.goal_factor_cap_m = 0.0;

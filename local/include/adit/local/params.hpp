@@ -190,11 +190,16 @@ struct TerminalParams {
   /// Steer straight at the goal (v_max along unit(q_g - q), plus the scaled repulsion) instead of
   /// along the model's force with the scaled repulsion.
   bool seek = true;
+  /// Short of a break point of the path, the model's goal-distance terms (attraction, Wang's
+  /// shrinking range, the Ge-Cui factor) take the goal at the path length still to go, along
+  /// the bearing to the break point: only the goal slows the robot, not every corner.
+  bool pull_to_go = true;
   Status validate() const;
   /// One field list for YAML overrides, dumps and docs.
   template <class V>
   void visit(V& v) {
     v("terminal", enabled); v("terminal_range_m", range_m); v("terminal_n", n); v("terminal_seek", seek);
+    v("pull_to_go", pull_to_go);
   }
 };
 
