@@ -409,8 +409,8 @@ std::optional<Cell> chooseSeed(Grid& grid, const Hull& hull, int reach, const st
   std::vector<std::pair<int, Cell>> slice;
   for (int hi = 255; hi > 0;) {
     int lo = hi - 1;
-    std::uint64_t n = count[std::size_t(lo)];
-    while (lo > 1 && n + count[std::size_t(lo - 1)] <= kSlice) n += count[std::size_t(--lo)];
+    std::uint64_t in_slice = count[std::size_t(lo)];
+    while (lo > 1 && in_slice + count[std::size_t(lo - 1)] <= kSlice) in_slice += count[std::size_t(--lo)];
     slice.clear();
     for (std::size_t bi = 0; bi < grid.brickCount(); ++bi) {
       const Brick& b = grid.brick(bi);
