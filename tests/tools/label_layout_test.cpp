@@ -76,6 +76,12 @@ void expectClean(const std::vector<LabelAnchor>& anchors, const LabelLayoutResul
     EXPECT_LE(b.y1, p.area.y1);
     for (std::size_t j = i + 1; j < r.labels.size(); ++j)
       EXPECT_FALSE(b.intersects(r.labels[j].box)) << r.labels[i].text << " over " << r.labels[j].text;
+    for (std::size_t j = 0; j < r.labels.size(); ++j) {
+      const PlacedLabel& o = r.labels[j];
+      if (j != i && o.leader) {
+        EXPECT_FALSE(b.crossesSegment(o.lx0, o.ly0, o.lx1, o.ly1)) << o.text << "'s leader crosses " << r.labels[i].text;
+      }
+    }
     for (const LabelAnchor& a : anchors)
       EXPECT_FALSE(b.touchesDisc(a.x, a.y, a.radius)) << r.labels[i].text << " over the marker at " << a.x << "," << a.y;
     named.insert(r.labels[i].anchors.begin(), r.labels[i].anchors.end());
@@ -183,6 +189,15 @@ TEST(LabelLayoutTest, DisplacedLabelsGetALeaderFromTheMarkerEdge) {
   ASSERT_TRUE(p.leader);
   EXPECT_NEAR(std::hypot(p.lx0 - 300, p.ly0 - 200), 3.5, 1e-9);  // starts on the marker's edge
   EXPECT_TRUE(p.lx1 >= p.box.x0 && p.lx1 <= p.box.x1 && p.ly1 >= p.box.y0 && p.ly1 <= p.box.y1);
+}
+
+TEST(LabelLayoutTest, SegmentCrossingTheBox) {
+  const LabelBox b{10, 10, 20, 20};
+  EXPECT_TRUE(b.crossesSegment(0, 15, 30, 15));
+  EXPECT_TRUE(b.crossesSegment(12, 12, 14, 14));  // inside
+  EXPECT_FALSE(b.crossesSegment(0, 0, 30, 5));
+  EXPECT_FALSE(b.crossesSegment(0, 10, 30, 10));  // along an edge: not through the interior
+  EXPECT_FALSE(b.crossesSegment(0, 0, 9, 30));
 }
 
 TEST(LabelLayoutTest, NoRoomIsCountedNotHidden) {

@@ -14,6 +14,23 @@ bool LabelBox::touchesDisc(double cx, double cy, double r) const {
   return dx * dx + dy * dy < r * r;
 }
 
+bool LabelBox::crossesSegment(double ax, double ay, double bx, double by) const {
+  // Liang-Barsky clipping against the open box
+  double t0 = 0, t1 = 1;
+  const double dx = bx - ax, dy = by - ay;
+  const double p[4] = {-dx, dx, -dy, dy}, q[4] = {ax - x0, x1 - ax, ay - y0, y1 - ay};
+  for (int k = 0; k < 4; ++k) {
+    if (p[k] == 0) {
+      if (q[k] <= 0) return false;
+      continue;
+    }
+    const double t = q[k] / p[k];
+    if (p[k] < 0) t0 = std::max(t0, t);
+    else t1 = std::min(t1, t);
+  }
+  return t1 - t0 > 1e-9;
+}
+
 std::string mergedLabelText(const std::vector<std::string>& texts, const std::vector<int>& sequence) {
   std::string out;
   std::size_t i = 0;
@@ -143,6 +160,27 @@ LabelLayoutResult layoutLabels(const std::vector<LabelAnchor>& anchors, const La
       if (a.obstacle) c += pb.touchesDisc(a.x, a.y, a.radius);
     return c;
   };
+  struct Leader {
+    double x0, y0, x1, y1;
+  };
+  std::vector<Leader> leaders;
+  // From the nearest of a label's markers' edges to the nearest point of its box.
+  auto leaderTo = [&](const PlacedLabel& p, const LabelBox& b) {
+    std::size_t near = p.anchors[0];
+    double dmin = std::numeric_limits<double>::infinity();
+    for (std::size_t k : p.anchors) {
+      const double bx = std::clamp(anchors[k].x, b.x0, b.x1), by = std::clamp(anchors[k].y, b.y0, b.y1);
+      const double dk = std::hypot(anchors[k].x - bx, anchors[k].y - by);
+      if (dk < dmin) dmin = dk, near = k;
+    }
+    const LabelAnchor& a = anchors[near];
+    Leader l{0, 0, std::clamp(a.x, b.x0, b.x1), std::clamp(a.y, b.y0, b.y1)};
+    const double len = std::hypot(l.x1 - a.x, l.y1 - a.y);
+    const double t = len > 0 ? std::min(1.0, a.radius / len) : 0.0;
+    l.x0 = a.x + (l.x1 - a.x) * t;
+    l.y0 = a.y + (l.y1 - a.y) * t;
+    return l;
+  };
   for (std::size_t idx : order) {
     const Item& it = items[idx];
     PlacedLabel& p = labels[idx];
@@ -156,7 +194,13 @@ LabelLayoutResult layoutLabels(const std::vector<LabelAnchor>& anchors, const La
       for (const auto& dir : dirs) {
         const LabelBox b = candidateBox(it.cx, it.cy, d, dir[0], dir[1], w, h);
         if (b.x0 < area.x0 || b.y0 < area.y0 || b.x1 > area.x1 || b.y1 > area.y1) continue;
-        const std::size_t c = conflicts(b);
+        std::size_t c = conflicts(b);
+        const LabelBox padded = inflate(b);
+        for (const Leader& l : leaders) c += padded.crossesSegment(l.x0, l.y0, l.x1, l.y1);
+        if (ring > 0) {
+          const Leader l = leaderTo(p, b);
+          for (const LabelBox& o : placed) c += o.crossesSegment(l.x0, l.y0, l.x1, l.y1);
+        }
         if (c < best_conflicts) best_conflicts = c, best = b, best_ring = ring;
         if (c == 0) {
           found = true;
@@ -178,21 +222,9 @@ LabelLayoutResult layoutLabels(const std::vector<LabelAnchor>& anchors, const La
     result.overlaps += p.overlapping;
     placed.push_back(inflate(best));
     if (best_ring > 0) {
-      // from the nearest of its markers' edges to the nearest point of the box
-      std::size_t near = p.anchors[0];
-      double dmin = std::numeric_limits<double>::infinity();
-      for (std::size_t k : p.anchors) {
-        const double bx = std::clamp(anchors[k].x, best.x0, best.x1), by = std::clamp(anchors[k].y, best.y0, best.y1);
-        const double dk = std::hypot(anchors[k].x - bx, anchors[k].y - by);
-        if (dk < dmin) dmin = dk, near = k;
-      }
-      const LabelAnchor& a = anchors[near];
-      p.lx1 = std::clamp(a.x, best.x0, best.x1);
-      p.ly1 = std::clamp(a.y, best.y0, best.y1);
-      const double len = std::hypot(p.lx1 - a.x, p.ly1 - a.y);
-      const double t = len > 0 ? std::min(1.0, a.radius / len) : 0.0;
-      p.lx0 = a.x + (p.lx1 - a.x) * t;
-      p.ly0 = a.y + (p.ly1 - a.y) * t;
+      const Leader l = leaderTo(p, best);
+      leaders.push_back(l);
+      p.lx0 = l.x0, p.ly0 = l.y0, p.lx1 = l.x1, p.ly1 = l.y1;
       p.leader = true;
       ++result.leaders;
     }

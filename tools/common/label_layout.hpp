@@ -11,7 +11,7 @@
 /// merged) is then placed greedily, in priority order (lower first, e.g. start and goal before
 /// break points), at the first free candidate among 8 positions around its marker(s), on rings of
 /// increasing distance. A label placed beyond the first ring gets a leader line back to its
-/// marker. A label with no free candidate anywhere is placed at its least-overlapping candidate
+/// marker; no leader line crosses another label. A label with no free candidate anywhere is placed at its least-overlapping candidate
 /// and counted in `overlaps`, so a caller (or a test) can see that the picture was too crowded.
 
 #include <cstddef>
@@ -30,6 +30,8 @@ struct LabelBox {
   bool intersects(const LabelBox& o) const { return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1; }
   /// Whether the disc of centre (cx, cy) and radius r reaches inside the box.
   bool touchesDisc(double cx, double cy, double r) const;
+  /// Whether the segment (ax, ay)-(bx, by) passes through the box's interior.
+  bool crossesSegment(double ax, double ay, double bx, double by) const;
 };
 
 /// One marker. An empty `text` is a marker that has no label but that labels must not cover.
