@@ -143,12 +143,13 @@ int runPlan(const PlanArgs& a) {
   } else {
     std::printf("%s\n", planJson(r, before).dump(2).c_str());
   }
+  TopViewInfo picture_info;
   if (!a.picture.empty()) {
     const std::string name = loaded->survey && !loaded->survey->name.empty()
                                  ? loaded->survey->name
                                  : std::filesystem::path(a.map_path).filename().string();
     Status s = drawPlan(loaded->map, planner->graph(), r, *start, *goal, "adit plan: " + name, a.picture,
-                        before ? &before->path : nullptr);
+                        before ? &before->path : nullptr, &picture_info);
     if (!s.ok()) return report(s);
   }
   if (!a.quiet) {
@@ -157,7 +158,10 @@ int runPlan(const PlanArgs& a) {
       std::fprintf(stderr, "%s: %s (%s, %.3f s)\n", global::outcomeName(r.outcome), r.message.c_str(), r.planner.c_str(),
                    r.planning_time_s);
     if (!a.out.empty()) std::fprintf(stderr, "wrote %s\n", a.out.c_str());
-    if (!a.picture.empty()) std::fprintf(stderr, "wrote %s\n", a.picture.c_str());
+    if (!a.picture.empty())
+      std::fprintf(stderr, "wrote %s (%zu labels, %zu markers in merged labels, %zu leader lines, %zu overlapping)\n",
+                   a.picture.c_str(), picture_info.labels, picture_info.labels_merged, picture_info.label_leaders,
+                   picture_info.label_overlaps);
   }
   phases.mark("output");
   // Freed here, not at exit, so that the time line says what freeing the world costs.

@@ -555,8 +555,8 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
         first = false;
       }
   }
-  fig.addMarker({sc.start, MarkerShape::kCircle, kFigureStart, 9, "start", ""});
-  fig.addMarker({sc.goal, MarkerShape::kSquare, kFigureGoal, 9, "goal", ""});
+  fig.addMarker({sc.start, MarkerShape::kCircle, kFigureStart, 9, "start", "", 0});
+  fig.addMarker({sc.goal, MarkerShape::kSquare, kFigureGoal, 9, "goal", "", 0});
   return fig;
 }
 

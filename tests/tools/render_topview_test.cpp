@@ -15,6 +15,7 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "adit/map/survey_network.hpp"
 #include "support/synthetic_roadway.hpp"
@@ -470,6 +471,36 @@ TEST_F(FigureTest, ViewBoxDrawsOnlyThatPartOfTheMap) {
   TopViewOptions off = o;
   off.view_box_m = map::Aabb(map::Vec3(500, 500, 0), map::Vec3(600, 600, 1));
   EXPECT_FALSE(renderTopView(junction(), off, (dir_ / "off.png").string()).ok());
+}
+
+// Break points as the district plan has them (H and I 1.1 m apart, L beside the goal): every label is
+// placed clear (the figure reports no overlap), the crowded ones share a label, and the start and
+// goal markers are still their own colour at their centres, so no label was drawn over them.
+TEST_F(RenderTopViewTest, CrowdedMarkerLabelsDoNotOverlap) {
+  TopViewOptions o;
+  o.pixels_per_m = 10;  // 1.1 m is 11 px, closer than a label is tall
+  Figure fig(o);
+  fig.setWorldBounds(map::Aabb(map::Vec3(-2, -2, 0), map::Vec3(40, 12, 0)));
+  const std::vector<map::Vec3> bp = {{3, 0, 0},   {8, 1, 0},    {13, 0, 0},   {18, 2, 0},   {23, 2, 0}, {26, 3, 0},
+                                     {29, 3, 0}, {32, 4, 0},   {33.1, 4, 0}, {34, 7, 0},   {35, 9, 0}, {36, 9.4, 0}};
+  for (std::size_t i = 0; i < bp.size(); ++i)
+    fig.addMarker({bp[i], MarkerShape::kCircle, kFigureBreakPoint, 7, std::string(1, char('A' + i)), ""});
+  const map::Vec3 start(0, 0, 0), goal(36.8, 9.4, 0);
+  fig.addMarker({start, MarkerShape::kCircle, kFigureStart, 10, "start", "start", 0});
+  fig.addMarker({goal, MarkerShape::kSquare, kFigureGoal, 10, "goal", "goal", 0});
+  for (const char* name : {"labels.png", "labels.svg"}) {
+    TopViewInfo info;
+    ASSERT_TRUE(fig.render((dir_ / name).string(), &info).ok()) << name;
+    EXPECT_LT(info.labels, 14u) << "crowded markers share a label";
+    EXPECT_GE(info.labels_merged, 2u);
+    EXPECT_EQ(info.label_overlaps, 0u);
+    if (std::string(name) == "labels.png") {
+      Picture pic(dir_ / name);
+      ASSERT_TRUE(pic.ok());
+      EXPECT_EQ(pic.atWorld(info, start.x(), start.y()), kFigureStart);
+      EXPECT_EQ(pic.atWorld(info, goal.x(), goal.y()), kFigureGoal);
+    }
+  }
 }
 
 }  // namespace adit::tools::figure_test

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "adit/map/map_io.hpp"
+#include "common/label_layout.hpp"
 
 namespace adit::tools {
 namespace {
@@ -826,6 +827,11 @@ void drawAxes(cairo_t* cr, const Layout& L) {
 
 // ---- overlays --------------------------------------------------------------------------------------
 
+/// What the label layouts of one picture did (reported in TopViewInfo).
+struct LabelCounts {
+  std::size_t labels = 0, merged = 0, leaders = 0, overlaps = 0;
+};
+
 struct Overlays {
   const std::vector<FigureLine>& lines;
   const std::vector<FigureMarker>& markers;
@@ -900,6 +906,40 @@ void drawHaloText(cairo_t* cr, const Font& f, const std::string& s, double x, do
   cairo_fill(cr);
 }
 
+/// Lays out the labels of `anchors` inside `area` (label_layout.hpp) and draws them, leader lines
+/// first so that no line crosses a label's text.
+LabelLayoutResult drawLabels(cairo_t* cr, const Font& f, double u, const std::vector<LabelAnchor>& anchors,
+                             const LabelBox& area) {
+  const LineMetrics m = lineMetrics(cr, f);
+  LabelLayoutParams params;
+  params.area = area;
+  params.gap_px = 3 * u;
+  params.padding_px = 0.15 * f.size;  // the halo's reach
+  LabelLayoutResult r = layoutLabels(anchors, params, [&](const std::string& s) {
+    return std::pair<double, double>(textWidth(cr, f, s), m.height());
+  });
+  for (const PlacedLabel& p : r.labels) {
+    if (!p.leader) continue;
+    cairo_move_to(cr, p.lx0, p.ly0);
+    cairo_line_to(cr, p.lx1, p.ly1);
+    setColour(cr, kPage, 0.8);
+    cairo_set_line_width(cr, 2.6 * u);
+    cairo_stroke_preserve(cr);
+    setColour(cr, kInk);
+    cairo_set_line_width(cr, 1.0 * u);
+    cairo_stroke(cr);
+  }
+  for (const PlacedLabel& p : r.labels) drawHaloText(cr, f, p.text, p.box.x0, p.box.y0 + m.ascent);
+  return r;
+}
+
+void addLabelCounts(const LabelLayoutResult& r, LabelCounts& c) {
+  c.labels += r.labels.size();
+  c.merged += r.merged_anchors;
+  c.leaders += r.leaders;
+  c.overlaps += r.overlaps;
+}
+
 /// The value range of every line that has values (the one colour bar they share).
 std::optional<ValueRamp> valueRange(const std::vector<FigureLine>& lines) {
   std::optional<ValueRamp> r;
@@ -915,7 +955,7 @@ std::optional<ValueRamp> valueRange(const std::vector<FigureLine>& lines) {
   return r;
 }
 
-void drawOverlays(cairo_t* cr, const Layout& L, const Overlays& ov) {
+void drawOverlays(cairo_t* cr, const Layout& L, const Overlays& ov, LabelCounts& counts) {
   const double u = L.u;
   auto px = [&](const Vec3& p) { return L.map_left + (p.x() - L.x0) * L.s; };
   auto py = [&](const Vec3& p) { return L.map_top + (L.y1 - p.y()) * L.s; };
@@ -962,15 +1002,48 @@ void drawOverlays(cairo_t* cr, const Layout& L, const Overlays& ov) {
   setDash(cr, false, u);
   for (const FigureMarker& m : ov.markers)
     drawMarkerGlyph(cr, m.shape, m.colour, px(m.position), py(m.position), m.size_px * u, u);
-  const Font label_font{12.5 * u, true};
-  for (const FigureMarker& m : ov.markers)
-    if (!m.label.empty())
-      drawHaloText(cr, label_font, m.label, px(m.position) + 0.5 * m.size_px * u + 4 * u,
-                   py(m.position) - 0.5 * m.size_px * u - 2 * u);
-  for (const FigureDisc& d : ov.discs)
-    if (!d.label.empty())
-      drawHaloText(cr, Font{11 * u, false}, d.label, px(d.center) + d.radius_m * L.s + 3 * u,
-                   py(d.center) + 4 * u);
+  // Every marker is an anchor (an unlabelled one only keeps labels off it); markers of one shape,
+  // colour and priority form a group whose crowded members share a label.
+  std::vector<LabelAnchor> anchors;
+  std::vector<int> group_size;
+  for (std::size_t i = 0; i < ov.markers.size(); ++i) {
+    const FigureMarker& m = ov.markers[i];
+    LabelAnchor a;
+    a.x = px(m.position);
+    a.y = py(m.position);
+    // the shapes other than the circle reach a little beyond half their size (markerPath)
+    a.radius = (m.shape == MarkerShape::kCircle ? 0.5 : 0.6) * m.size_px * u;
+    a.text = m.label;
+    a.priority = m.label_priority;
+    a.group = static_cast<int>(i);
+    for (std::size_t j = 0; j < i; ++j) {
+      const FigureMarker& o = ov.markers[j];
+      if (o.shape == m.shape && o.colour == m.colour && o.label_priority == m.label_priority) {
+        a.group = anchors[j].group;
+        break;
+      }
+    }
+    if (m.label_priority <= 0) a.group = -1;
+    group_size.resize(std::max<std::size_t>(group_size.size(), a.group + 1), 0);
+    if (a.group >= 0 && !m.label.empty()) a.sequence = group_size[a.group]++;
+    anchors.push_back(std::move(a));
+  }
+  // Obstacle discs are translucent: their labels keep off markers but others may cross them.
+  for (const FigureDisc& d : ov.discs) {
+    if (d.label.empty()) continue;
+    LabelAnchor a;
+    a.x = px(d.center);
+    a.y = py(d.center);
+    a.radius = std::max(2.0, d.radius_m * L.s);
+    a.text = d.label;
+    a.priority = 2;
+    a.obstacle = false;
+    anchors.push_back(std::move(a));
+  }
+  const double inset = 2 * u;
+  addLabelCounts(drawLabels(cr, Font{12.5 * u, true}, u, anchors,
+                            {L.map_left + inset, L.map_top + inset, L.map_left + L.mw - inset, L.map_top + L.mh - inset}),
+                 counts);
   cairo_restore(cr);
 }
 
@@ -1019,7 +1092,7 @@ void drawOverlayLegend(cairo_t* cr, const Layout& L, double y) {
   }
 }
 
-void drawProfile(cairo_t* cr, const Layout& L) {
+void drawProfile(cairo_t* cr, const Layout& L, LabelCounts& counts) {
   if (!L.profile) return;
   const SideProfile& P = *L.profile;
   const double u = L.u, left = L.prof_left, top = L.prof_top, w = L.prof_w, h = L.prof_h;
@@ -1076,10 +1149,22 @@ void drawProfile(cairo_t* cr, const Layout& L) {
     cairo_stroke(cr);
   }
   setDash(cr, false, u);
-  for (const ProfileLabel& lab : P.labels) {
+  std::vector<LabelAnchor> anchors;
+  for (std::size_t i = 0; i < P.labels.size(); ++i) {
+    const ProfileLabel& lab = P.labels[i];
     drawMarkerGlyph(cr, MarkerShape::kCircle, kFigureBreakPoint, X(lab.s_m), Y(lab.z_m), 7 * u, u);
-    drawHaloText(cr, Font{11.5 * u, true}, lab.text, X(lab.s_m) + 5 * u, Y(lab.z_m) - 6 * u);
+    LabelAnchor a;
+    a.x = X(lab.s_m);
+    a.y = Y(lab.z_m);
+    a.radius = 3.5 * u;
+    a.text = lab.text;
+    a.priority = lab.priority;
+    a.group = lab.priority <= 0 ? -1 : 0;
+    a.sequence = static_cast<int>(i);
+    anchors.push_back(std::move(a));
   }
+  addLabelCounts(drawLabels(cr, Font{11.5 * u, true}, u, anchors, {left + u, top + u, left + w - u, top + h - u}),
+                 counts);
   cairo_restore(cr);
   cairo_rectangle(cr, left - 0.5, top - 0.5, w + 1, h + 1);
   setColour(cr, kFrame);
@@ -1088,7 +1173,7 @@ void drawProfile(cairo_t* cr, const Layout& L) {
 }
 
 /// Everything but the raster; `raster`, when given, is painted into the map area first.
-void drawPicture(cairo_t* cr, const Layout& L, cairo_surface_t* raster, const Overlays& ov) {
+void drawPicture(cairo_t* cr, const Layout& L, cairo_surface_t* raster, const Overlays& ov, LabelCounts& counts) {
   setupText(cr);
   if (raster) {
     cairo_save(cr);
@@ -1103,14 +1188,14 @@ void drawPicture(cairo_t* cr, const Layout& L, cairo_surface_t* raster, const Ov
     setColour(cr, kOpenSpace);
     cairo_fill(cr);
   }
-  drawOverlays(cr, L, ov);
+  drawOverlays(cr, L, ov, counts);
   if (!L.title.empty()) drawText(cr, L.title_font, kInk, L.title, L.margin, L.title_base);
   drawText(cr, L.caption_font, kMutedInk, L.caption, L.margin, L.caption_base);
   drawAxes(cr, L);
   drawNorthArrow(cr, L);
   drawLegend(cr, L);
   drawScaleBar(cr, L);
-  drawProfile(cr, L);
+  drawProfile(cr, L, counts);
 }
 
 void fillPage(cairo_t* cr, const Layout& L, bool skip_map_area) {
@@ -1361,12 +1446,13 @@ Status Figure::draw(Output kind, const std::string& path, std::vector<unsigned c
 
   cairo_status_t cst = CAIRO_STATUS_SUCCESS;
   const char* stage = "draw";
+  LabelCounts counts;
   Status written;
   if (!svg) {
     {
       ContextPtr cr(cairo_create(picture.get()));
       fillPage(cr.get(), L, /*skip_map_area=*/map_ != nullptr);
-      drawPicture(cr.get(), L, nullptr, ov);
+      drawPicture(cr.get(), L, nullptr, ov, counts);
       cst = cairo_status(cr.get());
     }
     if (cst != CAIRO_STATUS_SUCCESS) return cairoFailure(name, "draw the picture", cst);
@@ -1394,7 +1480,7 @@ Status Figure::draw(Output kind, const std::string& path, std::vector<unsigned c
       {
         ContextPtr cr(cairo_create(surface.get()));
         fillPage(cr.get(), L, /*skip_map_area=*/false);
-        drawPicture(cr.get(), L, raster.get(), ov);
+        drawPicture(cr.get(), L, raster.get(), ov, counts);
         cst = cairo_status(cr.get());
       }
       if (cst != CAIRO_STATUS_SUCCESS) return false;
@@ -1423,6 +1509,10 @@ Status Figure::draw(Output kind, const std::string& path, std::vector<unsigned c
     out.floor_max_m = L.fmax;
     out.scale_bar_m = L.bar_m;
     out.free_pixels = stats.free_pixels;
+    out.labels = counts.labels;
+    out.labels_merged = counts.merged;
+    out.label_leaders = counts.leaders;
+    out.label_overlaps = counts.overlaps;
     *info = out;
   }
   return {};

@@ -5,7 +5,8 @@
 /// and the animated page's background). A figure is the map's top view (see render_topview.hpp:
 /// free space coloured by floor elevation, or a slice at one height) with axes, a legend, a scale
 /// bar and a north arrow, plus overlays in world coordinates: polylines (optionally coloured by a
-/// per-vertex value such as time), markers with labels (start, goal, break points A, B, ...),
+/// per-vertex value such as time), markers with labels (start, goal, break points A, B, ...;
+/// placed clear of each other by label_layout.hpp, merged when their markers crowd),
 /// discs of a world radius (obstacles), and an optional side-profile panel under the map (height
 /// along a route, since roadways climb). Without a map the figure is open space: its extent comes
 /// from explicit world bounds or else from the overlays.
@@ -63,6 +64,9 @@ struct FigureMarker {
   double size_px = 8.0;   ///< diameter
   std::string label;      ///< drawn beside the marker (e.g. "A", "start"); empty = none
   std::string legend;     ///< legend entry; empty = none
+  /// Labels are placed in increasing priority (start and goal at 0 keep the best places). Labelled
+  /// markers of one shape, colour and priority that sit closer than a label share one label.
+  int label_priority = 1;
 };
 
 /// A disc of a world radius (an obstacle seen from above), filled and outlined.
@@ -90,6 +94,8 @@ struct ProfileLabel {
   double s_m = 0.0;
   double z_m = 0.0;
   std::string text;
+  /// As FigureMarker::label_priority; labels of priority 0 (start, goal) never merge.
+  int priority = 1;
 };
 struct SideProfile {
   std::string title = "Side profile: height z [m] along the route [m]";

@@ -174,7 +174,7 @@ std::pair<double, double> floorAndRoof(const map::OccupancyMap& map, const Vec3&
 
 Status drawPlan(const map::OccupancyMap& map, const global::RoadwayGraph& graph, const global::GlobalPlanResult& r,
                 const Vec3& start, const Vec3& goal, const std::string& title, const std::string& path,
-                const map::Polyline* unrefined) {
+                const map::Polyline* unrefined, TopViewInfo* info) {
   TopViewOptions o;
   o.title = title;
   Figure fig(o);
@@ -191,8 +191,8 @@ Status drawPlan(const map::OccupancyMap& map, const global::RoadwayGraph& graph,
   if (p.size() >= 2) fig.addLine({p, kFigurePath, 2.5, false, {}, unrefined ? "refined path" : "expected path", ""});
   for (std::size_t i = 1; i + 1 < p.size(); ++i)
     fig.addMarker({p[i], MarkerShape::kCircle, kFigureBreakPoint, 7, breakPointLabel(i - 1), i == 1 ? "break point" : ""});
-  fig.addMarker({p.size() >= 2 ? p.front() : start, MarkerShape::kCircle, kFigureStart, 10, "start", "start"});
-  fig.addMarker({p.size() >= 2 ? p.back() : goal, MarkerShape::kSquare, kFigureGoal, 10, "goal", "goal"});
+  fig.addMarker({p.size() >= 2 ? p.front() : start, MarkerShape::kCircle, kFigureStart, 10, "start", "start", 0});
+  fig.addMarker({p.size() >= 2 ? p.back() : goal, MarkerShape::kSquare, kFigureGoal, 10, "goal", "goal", 0});
 
   if (p.size() >= 2) {
     SideProfile profile;
@@ -218,12 +218,12 @@ Status drawPlan(const map::OccupancyMap& map, const global::RoadwayGraph& graph,
       if (i + 2 < p.size()) profile.labels.push_back({s0 + len, p[i + 1].z(), breakPointLabel(i)});
       s0 += len;
     }
-    profile.labels.push_back({0.0, p.front().z(), "start"});
-    profile.labels.push_back({s0, p.back().z(), "goal"});
+    profile.labels.push_back({0.0, p.front().z(), "start", 0});
+    profile.labels.push_back({s0, p.back().z(), "goal", 0});
     profile.series = {floor, roof, centre};
     fig.setProfile(profile);
   }
-  return fig.render(path);
+  return fig.render(path, info);
 }
 
 }  // namespace adit::tools

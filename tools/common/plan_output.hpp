@@ -15,6 +15,7 @@
 #include "adit/map/occupancy_map.hpp"
 #include "adit/map/world.hpp"
 #include "adit/status.hpp"
+#include "common/render_topview.hpp"
 
 namespace adit::tools {
 
@@ -56,9 +57,10 @@ Status writePlan(const global::GlobalPlanResult& r, const std::string& path,
 std::string breakPointLabel(std::size_t index);
 
 /// Top view with the path, break points, start and goal, blocked roadways, and a side profile
-/// (path height, floor and roof along it). `unrefined`, when given, is drawn dashed under the path.
+/// (path height, floor and roof along it). `unrefined`, when given, is drawn dashed under the path;
+/// `info`, when given, receives the picture's geometry and label counts.
 Status drawPlan(const map::OccupancyMap& map, const global::RoadwayGraph& graph, const global::GlobalPlanResult& r,
                 const map::Vec3& start, const map::Vec3& goal, const std::string& title, const std::string& path,
-                const map::Polyline* unrefined = nullptr);
+                const map::Polyline* unrefined = nullptr, TopViewInfo* info = nullptr);
 
 }  // namespace adit::tools

@@ -19,6 +19,7 @@
 /// max_megapixels, and an error says so if even that is not enough). Raw voxel states are drawn:
 /// the map's unknown-space policy does not turn unknown into free here.
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -59,6 +60,9 @@ struct TopViewInfo {
   std::optional<double> floor_min_m, floor_max_m;  ///< projection: ends of the colour ramp
   double scale_bar_m = 0.0;         ///< length of the scale bar
   std::uint64_t free_pixels = 0;    ///< map-area pixels drawn as free
+  /// Marker and profile labels (see label_layout.hpp): drawn, markers named by a merged label,
+  /// displaced with a leader line, and left overlapping something for want of room (0 expected).
+  std::size_t labels = 0, labels_merged = 0, label_leaders = 0, label_overlaps = 0;
 
   /// Picture coordinates (column, row; pixel i spans [i, i+1)) of a world point.
   double columnOf(double x_m) const { return map_left_px + (x_m - x_min_m) * pixels_per_m; }
