@@ -416,6 +416,7 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
                                   {"vy", mmPerS(s.velocity.y())}, {"vz", mmPerS(s.velocity.z())},
                                   {"status", stepStatusName(s.status)}};
     if (subgoals) sample["subgoal"] = mmPoint(s.sub_goal);
+    if (sc.params.robot.ground()) sample["yaw"] = std::round(s.yaw * 1e4) / 1e4;  // a ground robot's heading [rad]
     traj.push_back(std::move(sample));
   }
   j["trajectory"] = traj;

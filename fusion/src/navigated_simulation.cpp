@@ -129,17 +129,21 @@ void sense(std::vector<Fall>& falls, const map::OccupancyMap& truth, const Vec3&
 
 }  // namespace
 
-StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Environment& truth,
+StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::Environment& truth,
                                          const NavigatedOptions& options) {
   const auto wall0 = std::chrono::steady_clock::now();
-  ADIT_RETURN_IF_ERROR(sc.validate());
+  ADIT_RETURN_IF_ERROR(scenario.validate());
+  ADIT_ASSIGN_OR_RETURN(const Scenario sc, local::placeOnFloor(scenario, truth));
   if (!sc.map_path || !truth.map() || !truth.checker())
     return invalidArgument(sc.file + ": map: the navigator needs a map to plan on");
   if (!sc.static_obstacles.empty())
     return invalidArgument(sc.file + ": static_obstacles: not supported with the navigator (write them into the map)");
   const double r = sc.params.robot.radius_m;
   const map::RobotShape robot = map::RobotShape::sphere(r);
+  const bool ground = sc.params.robot.ground();
+  const double yaw0 = ground ? local::startYaw(sc) : 0.0;
   auto rockDistance = [&](const Vec3& p) {
+    if (ground) return local::bodyRockClearance(sc, truth, p, yaw0);
     const map::ShapeDistance d = truth.checker()->distance(robot, at(p), 10.0);
     return d.collision ? 0.0 : d.distance_m;
   };
@@ -220,8 +224,9 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
 
   local::RobotState state;
   state.position = sc.start;
+  state.yaw = yaw0;
   double t = 0.0;
-  res.trajectory.push_back({0.0, state.position, state.velocity, local::StepStatus::kFollowing, state.position});
+  res.trajectory.push_back({0.0, state.position, state.velocity, local::StepStatus::kFollowing, state.position, state.yaw});
   NavigatorStatus last = NavigatorStatus::kDriving;
   for (std::size_t k = 0; k < max_steps; ++k) {
     // The true world changes; the robot senses what of it is in range.
@@ -263,7 +268,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
     }
     // The robot follows the set-points; the referee samples the period against the true world:
     // the map, and the roof falls that have happened.
-    local::refereePeriod(sc, truth, c.command.acceleration, t, state, res,
+    local::refereePeriod(sc, truth, c.command, t, state, res,
                          [&](const Vec3& p, double, double& d, std::string& what) {
                            for (const Fall& f : falls) {
                              const double df = std::max(0.0, (p - f.event.center).norm() - f.event.radius_m - r);
@@ -272,7 +277,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& sc, const local::Enviro
                            }
                          });
     t = double(k + 1) * sc.dt_s;
-    res.trajectory.push_back({t, state.position, state.velocity, c.command.status, c.subgoal.value_or(c.command.sub_goal)});
+    res.trajectory.push_back({t, state.position, state.velocity, c.command.status, c.subgoal.value_or(c.command.sub_goal), state.yaw});
     if (observer) observer->afterCycle(double(k) * sc.dt_s, nav, c, state, scan, tracks, res);
   }
   // The goal the navigator had at the end: the scenario's unless an operator gave another.

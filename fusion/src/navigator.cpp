@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "adit/fusion/navigator.hpp"
 
+#include "adit/map/rock_points.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -260,6 +262,7 @@ struct Navigator::Impl {
   std::optional<Vec3> blockedAt(const Vec3& robot, const map::Aabb& window) const {
     const double r = params.local.robot.radius_m;
     const map::Aabb near = window.inflated(r + field->resolution());
+    const double lift = params.local.robot.probeLift(field->resolution());  // a ground robot's sphere
     std::size_t first = 0;
     path.nearestPoint(robot, &first);
     const double step = 0.5 * field->resolution();
@@ -269,7 +272,7 @@ struct Navigator::Impl {
       const int n = std::max(1, int(std::ceil(len / step)));
       for (int k = 0; k <= n; ++k) {
         const Vec3 p = a + (b - a) * (double(k) / double(n));
-        if (near.contains(p) && field->distance(p) < r) return p;
+        if (near.contains(p) && field->distance(p + Vec3(0, 0, lift)) < r) return p;
       }
     }
     return std::nullopt;
@@ -295,7 +298,16 @@ StatusOr<Navigator> Navigator::create(map::LoadedMap loaded, map::DistanceField 
 
 StatusOr<Navigator> Navigator::create(map::World world, const NavigatorParams& params, const Vec3& goal) {
   NavigatorParams p = params;
-  p.global.robot = map::RobotShape::sphere(p.local.robot.radius_m);
+  // One robot for both layers: the local description decides the global planner's shape and mode.
+  const local::RobotLimits& rb = p.local.robot;
+  if (rb.ground()) {
+    p.global.mode = global::PlanMode::kGround;
+    p.global.robot = rb.footprint.box ? map::RobotShape::box(Vec3(rb.footprint.length_m, rb.footprint.width_m, rb.height_m))
+                                      : map::RobotShape::cylinder(rb.footprint.radius_m, rb.height_m);
+    p.global.max_slope_deg = rb.max_slope_deg;
+  } else {
+    p.global.robot = map::RobotShape::sphere(rb.radius_m);
+  }
   ADIT_RETURN_IF_ERROR(p.validate());
   if (!allFinite(goal)) return invalidArgument("navigator: goal is not finite");
   auto impl = std::make_unique<Impl>(std::move(world));
@@ -307,7 +319,8 @@ StatusOr<Navigator> Navigator::create(map::World world, const NavigatorParams& p
   impl->global.emplace(std::move(g));
   local::World sensed;
   sensed.field = impl->field;
-  sensed.shape = p.global.robot;
+  // A ground robot's footprint is the local planner's own (RobotLimits): it needs no checker.
+  sensed.shape = rb.ground() ? map::RobotShape::sphere(rb.radius_m) : p.global.robot;
   ADIT_ASSIGN_OR_RETURN(local::LocalPlanner lp, local::LocalPlanner::create(p.local, sensed));
   impl->local.emplace(std::move(lp));
   impl->path.points = {goal};
@@ -457,7 +470,8 @@ Vec3 Navigator::goal() const {
   return impl_->goal;
 }
 
-Status Navigator::setGoal(const Vec3& goal) {
+Status Navigator::setGoal(const Vec3& goal_given) {
+  Vec3 goal = goal_given;
   Impl& m = *impl_;
   if (!allFinite(goal)) return invalidArgument("goal: not finite");
   std::unique_lock lock(m.mutex);
@@ -466,7 +480,14 @@ Status Navigator::setGoal(const Vec3& goal) {
     return invalidArgument("goal " + pointText(goal) + " is off the map (bounds " + pointText(b.min) + " to " +
                            pointText(b.max) + ")");
   if (!m.loaded.map.isFree(goal)) return invalidArgument("goal " + pointText(goal) + " is in rock");
-  const double clearance = m.field->distance(goal), r = m.params.local.robot.radius_m;
+  const local::RobotLimits& rb = m.params.local.robot;
+  if (rb.ground()) {
+    // A ground robot's goal stands on the floor under the point given.
+    const std::optional<double> f = map::floorBelow(*m.field, goal, 5.0);
+    if (!f) return invalidArgument("goal " + pointText(goal) + ": no floor within 5 m under it for the ground robot");
+    goal.z() = *f + 0.5 * rb.height_m;
+  }
+  const double clearance = m.field->distance(goal + Vec3(0, 0, rb.probeLift(m.field->resolution()))), r = rb.radius_m;
   if (clearance < r) {
     std::ostringstream os;
     os.precision(2);

@@ -22,8 +22,19 @@ PlanRefinement refinePlan(const global::GlobalPlanner& planner, const map::Dista
   rp.sample_step_m = std::min(res, params.motion_step_voxels * res);
   rp.clearance_weight = params.clearance_weight;
   // Ground mode: the centre sits half a body above the floor, so the field there sees the floor;
-  // measure the ribs higher up, lifted as the planner's own clearance is (margin + two voxels).
-  const double lift = rp.planar ? params.safety_margin_m + 2.0 * res : 0.0;
+  // measure the ribs higher up, lifted as the planner's own clearance is (margin + two voxels),
+  // and high enough that the floor (two voxels of quantisation under it) never binds: a low wide
+  // body (a 1.0 x 0.7 x 0.6 m tracked robot) is wider than it is tall.
+  double half_height = 0.0;
+  switch (params.robot.type) {
+    case map::ShapeType::kSphere: half_height = params.robot.radius; break;
+    case map::ShapeType::kCapsule: half_height = params.robot.radius + 0.5 * params.robot.length; break;
+    case map::ShapeType::kCylinder: half_height = 0.5 * params.robot.length; break;
+    case map::ShapeType::kBox: half_height = 0.5 * params.robot.size.z(); break;
+  }
+  const double lift = rp.planar ? std::max(params.safety_margin_m + 2.0 * res,
+                                           horizontal + params.safety_margin_m + 2.0 * res - half_height)
+                                : 0.0;
   const ClearanceFn clearance = [&field, horizontal, lift](const map::Vec3& p) {
     return field.distance(p + map::Vec3(0, 0, lift)) - horizontal;
   };

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "robot_validity.hpp"
 
+#include "adit/map/rock_points.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -60,12 +62,7 @@ bool RobotValidity::bodyClear(const Vec3& c) const {
 }
 
 std::optional<double> RobotValidity::floorBelow(const Vec3& c, double depth) const {
-  if (!map::allFinite(c) || !field_->isFree(c)) return std::nullopt;
-  for (double dz = res_; dz <= depth + res_; dz += res_) {
-    const Vec3 p = c - Vec3(0, 0, dz);
-    if (!field_->isFree(p)) return (std::floor(p.z() / res_) + 1.0) * res_;
-  }
-  return std::nullopt;
+  return map::floorBelow(*field_, c, depth);
 }
 
 std::optional<Vec3> RobotValidity::onFloor(const Vec3& c, double depth) const {

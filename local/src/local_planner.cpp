@@ -128,6 +128,126 @@ LocalPlanner::LocalPlanner(const LocalParams& params, World world) : params_(par
   obstacles_.reserve(kMaxObstacles);
   reachable_.reserve(kMaxObstacles);
   rock_points_.resize(world_.field ? kRockBuffer : 0);
+  ground_ = params_.robot.ground();
+  if (ground_) {
+    // The sphere's bottom max_step plus one voxel above the floor: a floor quantised to voxels
+    // rises a voxel between two samples on a slope, and that voxel is not rock in the way.
+    // In open space the floor is flat, half the height under the robot.
+    lift_ = params_.robot.probeLift(world_.field ? world_.field->resolution() : 0.0);
+  }
+}
+
+void LocalPlanner::scanBand(const Vec3& q, double range) {
+  const RobotLimits& r = params_.robot;
+  const double res = world_.field->resolution();
+  const std::optional<double> f =
+      map::floorBelow(*world_.field, q + Vec3(0, 0, r.max_step_m), 0.5 * r.height_m + r.max_step_m + 2.0 * res);
+  floor_z_ = f ? *f : q.z() - 0.5 * r.height_m;
+  map::rockInBand(*world_.field, q, range + r.radius_m, floor_z_, r.max_step_m,
+                  std::tan(r.max_slope_deg * kPi / 180.0), r.height_m, band_);
+}
+
+double LocalPlanner::slopeAhead(const Vec3& q, const Vec3& u) const {
+  if (!world_.field) return 0.0;
+  const RobotLimits& r = params_.robot;
+  const double res = world_.field->resolution(), tan_max = std::tan(r.max_slope_deg * kPi / 180.0);
+  // Over a metre (four voxels on coarse maps): a floor quantised to voxels is a staircase.
+  const double run = std::max(1.0, 4.0 * res);
+  const Vec3 ahead(q.x() + u.x() * run, q.y() + u.y() * run, floor_z_ + run * tan_max + r.max_step_m + res);
+  const std::optional<double> f = map::floorBelow(*world_.field, ahead, 2.0 * run * tan_max + r.max_step_m + 2.0 * res);
+  if (!f) return 0.0;
+  return std::clamp((*f - floor_z_) / run, -tan_max, tan_max);
+}
+
+void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, double dt, StepCommand& cmd) {
+  const RobotLimits& R = params_.robot;
+  constexpr double kYawGain = 2.0;        // [1/s]: heading error to yaw rate (pure-pursuit-like)
+  constexpr double kReverseRad = 2.2;     // wanted direction this far behind: back off in reverse
+  const double a_max = R.a_max_mps2, v_max = R.v_max_mps;
+  const Vec3 q = state.position, want(v_cmd.x(), v_cmd.y(), 0.0);
+  const double yaw = state.yaw, speed = want.norm();
+  const Vec3 fwd(std::cos(yaw), std::sin(yaw), 0.0);
+  const double vf0 = Vec3(state.velocity.x(), state.velocity.y(), 0.0).dot(fwd);
+  // Yaw acceleration limit about the present rate (a rate beyond omega_max is brought back).
+  double w_lo = std::max(-R.omega_max_rps, state.yaw_rate - R.alpha_max_rps2 * dt);
+  double w_hi = std::min(R.omega_max_rps, state.yaw_rate + R.alpha_max_rps2 * dt);
+  if (w_lo > w_hi) w_lo = w_hi = state.yaw_rate > 0.0 ? w_lo : w_hi;
+  auto wrap = [](double x) { return std::remainder(x, 2.0 * kPi); };
+  Vec3 v_new;
+  double vf = 0.0, w = 0.0;
+  if (R.drive == DriveType::kHolonomic) {
+    // The wish within a_max of the present velocity (in the floor's plane).
+    const Vec3 v_flat(state.velocity.x(), state.velocity.y(), 0.0);
+    v_new = clampNorm(Vec3(v_flat + clampNorm(Vec3(want - v_flat), a_max * dt)), v_max);
+    const double err = speed > 0.05 ? wrap(std::atan2(want.y(), want.x()) - yaw) : 0.0;
+    w = std::clamp(kYawGain * err, w_lo, w_hi);
+    vf = v_new.dot(fwd);
+  } else {
+    double err = speed > 1e-3 ? wrap(std::atan2(want.y(), want.x()) - yaw) : 0.0;
+    double sign = 1.0;
+    const bool car = R.drive == DriveType::kAckermann;
+    // Backing off (a slow wish behind the robot): reverse rather than turn about.
+    if (std::abs(err) > kReverseRad && speed <= 0.55 * v_max) {
+      sign = -1.0;
+      err = wrap(err + kPi);
+    }
+    double w_des = std::clamp(kYawGain * err, -R.omega_max_rps, R.omega_max_rps);
+    // No speed while facing away: turn first (on the spot, for tracks and differential wheels).
+    double vf_des = sign * speed * std::max(0.0, std::cos(err));
+    if (car && std::abs(err) > 0.5 * kPi && speed > 1e-3) {
+      // A car cannot turn on the spot: it turns about slowly at full steer, forward until that is
+      // blocked, then in reverse (the yaw rate keeps its sense), and so on: a many-point turn.
+      vf_des = car_direction_ * sign * 0.3 * speed;
+    }
+    vf = std::clamp(vf_des, vf0 - a_max * dt, vf0 + a_max * dt);
+    vf = std::clamp(vf, -v_max, v_max);
+    if (R.drive == DriveType::kAckermann) {
+      const double w_steer = std::abs(vf) * std::tan(R.max_steer_deg * kPi / 180.0) / R.wheelbase();
+      w_des = std::clamp(w_des, -w_steer, w_steer);
+    }
+    // The turn's lateral acceleration is held to a_max too: a fast robot turns wide and slows.
+    if (std::abs(vf) > 1e-6) w_des = std::clamp(w_des, -a_max / std::abs(vf), a_max / std::abs(vf));
+    w = std::clamp(w_des, w_lo, w_hi);
+    const double yaw_end = yaw + w * dt;
+    v_new = vf * Vec3(std::cos(yaw_end), std::sin(yaw_end), 0.0);
+  }
+  auto onFloor = [&](Vec3 v) {
+    const double h = v.norm();
+    if (h > 1e-9) v.z() = slopeAhead(q, v / h) * h;
+    return v;
+  };
+  v_new = onFloor(v_new);
+  // The drive's heading is not the set-point's: its stopping run must be clear as well, or its
+  // speed comes down (no further than braking at a_max allows).
+  if (params_.envelope.enabled) {
+    const double floor = stoppingFloor(q);
+    if (!stoppingRunClear(q, v_new, dt, floor)) {
+      const double h0 = Vec3(v_new.x(), v_new.y(), 0.0).norm();
+      const double slowest = std::max(0.0, std::abs(vf0) - a_max * dt);
+      double lo = h0 > 1e-9 ? std::min(1.0, slowest / h0) : 0.0, hi = 1.0;
+      if (!stoppingRunClear(q, v_new * lo, dt, floor)) hi = lo;
+      for (int i = 0; i < 10 && hi > lo; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (stoppingRunClear(q, v_new * mid, dt, floor) ? lo : hi) = mid;
+      }
+      v_new *= lo;
+      vf *= lo;
+      if (R.drive == DriveType::kAckermann) {
+        // A car's yaw rate is its speed's (steering angle fixed): slower, it turns slower.
+        w *= lo;
+        const double yaw_end = yaw + w * dt;
+        const double z = v_new.z();
+        v_new = vf * Vec3(std::cos(yaw_end), std::sin(yaw_end), 0.0);
+        v_new.z() = z;
+        // A turn about that can go no further this way goes the other way next period.
+        if (lo < 0.2) car_direction_ = -car_direction_;
+      }
+    }
+  }
+  cmd.velocity = v_new;
+  cmd.acceleration = (v_new - state.velocity) / dt;
+  cmd.forward_speed = vf;
+  cmd.yaw_rate = w;
 }
 
 void LocalPlanner::reset() {
@@ -199,7 +319,29 @@ void LocalPlanner::gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, 
     if (far->rho > o.rho) *far = o;
   };
 
-  if (world_.field) {
+  if (world_.field && ground_) {
+    // What stands in the body's band, as a horizontal scan: a ground robot is repelled within the
+    // floor's plane, by rock that is in its way, never by the floor it drives on.
+    const bool all_points = params_.method == Method::kWang2014 || params_.method == Method::kVff ||
+                            params_.method == Method::kCvff;
+    scanBand(q, range);
+    int best = -1;
+    for (int b = 0; b < map::BandScan::kBins; ++b) {
+      if (!std::isfinite(band_.distance[b])) continue;
+      if (all_points) {
+        const Vec3 flat(band_.point[b].x(), band_.point[b].y(), q.z());
+        const Proximity p = pointProximity(q, flat, rr);
+        keep({p.rho, p.grad, p.pivot_distance, v, a, flat, false, false});
+      } else if (best < 0 || band_.distance[b] < band_.distance[best]) {
+        best = b;
+      }
+    }
+    if (best >= 0) {
+      const Vec3 flat(band_.point[best].x(), band_.point[best].y(), q.z());
+      const Proximity p = pointProximity(q, flat, rr);
+      keep({p.rho, p.grad, p.pivot_distance, v, a, flat, false, false});
+    }
+  } else if (world_.field) {
     const bool all_points = params_.method == Method::kWang2014 || params_.method == Method::kVff ||
                             params_.method == Method::kCvff;
     if (world_.shape.type != map::ShapeType::kSphere && world_.checker) {
@@ -321,7 +463,13 @@ Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt, const map
   }
   // The nearest rock whatever the influence range (a fast robot needs more than rho0 to stop),
   // then every static obstacle gathered this period.
-  if (world_.field) {
+  if (world_.field && ground_) {
+    for (int b = 0; b < map::BandScan::kBins; ++b) {
+      if (!std::isfinite(band_.distance[b])) continue;
+      const Vec3 toward(band_.point[b].x() - q.x(), band_.point[b].y() - q.y(), 0.0);
+      if (toward.norm() > 1e-9) cap(toward.normalized(), band_.distance[b] - rr);
+    }
+  } else if (world_.field) {
     const map::DistanceSample s = world_.field->query(q);
     const Vec3 toward = s.nearest - q;
     if (!s.in_rock && toward.norm() > 1e-9) cap(toward.normalized(), s.distance - rr);
@@ -343,7 +491,7 @@ Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt, const map
 }
 
 double LocalPlanner::stoppingFloor(const Vec3& q) const {
-  const double now = world_.field ? world_.field->distance(q) - params_.robot.radius_m : 0.0;
+  const double now = world_.field ? world_.field->distance(probe(q)) - params_.robot.radius_m : 0.0;
   return std::min(0.5 * params_.envelope.keep_m, now - 1e-6);
 }
 
@@ -362,14 +510,14 @@ bool LocalPlanner::stoppingRunClear(const Vec3& q, const Vec3& v, double dt, dou
   }
   const int n = std::min(kMaxSightSamples, std::max(1, int(std::ceil(reach / step))));
   for (int k = 1; k <= n; ++k)
-    if (world_.field->distance(q + (end - q) * (double(k) / double(n))) - rr < floor) return false;
+    if (world_.field->distance(probe(q + (end - q) * (double(k) / double(n)))) - rr < floor) return false;
   return true;
 }
 
 bool LocalPlanner::goalInSight(const Vec3& q, const Vec3& goal) const {
   // The robot's sphere along the whole segment: a non-spherical shape counts as its bounding
   // sphere (conservative: such a robot may see less of the terminal phase, never more).
-  const double rr = world_.shape.type == map::ShapeType::kSphere
+  const double rr = ground_ || world_.shape.type == map::ShapeType::kSphere
                         ? params_.robot.radius_m
                         : std::max(params_.robot.radius_m, world_.shape.boundingRadius());
   for (const StaticSphere& s : world_.static_obstacles)
@@ -380,7 +528,7 @@ bool LocalPlanner::goalInSight(const Vec3& q, const Vec3& goal) const {
   const double step = 0.5 * world_.field->resolution();
   const int n = std::clamp(int(std::ceil(d.norm() / step)), 1, kMaxSightSamples);
   for (int k = 1; k <= n; ++k)
-    if (world_.field->distance(q + d * (double(k) / double(n))) < rr) return false;
+    if (world_.field->distance(probe(q + d * (double(k) / double(n)))) < rr) return false;
   return true;
 }
 
@@ -392,7 +540,8 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     cmd.message = why;
     return cmd;
   };
-  if (!allFinite(state.position) || !allFinite(state.velocity) || !allFinite(state.acceleration))
+  if (!allFinite(state.position) || !allFinite(state.velocity) || !allFinite(state.acceleration) ||
+      !std::isfinite(state.yaw) || !std::isfinite(state.yaw_rate))
     return refuse("robot state is not finite");
   if (!(dt > 0.0) || !std::isfinite(dt)) return refuse("dt must be finite and > 0");
   if (path.points.empty()) return refuse("expected path is empty");
@@ -426,6 +575,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     const Vec3 acc = clampNorm(-v / dt, a_max);
     cmd.acceleration = acc;
     cmd.velocity = v + acc * dt;
+    if (ground_) cmd.forward_speed = cmd.velocity.dot(Vec3(std::cos(state.yaw), std::sin(state.yaw), 0.0));
     cmd.status = status;
     return cmd;
   };
@@ -631,6 +781,12 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   }
   cmd.potential = total.u;
   Vec3 force = total.force() + extra;
+  if (ground_) {
+    // A ground robot moves in the floor's plane: what the field asks of z is the floor's to give.
+    force.z() = 0.0;
+    moving_force.z() = 0.0;
+    repulsion_force.z() = 0.0;
+  }
   if (!allFinite(force) || !allFinite(moving_force)) return refuse("internal: non-finite force");
 
   // Desired velocity: along the force (or round the obstacle when escaping), no faster than the
@@ -665,6 +821,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     const double speed = v_max * std::min(1.0, fn / P.monitor.full_speed_force);
     v_des = fn > 1e-12 ? Vec3(force * (speed / fn)) : Vec3::Zero();
   }
+  if (ground_) v_des.z() = 0.0;
   const double stop_speed = manual ? v_max : std::sqrt(2.0 * a_max * 0.8 * goal_distance);
   v_des = clampNorm(v_des, std::min(v_max, stop_speed));
   bool safety_override = false;
@@ -708,6 +865,12 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
       v_des = best;
     }
   }
+  if (ground_) {
+    // Along the floor: the stopping runs below then follow a ramp rather than run into it.
+    v_des.z() = 0.0;
+    const double h = v_des.norm();
+    if (h > 1e-9) v_des.z() = slopeAhead(q, v_des / h) * h;
+  }
   // The safety envelope (EnvelopeParams): whatever the field, the escape or the safety check
   // asked for, the speed toward rock and movers stays what still stops the robot short of them.
   // Off, the terminal phase still caps toward rock: its goal is near rock by design.
@@ -717,7 +880,16 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   if (P.envelope.enabled && world_.field) {
     // Braking toward the nearest rock first: the barrier above assumed all of a_max for it, and
     // a turn asked at the same time (an escape, a side step) must not take its share.
-    const map::DistanceSample s = world_.field->query(q);
+    map::DistanceSample s = world_.field->query(q);
+    if (ground_) {
+      s.in_rock = true;  // no rock in the band: nothing to brake for
+      for (int b = 0; b < map::BandScan::kBins; ++b)
+        if (std::isfinite(band_.distance[b]) && (s.in_rock || band_.distance[b] < s.distance)) {
+          s.in_rock = false;
+          s.distance = band_.distance[b];
+          s.nearest = Vec3(band_.point[b].x(), band_.point[b].y(), q.z());
+        }
+    }
     const Vec3 toward = s.nearest - q;
     if (!s.in_rock && toward.norm() > 1e-9) {
       // Only the braking of an approach that is under way has priority (down to no approach);
@@ -760,6 +932,12 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   if (!allFinite(v_cmd) || !allFinite(acc)) return refuse("internal: non-finite command");
   cmd.velocity = v_cmd;
   cmd.acceleration = acc;
+  if (ground_) {
+    driveCommand(state, v_des, dt, cmd);
+    if (!allFinite(cmd.velocity) || !allFinite(cmd.acceleration) || !std::isfinite(cmd.yaw_rate))
+      return refuse("internal: non-finite drive command");
+    v_cmd = cmd.velocity;
+  }
   cmd.sub_goal = steer_to;
 
   const double along = v_cmd.dot(to_goal);

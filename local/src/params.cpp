@@ -2,6 +2,7 @@
 #include "adit/local/params.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 namespace adit::local {
@@ -94,10 +95,82 @@ Status UuvParams::validate() const {
       .status();
 }
 
+const char* robotModeName(RobotMode m) { return m == RobotMode::kGround ? "ground" : "fly"; }
+
+StatusOr<RobotMode> parseRobotMode(const std::string& name) {
+  if (name == "fly") return RobotMode::kFly;
+  if (name == "ground") return RobotMode::kGround;
+  return invalidArgument("unknown robot mode '" + name + "' (fly, ground)");
+}
+
+const char* driveTypeName(DriveType d) {
+  switch (d) {
+    case DriveType::kDifferential: return "differential";
+    case DriveType::kSkid: return "skid";
+    case DriveType::kAckermann: return "ackermann";
+    case DriveType::kHolonomic: return "holonomic";
+  }
+  return "?";
+}
+
+StatusOr<DriveType> parseDriveType(const std::string& name) {
+  for (DriveType d : {DriveType::kDifferential, DriveType::kSkid, DriveType::kAckermann, DriveType::kHolonomic})
+    if (name == driveTypeName(d)) return d;
+  return invalidArgument("unknown drive '" + name + "' (differential, skid, ackermann, holonomic)");
+}
+
+std::string Footprint::text() const {
+  std::ostringstream os;
+  if (box) os << "box:" << length_m << "," << width_m;
+  else os << "circle:" << radius_m;
+  return os.str();
+}
+
+Status Footprint::validate() const {
+  Checker c("Footprint");
+  if (box) c.positive("length_m", length_m).positive("width_m", width_m);
+  else c.positive("radius_m", radius_m);
+  return c.status();
+}
+
+StatusOr<Footprint> parseFootprint(const std::string& text) {
+  const auto colon = text.find(':');
+  const std::string kind = text.substr(0, colon), rest = colon == std::string::npos ? "" : text.substr(colon + 1);
+  auto number = [&](const std::string& t, double* out) {
+    char* end = nullptr;
+    *out = std::strtod(t.c_str(), &end);
+    return !t.empty() && end == t.c_str() + t.size() && std::isfinite(*out) && *out > 0.0 && *out <= 100.0;
+  };
+  Footprint f;
+  if (kind == "circle") {
+    if (!number(rest, &f.radius_m)) return invalidArgument("footprint '" + text + "': circle:R with 0 < R <= 100 m");
+    return f;
+  }
+  if (kind == "box") {
+    const auto comma = rest.find(',');
+    f.box = true;
+    if (comma == std::string::npos || !number(rest.substr(0, comma), &f.length_m) ||
+        !number(rest.substr(comma + 1), &f.width_m))
+      return invalidArgument("footprint '" + text + "': box:L,W with 0 < L, W <= 100 m");
+    return f;
+  }
+  return invalidArgument("footprint '" + text + "': circle:R or box:L,W");
+}
+
 Status RobotLimits::validate() const {
-  return Checker("RobotLimits")
-      .positive("radius_m", radius_m).positive("v_max_mps", v_max_mps).positive("a_max_mps2", a_max_mps2)
-      .status();
+  Checker c("RobotLimits");
+  c.positive("radius_m", radius_m).positive("v_max_mps", v_max_mps).positive("a_max_mps2", a_max_mps2);
+  if (ground()) {
+    ADIT_RETURN_IF_ERROR(footprint.validate());
+    c.positive("height_m", height_m).positive("omega_max_rps", omega_max_rps).positive("alpha_max_rps2", alpha_max_rps2)
+        .rule("max_slope_deg", max_slope_deg, max_slope_deg >= 0 && max_slope_deg < 60, "in [0, 60)")
+        .rule("max_step_m", max_step_m, max_step_m > 0 && max_step_m < height_m, "in (0, height_m)")
+        .rule("max_steer_deg", max_steer_deg, max_steer_deg > 0 && max_steer_deg < 80, "in (0, 80)")
+        .nonNegative("wheelbase_m", wheelbase_m)
+        .rule("radius_m", radius_m, radius_m >= footprint.circumradius() - 1e-9,
+              ">= the footprint's circumradius (the field's circle must hold the footprint)");
+  }
+  return c.status();
 }
 
 Status MonitorParams::validate() const {

@@ -229,7 +229,8 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
   }
 
   if (const YAML::Node rb = root["robot"]) {
-    r.onlyKeys(rb, "robot", {"radius", "v_max", "a_max", "sensor_range"});
+    r.onlyKeys(rb, "robot", {"radius", "v_max", "a_max", "sensor_range", "mode", "drive", "footprint", "height",
+                             "omega_max", "alpha_max", "max_slope_deg", "max_step", "max_steer_deg", "wheelbase"});
     // Ranges a robot in a mine can have (a sensor to the horizon, a vehicle at highway speed, 10 g).
     auto limit = [&](const char* key, double hi, const char* unit, auto& target) {
       if (!rb[key]) return;
@@ -241,6 +242,45 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
     limit("radius", 100.0, "m", s.params.robot.radius_m);
     limit("v_max", 100.0, "m/s", s.params.robot.v_max_mps);
     limit("a_max", 100.0, "m/s^2", s.params.robot.a_max_mps2);
+    RobotLimits& robot = s.params.robot;
+    if (const YAML::Node m = rb["mode"]) {
+      if (!m.IsScalar()) r.fail(m, "robot.mode", "must be fly or ground");
+      StatusOr<RobotMode> mode = parseRobotMode(m.Scalar());
+      if (!mode.ok()) r.fail(m, "robot.mode", mode.status().message());
+      robot.mode = *mode;
+    }
+    const char* ground_keys[] = {"drive", "footprint", "height", "omega_max", "alpha_max", "max_slope_deg",
+                                 "max_step", "max_steer_deg", "wheelbase"};
+    if (!robot.ground())
+      for (const char* k : ground_keys)
+        if (rb[k]) r.fail(rb[k], std::string("robot.") + k, "only for a ground robot (robot.mode: ground)");
+    if (const YAML::Node d = rb["drive"]) {
+      StatusOr<DriveType> drive = parseDriveType(d.IsScalar() ? d.Scalar() : "");
+      if (!drive.ok()) r.fail(d, "robot.drive", drive.status().message());
+      robot.drive = *drive;
+    }
+    if (const YAML::Node f = rb["footprint"]) {
+      StatusOr<Footprint> fp = parseFootprint(f.IsScalar() ? f.Scalar() : "");
+      if (!fp.ok()) r.fail(f, "robot.footprint", fp.status().message());
+      robot.footprint = *fp;
+      if (rb["radius"] && rb["radius"].as<double>() < fp->circumradius() - 1e-9)
+        r.fail(rb["radius"], "robot.radius", "less than the footprint's circumradius " + std::to_string(fp->circumradius()));
+    } else if (robot.ground()) {
+      robot.footprint.radius_m = robot.radius_m;  // circle:radius
+    }
+    if (robot.ground()) {
+      limit("height", 20.0, "m", robot.height_m);
+      limit("omega_max", 100.0, "rad/s", robot.omega_max_rps);
+      limit("alpha_max", 1000.0, "rad/s^2", robot.alpha_max_rps2);
+      limit("max_slope_deg", 59.0, "deg", robot.max_slope_deg);
+      limit("max_step", 10.0, "m", robot.max_step_m);
+      limit("max_steer_deg", 79.0, "deg", robot.max_steer_deg);
+      limit("wheelbase", 20.0, "m", robot.wheelbase_m);
+      // The field's circle holds the footprint at any heading.
+      if (!rb["radius"] || robot.radius_m < robot.footprint.circumradius()) robot.radius_m = robot.footprint.circumradius();
+      if (robot.max_step_m >= robot.height_m)
+        r.fail(rb["max_step"] ? rb["max_step"] : rb, "robot.max_step", "must be less than robot.height");
+    }
   }
   if (const YAML::Node list = root["static_obstacles"]) {
     if (!list.IsSequence()) r.fail(list, "static_obstacles", "must be a list");

@@ -78,35 +78,107 @@ const char* outcomeName(Outcome o) {
 
 namespace {
 
-// The independent referee: surface distances of the robot's sphere at `p`, time `t`.
+// The independent referee: surface distances of the robot's body at a pose, time `t`. Fly: the
+// sphere. Ground: the footprint's box (or cylinder) from `bottom_` above the floor to the robot's
+// height, on the floor under it.
 class Referee {
  public:
   Referee(const Scenario& sc, const Environment& env)
-      : sc_(sc), env_(env), robot_(map::RobotShape::sphere(sc.params.robot.radius_m)) {}
+      : sc_(sc), env_(env), robot_(map::RobotShape::sphere(sc.params.robot.radius_m)) {
+    const RobotLimits& r = sc.params.robot;
+    if (r.ground()) {
+      // max_step above the floor, plus one voxel: a floor quantised to voxels rises a voxel between
+      // the samples under the footprint (the same lift as the planner's, RobotLimits::probeLift).
+      bottom_ = r.max_step_m + (env.field() ? env.field()->resolution() : 0.0);
+      const double tall = std::max(r.height_m - bottom_, 0.05);
+      tall_ = tall;
+      robot_ = r.footprint.box ? map::RobotShape::box(Vec3(r.footprint.length_m, r.footprint.width_m, tall))
+                               : map::RobotShape::cylinder(r.footprint.radius_m, tall);
+    }
+  }
 
-  double rockDistance(const Vec3& p) const {
+  double rockDistance(const Eigen::Isometry3d& x) const {
     if (!env_.checker()) return std::numeric_limits<double>::infinity();
-    const map::ShapeDistance d = env_.checker()->distance(robot_, pose(p), 10.0);
+    const map::ShapeDistance d = env_.checker()->distance(robot_, x, 10.0);
     return d.collision ? 0.0 : d.distance_m;
   }
-  double staticDistance(const Vec3& p, std::size_t i) const {
+  double rockDistance(const Vec3& p) const { return rockDistance(pose(p)); }
+  double staticDistance(const Eigen::Isometry3d& x, std::size_t i) const {
     const StaticSphere& s = sc_.static_obstacles[i];
-    return std::max(0.0, (p - s.center).norm() - s.radius - robot_.radius);
+    if (robot_.type == map::ShapeType::kSphere)
+      return std::max(0.0, (x.translation() - s.center).norm() - s.radius - robot_.radius);
+    const map::ShapeDistance d = map::shapeDistance(robot_, x, map::RobotShape::sphere(s.radius), pose(s.center));
+    return d.collision ? 0.0 : d.distance_m;
   }
-  double movingDistance(const Vec3& p, std::size_t i, double t) const {
-    const map::ShapeDistance d = map::obstacleDistance(robot_, pose(p), sc_.moving_obstacles[i].obstacle, t);
+  double movingDistance(const Eigen::Isometry3d& x, std::size_t i, double t) const {
+    const map::ShapeDistance d = map::obstacleDistance(robot_, x, sc_.moving_obstacles[i].obstacle, t);
     return d.collision ? 0.0 : d.distance_m;
   }
 
- private:
+  // Ground mode: the floor under (x, y), climbing at most max_step from `hint` (the last floor)
+  // and descending at most a metre; none: a step too high (the body will meet it) or a drop.
+  std::optional<double> floorAt(double x, double y, double hint) const {
+    if (!env_.field()) return hint;
+    const RobotLimits& r = sc_.params.robot;
+    const double res = env_.field()->resolution();
+    return map::floorBelow(*env_.field(), Vec3(x, y, hint + r.max_step_m + res), r.max_step_m + res + 1.0);
+  }
+  struct Placed {
+    bool on_floor = true;
+    double floor = 0.0;  // under the centre
+    Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+  };
+  // The body standing at (x, y) with heading yaw: pitch and roll from the floor under the
+  // footprint's ends and sides.
+  Placed place(const Vec3& p, double yaw, double hint) const {
+    const RobotLimits& r = sc_.params.robot;
+    Placed out;
+    const std::optional<double> fc = floorAt(p.x(), p.y(), hint);
+    out.on_floor = fc.has_value();
+    out.floor = fc.value_or(hint);
+    const double half_l = r.footprint.box ? 0.5 * r.footprint.length_m : r.footprint.radius_m;
+    const double half_w = r.footprint.box ? 0.5 * r.footprint.width_m : r.footprint.radius_m;
+    const Vec3 fwd(std::cos(yaw), std::sin(yaw), 0.0), left(-std::sin(yaw), std::cos(yaw), 0.0);
+    // Floor under a 5 x 3 grid of the footprint (a circle's bounding square): the body's tilt is
+    // the plane through its ends and sides, and it rests on the highest floor under that plane,
+    // as a vehicle does on a crest.
+    constexpr int kAlong = 5, kAcross = 3;
+    double f[kAlong][kAcross];
+    for (int a = 0; a < kAlong; ++a)
+      for (int c = 0; c < kAcross; ++c) {
+        const double u = half_l * (2.0 * a / (kAlong - 1) - 1.0), v = half_w * (2.0 * c / (kAcross - 1) - 1.0);
+        const Vec3 at = p + u * fwd + v * left;
+        f[a][c] = floorAt(at.x(), at.y(), out.floor).value_or(out.floor);
+      }
+    const double ff = f[kAlong - 1][1], fb = f[0][1], fl = f[kAlong / 2][kAcross - 1], fr = f[kAlong / 2][0];
+    const double sp = (ff - fb) / (2.0 * half_l), sr = (fl - fr) / (2.0 * half_w);
+    double base = out.floor;
+    for (int a = 0; a < kAlong; ++a)
+      for (int c = 0; c < kAcross; ++c) {
+        const double u = half_l * (2.0 * a / (kAlong - 1) - 1.0), v = half_w * (2.0 * c / (kAcross - 1) - 1.0);
+        base = std::max(base, f[a][c] - u * sp - v * sr);
+      }
+    const double pitch = std::atan(sp), roll = std::atan(sr);
+    Eigen::Matrix3d rot = (Eigen::AngleAxisd(yaw, Vec3::UnitZ()) * Eigen::AngleAxisd(-pitch, Vec3::UnitY()) *
+                           Eigen::AngleAxisd(roll, Vec3::UnitX()))
+                              .toRotationMatrix();
+    out.body.linear() = rot;
+    // The bottom face parallel to that plane, `bottom_` above it along its normal.
+    out.body.translation() = Vec3(p.x(), p.y(), base) + rot * Vec3(0, 0, bottom_ + 0.5 * tall_);
+    return out;
+  }
+
   static Eigen::Isometry3d pose(const Vec3& p) {
     Eigen::Isometry3d x = Eigen::Isometry3d::Identity();
     x.translation() = p;
     return x;
   }
+
+ private:
   const Scenario& sc_;
   const Environment& env_;
   map::RobotShape robot_;
+  double bottom_ = 0.0, tall_ = 0.0;
 };
 
 }  // namespace
@@ -138,21 +210,40 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
     ob_reach = std::max(ob_reach, m.velocityAt(t).norm() * dt + 0.5 * m.acceleration.norm() * dt * dt);
   }
   const int subs = int(std::clamp(std::ceil((reach + ob_reach) / sample_step), 1.0, 1000.0));
+  const RobotLimits& robot = sc.params.robot;
+  const bool ground = robot.ground();
+  const double yaw0 = state.yaw, yaw_rate = state.yaw_rate;
+  double floor = p0.z() - 0.5 * robot.height_m;
   bool hit = false;
+  Vec3 p_end = p0;
   for (int s = 1; s <= subs; ++s) {
     const double tau = dt * double(s) / double(subs);
-    const Vec3 p = p0 + v0 * tau + 0.5 * acc * tau * tau;
-    // Nearest thing to the robot at this instant, and what it is.
-    double d = referee.rockDistance(p);
+    Vec3 p = p0 + v0 * tau + 0.5 * acc * tau * tau;
+    Eigen::Isometry3d body = Referee::pose(p);
     std::string what = "rock";
+    double d = std::numeric_limits<double>::infinity();
+    if (ground) {
+      const Referee::Placed placed = referee.place(p, yaw0 + yaw_rate * tau, floor);
+      floor = placed.floor;
+      p.z() = floor + 0.5 * robot.height_m;
+      body = placed.body;
+      if (!placed.on_floor) {
+        const bool step_up = env.field() && !env.field()->isFree(Vec3(p.x(), p.y(), floor + robot.max_step_m + env.field()->resolution()));
+        d = 0.0;
+        what = step_up ? "rock (a step higher than max_step)" : "no floor (a drop)";
+      }
+    }
+    p_end = p;
+    // Nearest thing to the robot at this instant, and what it is.
+    if (d > 0.0) d = referee.rockDistance(body);
     int mover = -1;
     if (extra) extra(p, t + tau, d, what);
     for (std::size_t i = 0; i < sc.static_obstacles.size(); ++i) {
-      const double ds = referee.staticDistance(p, i);
+      const double ds = referee.staticDistance(body, i);
       if (ds < d) { d = ds; what = "static obstacle " + std::to_string(i + 1); }
     }
     for (std::size_t i = 0; i < nm; ++i) {
-      const double dm = referee.movingDistance(p, i, t + tau);
+      const double dm = referee.movingDistance(body, i, t + tau);
       if (dm < res.closest[i].distance_m) res.closest[i] = {res.closest[i].name, dm, t + tau};
       if (dm < d) { d = dm; what = sc.moving_obstacles[i].name; mover = int(i); }
     }
@@ -171,10 +262,69 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
     hit = hit || d <= 0.0;
   }
   if (hit) ++res.collisions;
-  state.position = p0 + v0 * dt + 0.5 * acc * dt * dt;
-  state.velocity = v0 + acc * dt;
+  if (ground) {
+    state.position = p_end;
+    // The command's velocity (along the floor's mean slope): a floor quantised to voxels steps a
+    // voxel at once, which is no speed of the robot's.
+    state.velocity = v0 + acc * dt;
+    state.yaw = std::remainder(yaw0 + yaw_rate * dt, 2.0 * 3.14159265358979323846);
+  } else {
+    state.position = p0 + v0 * dt + 0.5 * acc * dt * dt;
+    state.velocity = v0 + acc * dt;
+  }
   state.acceleration = acc;
   res.path_length_m += (state.position - p0).norm();
+}
+
+void refereePeriod(const Scenario& sc, const Environment& env, const StepCommand& cmd, double t, RobotState& state,
+                   SimulationResult& res, const ExtraDistanceFn& extra) {
+  state.yaw_rate = sc.params.robot.ground() ? cmd.yaw_rate : 0.0;
+  refereePeriod(sc, env, cmd.acceleration, t, state, res, extra);
+}
+
+StatusOr<Scenario> placeOnFloor(const Scenario& sc, const Environment& env) {
+  if (!sc.params.robot.ground() || !env.field()) return sc;
+  Scenario out = sc;
+  const double half = 0.5 * sc.params.robot.height_m;
+  auto put = [&](Vec3& p, const std::string& what) -> Status {
+    if (!env.field()->isFree(p)) return invalidArgument(sc.file + ": " + what + ": inside rock");
+    const std::optional<double> f = map::floorBelow(*env.field(), p, 5.0);
+    if (!f) {
+      std::ostringstream os;
+      os << sc.file << ": " << what << ": no floor within 5 m under (" << p.x() << ", " << p.y() << ", " << p.z()
+         << ") for the ground robot";
+      return invalidArgument(os.str());
+    }
+    p.z() = *f + half;
+    return {};
+  };
+  ADIT_RETURN_IF_ERROR(put(out.start, "start"));
+  ADIT_RETURN_IF_ERROR(put(out.goal, "goal"));
+  for (std::size_t i = 0; i < out.expected_path.points.size(); ++i) {
+    Vec3& p = out.expected_path.points[i];
+    // Break points given at the start and goal follow them; the rest find their own floor.
+    if ((p - sc.start).norm() < 1e-9) p = out.start;
+    else if ((p - sc.goal).norm() < 1e-9) p = out.goal;
+    else ADIT_RETURN_IF_ERROR(put(p, "expected_path[" + std::to_string(i) + "]"));
+  }
+  return out;
+}
+
+double bodyRockClearance(const Scenario& sc, const Environment& env, const Vec3& p, double yaw) {
+  const Referee referee(sc, env);
+  if (!sc.params.robot.ground()) return referee.rockDistance(p);
+  const Referee::Placed at = referee.place(p, yaw, p.z() - 0.5 * sc.params.robot.height_m);
+  return at.on_floor ? referee.rockDistance(at.body) : 0.0;
+}
+
+double startYaw(const Scenario& sc) {
+  const std::vector<Vec3>& pts = sc.expected_path.points;
+  for (std::size_t i = 1; i < pts.size(); ++i) {
+    const Vec3 d = pts[i] - pts[0];
+    if (std::hypot(d.x(), d.y()) > 1e-6) return std::atan2(d.y(), d.x());
+  }
+  const Vec3 d = sc.goal - sc.start;
+  return std::hypot(d.x(), d.y()) > 1e-6 ? std::atan2(d.y(), d.x()) : 0.0;
 }
 
 bool collisionVerdict(SimulationResult& res) {
@@ -202,8 +352,9 @@ void SubgoalStats::add(const std::string& kind, double us) {
   by_kind.emplace_back(kind, 1);
 }
 
-StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env, const SimulateOptions& options) {
-  ADIT_RETURN_IF_ERROR(sc.validate());
+StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment& env, const SimulateOptions& options) {
+  ADIT_RETURN_IF_ERROR(scenario.validate());
+  ADIT_ASSIGN_OR_RETURN(const Scenario sc, placeOnFloor(scenario, env));
   if (sc.needsNavigator())
     return invalidArgument(sc.file + ": expected_path: plan, robot.sensor_range and events need the navigator "
                            "(adit::fusion::simulateNavigated)");
@@ -217,10 +368,14 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env, 
     if (!env.field()->isFree(sc.goal)) return invalidArgument(sc.file + ": goal: inside rock");
   }
   Referee referee(sc, env);
-  if (referee.rockDistance(sc.start) <= 0.0)
+  const double yaw0 = sc.params.robot.ground() ? startYaw(sc) : 0.0;
+  auto bodyAt = [&](const Vec3& p) {
+    return sc.params.robot.ground() ? referee.place(p, yaw0, p.z() - 0.5 * sc.params.robot.height_m).body : Referee::pose(p);
+  };
+  if (referee.rockDistance(bodyAt(sc.start)) <= 0.0)
     return invalidArgument(sc.file + ": start: the robot (radius " + std::to_string(r) + " m) overlaps rock");
   // A goal the robot cannot be at is refused before the run, not discovered as a stall by it.
-  if (env.field() && referee.rockDistance(sc.goal) <= 0.0) {
+  if (env.field() && referee.rockDistance(bodyAt(sc.goal)) <= 0.0) {
     char why[160];
     std::snprintf(why, sizeof why, "goal: the robot (radius %.2f m) does not fit there: its sphere overlaps rock "
                   "(centre %.2f m from the nearest rock voxel)", r, env.field()->distance(sc.goal));
@@ -247,8 +402,9 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env, 
 
   RobotState state;
   state.position = sc.start;
+  state.yaw = yaw0;
   double t = 0.0;
-  res.trajectory.push_back({0.0, state.position, state.velocity, StepStatus::kFollowing, state.position});
+  res.trajectory.push_back({0.0, state.position, state.velocity, StepStatus::kFollowing, state.position, state.yaw});
   bool stuck = false;
   StepStatus last = StepStatus::kFollowing;
   // Sub-goals: chosen at the start of each period of subgoal_period_s steps, and again as soon as
@@ -296,9 +452,9 @@ StatusOr<SimulationResult> simulate(const Scenario& sc, const Environment& env, 
       res.message = c.message;
       break;
     }
-    refereePeriod(sc, env, c.acceleration, t, state, res);
+    refereePeriod(sc, env, c, t, state, res);
     t = double(k + 1) * sc.dt_s;
-    res.trajectory.push_back({t, state.position, state.velocity, c.status, subgoal.value_or(c.sub_goal)});
+    res.trajectory.push_back({t, state.position, state.velocity, c.status, subgoal.value_or(c.sub_goal), state.yaw});
   }
   res.final_goal_distance_m = (state.position - sc.goal).norm();
   res.step_time_p50_us = stepTimePercentile(step_us, 0.5);

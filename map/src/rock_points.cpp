@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 
 namespace adit::map {
 
@@ -112,6 +113,101 @@ RockPointsResult rockSurfacePoints(const DistanceField& field, const Vec3& centr
   }
   r.truncated = r.found > r.written;
   return r;
+}
+
+void rockInBand(const DistanceField& field, const Vec3& centre, double radius, double z_floor, double max_step,
+                double slope_tan, double height, BandScan& out, std::size_t max_window_columns) noexcept {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  constexpr double kTwoPi = 6.28318530717958647692;
+  for (int b = 0; b < BandScan::kBins; ++b) out.distance[b] = kInf;
+  out.truncated = false;
+  if (!allFinite(centre) || !std::isfinite(radius) || radius < 0.0 || !std::isfinite(z_floor) ||
+      !(max_step >= 0.0) || !std::isfinite(max_step) || !(slope_tan >= 0.0) || !std::isfinite(slope_tan) ||
+      !(height > 0.0) || !std::isfinite(height)) {
+    out.truncated = true;
+    return;
+  }
+  const double res = field.resolution(), inv = 1.0 / res, half = 0.5 * res;
+  const std::int64_t i_lo = std::int64_t(std::floor((centre.x() - radius) * inv));
+  const std::int64_t i_hi = std::int64_t(std::floor((centre.x() + radius) * inv));
+  const std::int64_t j_lo = std::int64_t(std::floor((centre.y() - radius) * inv));
+  const std::int64_t j_hi = std::int64_t(std::floor((centre.y() + radius) * inv));
+  if (double(i_hi - i_lo + 1) * double(j_hi - j_lo + 1) > double(max_window_columns)) {
+    out.truncated = true;
+    return;
+  }
+  // A floor one voxel higher is the quantisation of any slope, never a step (coarse maps).
+  const double step_tol = std::max(max_step, res) + half;
+  const double baseline = std::max(1.0, 4.0 * res);  // slopes are measured over a metre
+  // The floor of the column at (x, y), s metres out: the top of the highest rock voxel whose
+  // centre is at most the climbable height there, searched down to a metre below the robot's
+  // floor. `blocked` when rock stands above that floor within the body's height.
+  struct Column {
+    bool floor = false;
+    double z = 0.0;
+    bool blocked = false;
+  };
+  auto column = [&](double x, double y, double s) {
+    Column c;
+    const double climb = z_floor + step_tol + s * slope_tan;
+    const std::int64_t k_top = std::int64_t(std::floor((climb + height) * inv));
+    const std::int64_t k_bottom = std::int64_t(std::floor((z_floor - 1.0 - s * slope_tan) * inv));
+    for (std::int64_t k = k_top; k >= k_bottom; --k) {
+      const double cz = (double(k) + 0.5) * res;
+      if (field.isFree(Vec3(x, y, cz))) continue;
+      if (cz > climb) {
+        c.blocked = true;  // rock in the body's band (the floor is not searched further)
+        return c;
+      }
+      c.floor = true;
+      c.z = cz + half;
+      return c;
+    }
+    return c;
+  };
+  for (std::int64_t j = j_lo; j <= j_hi; ++j) {
+    const double cy = (double(j) + 0.5) * res;
+    for (std::int64_t i = i_lo; i <= i_hi; ++i) {
+      const double cx = (double(i) + 0.5) * res;
+      const double nx = std::clamp(centre.x(), cx - half, cx + half), ny = std::clamp(centre.y(), cy - half, cy + half);
+      const double s = std::hypot(nx - centre.x(), ny - centre.y());
+      if (s > radius) continue;
+      const double dx = cx - centre.x(), dy = cy - centre.y();
+      const double az = s > 1e-9 ? std::atan2(ny - centre.y(), nx - centre.x()) : std::atan2(dy, dx);
+      const int b = std::min(BandScan::kBins - 1, std::max(0, int((az + 0.5 * kTwoPi) / kTwoPi * BandScan::kBins)));
+      if (s >= out.distance[b]) continue;  // this column cannot be nearer in its bin
+      const Column c = column(cx, cy, s);
+      bool way = c.blocked || !c.floor;
+      const double d = std::max(std::hypot(dx, dy), 1e-9);
+      if (!way && s >= baseline) {
+        // A slope steeper than allowed: against the column a baseline nearer the robot (a voxel of
+        // quantisation over the baseline; a step within max_step on a flat baseline passes).
+        const Column back = column(cx - dx / d * baseline, cy - dy / d * baseline, s - baseline);
+        if (back.floor && std::abs(c.z - back.z) > baseline * slope_tan + res) way = true;
+      } else if (!way && s >= 4.0 * res) {
+        // Nearer than a baseline: against the robot's own floor, steps within max_step allowed.
+        if (std::abs(c.z - z_floor) > s * slope_tan + res + max_step) way = true;
+      }
+      if (!way && s > res) {
+        // A step: against the next column toward the robot.
+        const Column inner = column(cx - dx / d * res, cy - dy / d * res, std::max(0.0, s - res));
+        if (inner.floor && std::abs(c.z - inner.z) > step_tol) way = true;
+      }
+      if (!way) continue;
+      out.distance[b] = s;
+      out.point[b] = Vec3(nx, ny, z_floor);
+    }
+  }
+}
+
+std::optional<double> floorBelow(const DistanceField& field, const Vec3& p, double depth) noexcept {
+  if (!allFinite(p) || !std::isfinite(depth) || !field.isFree(p)) return std::nullopt;
+  const double res = field.resolution();
+  for (double dz = res; dz <= depth + res; dz += res) {
+    const Vec3 q = p - Vec3(0, 0, dz);
+    if (!field.isFree(q)) return (std::floor(q.z() / res) + 1.0) * res;
+  }
+  return std::nullopt;
 }
 
 }  // namespace adit::map

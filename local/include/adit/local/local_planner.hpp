@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "adit/local/params.hpp"
+#include "adit/map/rock_points.hpp"
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
 
@@ -59,10 +60,15 @@ enum class StepStatus {
 const char* stepStatusName(StepStatus s);
 
 /// The robot's state in the world frame.
+/// Ground mode (RobotLimits::mode): `position` is the body's centre, half its height above the
+/// floor; `velocity` lies in the floor's plane; `yaw` is the heading about z and `yaw_rate` its
+/// rate. Fly mode ignores the two.
 struct RobotState {
   Vec3 position = Vec3::Zero();
   Vec3 velocity = Vec3::Zero();
   Vec3 acceleration = Vec3::Zero();
+  double yaw = 0.0;       ///< [rad], ground mode
+  double yaw_rate = 0.0;  ///< [rad/s], ground mode
 };
 
 /// A static sphere (a disc in the papers' 2-D set-ups) given besides the map.
@@ -91,6 +97,11 @@ struct StepCommand {
   double clearance_m = std::numeric_limits<double>::infinity();  ///< nearest obstacle surface seen
   int escapes = 0;                   ///< escape attempts since the last real progress
   const char* message = "";          ///< why, for kRefused and kStuck (a static string)
+  /// Ground mode: the drive's set-points. `velocity` is forward_speed along the heading reached
+  /// at the period's end (in the floor's plane); a differential, skid or Ackermann robot sends
+  /// (forward_speed, yaw_rate) to its wheels. Negative forward_speed: reversing (backing off).
+  double forward_speed = 0.0;  ///< [m/s]
+  double yaw_rate = 0.0;       ///< [rad/s], |yaw_rate| <= omega_max
 };
 
 class LocalPlanner {
@@ -167,6 +178,17 @@ class LocalPlanner {
   /// the robot is already nearer (a sensed fall, the first period).
   double stoppingFloor(const Vec3& q) const;
   double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving) const;
+  // ---- ground mode
+  // Where the field is read for a ground robot whose centre is at p: lifted so that the sphere
+  // of radius_m stands max_step plus a voxel above the floor (the floor is not rock in the way).
+  Vec3 probe(const Vec3& p) const { return p + Vec3(0, 0, lift_); }
+  // The band scan (band_) around the robot at q, above the floor under it.
+  void scanBand(const Vec3& q, double range);
+  // Floor slope (rise per metre) ahead of q along the unit horizontal direction u; 0 if unknown.
+  double slopeAhead(const Vec3& q, const Vec3& u) const;
+  // The drive's command from the holonomic set-point v_cmd (the wish, after the envelope's caps): heading error to yaw rate, forward
+  // speed by the heading's agreement, reversing when backing off; the floor's slope to z.
+  void driveCommand(const RobotState& state, const Vec3& v_cmd, double dt, StepCommand& cmd);
 
   LocalParams params_;
   World world_;
@@ -206,6 +228,12 @@ class LocalPlanner {
   static constexpr int kAzimuthBins = 24, kElevationBins = 7;
   std::array<double, kAzimuthBins * kElevationBins> bin_distance_{};
   std::array<Vec3, kAzimuthBins * kElevationBins> bin_point_{};
+  // Ground mode.
+  bool ground_ = false;
+  double lift_ = 0.0;       // probe()'s offset
+  double floor_z_ = 0.0;    // floor under the robot this period
+  map::BandScan band_{};
+  double car_direction_ = 1.0;  // an Ackermann robot's turn about: +1 forward, -1 reverse
 };
 
 }  // namespace adit::local

@@ -10,6 +10,7 @@
 ///   p.robot.v_max_mps = 1.0;
 ///   if (Status s = p.validate(); !s.ok()) fail(s);
 
+#include <cmath>
 #include <string>
 
 #include "adit/status.hpp"
@@ -132,11 +133,71 @@ struct UuvParams {
   }
 };
 
-/// The robot as the local planner sees it: a sphere with speed and acceleration limits.
+/// kFly: the robot's centre moves freely in 3-D (a drone; the papers' spheres). kGround: a wheeled
+/// or tracked vehicle on the roadway floor: its centre is half its height above the floor under
+/// it, it moves in the floor's plane, floor contact is not a collision, and rock counts only
+/// within its body's band above the floor (from max_step_m up to its height), with floor that
+/// rises faster than max_slope_deg counted as rock.
+enum class RobotMode { kFly, kGround };
+/// "fly" | "ground".
+const char* robotModeName(RobotMode m);
+StatusOr<RobotMode> parseRobotMode(const std::string& name);
+
+/// How a ground robot turns. kDifferential and kSkid: forward speed and yaw rate, turning on the
+/// spot (skid steering is modelled kinematically as differential); kAckermann: a car's steering,
+/// yaw rate at most |v| tan(max_steer) / wheelbase, no turning on the spot; kHolonomic: any
+/// direction in the floor's plane, the heading turned toward the travel at omega_max.
+enum class DriveType { kDifferential, kSkid, kAckermann, kHolonomic };
+/// "differential" | "skid" | "ackermann" | "holonomic".
+const char* driveTypeName(DriveType d);
+StatusOr<DriveType> parseDriveType(const std::string& name);
+
+/// A ground robot's outline on the floor: a circle of radius_m, or a box length_m (along its
+/// heading) by width_m. `circle:0.3`, `box:1.0,0.7`.
+struct Footprint {
+  bool box = false;
+  double radius_m = 0.3;  ///< circle
+  double length_m = 0.0;  ///< box, along the heading
+  double width_m = 0.0;   ///< box
+  /// The circle that holds the footprint at any heading: what the potential field sees.
+  double circumradius() const { return box ? 0.5 * std::hypot(length_m, width_m) : radius_m; }
+  std::string text() const;
+  Status validate() const;
+};
+/// "circle:R" or "box:L,W" (metres, > 0).
+StatusOr<Footprint> parseFootprint(const std::string& text);
+
+/// The robot as the local planner sees it: its speed and acceleration limits and its size. One
+/// description serves every layer (the navigator hands the same shape and mode to the global
+/// planner). In fly mode a sphere of radius_m; in ground mode radius_m is the footprint's
+/// circumradius (the loader sets it), the field's repulsion acts on that circle in the body's
+/// band, and the referee checks the exact footprint box (or cylinder) with FCL.
 struct RobotLimits {
   double radius_m = 0.3;
   double v_max_mps = 1.0;
   double a_max_mps2 = 0.5;
+  RobotMode mode = RobotMode::kFly;
+  // ---- ground mode only
+  DriveType drive = DriveType::kDifferential;
+  Footprint footprint;            ///< circle of radius_m unless a box is given
+  double height_m = 0.6;          ///< body height above the floor
+  double omega_max_rps = 1.0;     ///< yaw-rate limit [rad/s]
+  double alpha_max_rps2 = 2.0;    ///< yaw-acceleration limit [rad/s^2]
+  double max_slope_deg = 15.0;    ///< steepest floor it climbs (as the global ground mode)
+  double max_step_m = 0.1;        ///< highest step it drives over; the body band starts there
+  double max_steer_deg = 30.0;    ///< ackermann: steering angle limit
+  double wheelbase_m = 0.0;       ///< ackermann: 0 = 0.6 x the footprint's length (or diameter)
+  bool ground() const { return mode == RobotMode::kGround; }
+  /// Ackermann's wheelbase as used.
+  double wheelbase() const {
+    return wheelbase_m > 0.0 ? wheelbase_m : 0.6 * (footprint.box ? footprint.length_m : 2.0 * footprint.radius_m);
+  }
+  /// Ground mode: how far above the robot's centre the distance field is read for the sphere of
+  /// radius_m, so that its bottom stands max_step plus one voxel (`resolution`) above the floor
+  /// (a floor quantised to voxels rises a voxel between two samples on a slope). 0 when flying.
+  double probeLift(double resolution) const {
+    return ground() ? max_step_m + resolution + radius_m - 0.5 * height_m : 0.0;
+  }
   Status validate() const;
 };
 

@@ -31,6 +31,13 @@
 ///                                # through SimulateOptions; the navigated runs choose it themselves)
 ///   subgoal_period: 1.0          # extension: t0 [s], a multiple of dt (default 1)
 ///
+/// A ground vehicle (extension; `mode` defaults to fly, so scenarios without it run as before):
+///
+///   robot: {mode: ground, drive: skid, footprint: "box:1.0,0.7", height: 0.6, omega_max: 1.0,
+///           alpha_max: 2.0, max_slope_deg: 15, max_step: 0.1}   # drive: differential | skid |
+///                                # ackermann (max_steer_deg, wheelbase) | holonomic; footprint:
+///                                # circle:R | box:L,W; radius becomes the footprint's circumradius
+///
 /// Extensions: `name`, `description`; a moving obstacle may have `name`, `shape: sphere | box |
 /// cylinder` with `size: [x, y, z]` (box) or `length` (cylinder, along z).
 ///

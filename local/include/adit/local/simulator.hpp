@@ -78,6 +78,7 @@ struct TrajectorySample {
   /// sub-goal (SubgoalPick::point) in force; otherwise StepCommand::sub_goal (the break point, or
   /// an escape's virtual goal). The start for t = 0.
   Vec3 sub_goal = Vec3::Zero();
+  double yaw = 0.0;  ///< ground mode: heading [rad]
 };
 
 /// What the sub-goal selector sees at the start of a period (`subgoals: ga_trust_region`).
@@ -150,6 +151,24 @@ struct SimulationResult {
 /// path length (the caller appends the trajectory sample).
 using ExtraDistanceFn = std::function<void(const Vec3& p, double t_s, double& d, std::string& what)>;
 void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acceleration, double t_s, RobotState& state, SimulationResult& result, const ExtraDistanceFn& extra = {});
+/// The same for a whole command: a ground robot also turns at cmd.yaw_rate. In ground mode the
+/// robot drives on the floor: each sub-sample's height is half the robot's height above the floor
+/// under it (found from the last floor, climbing at most max_step), its pitch and roll follow the
+/// floor under the footprint's ends and sides, and the body (the footprint's box or cylinder,
+/// from max_step plus one voxel above the floor to its height) is checked exactly with FCL.
+/// Floor contact is no collision; rock in the body, a step higher than max_step (the body runs
+/// into it) or no floor within a metre under the robot ("a drop") is.
+void refereePeriod(const Scenario& sc, const Environment& env, const StepCommand& cmd, double t_s, RobotState& state,
+                   SimulationResult& result, const ExtraDistanceFn& extra = {});
+/// Ground mode: the scenario with its start, goal and expected path's points put on the floor,
+/// half the robot's height above the floor under each (searched down at most 5 m); the error
+/// names the point with no floor under it, or in rock. Fly mode, or open space: unchanged.
+StatusOr<Scenario> placeOnFloor(const Scenario& sc, const Environment& env);
+/// Ground mode: the heading a run starts with, along the expected path's first segment.
+double startYaw(const Scenario& sc);
+/// The referee's clearance from the robot's body at `p` to rock [m], 0 on contact (ground mode:
+/// standing on the floor under p with heading `yaw`); infinity in open space.
+double bodyRockClearance(const Scenario& sc, const Environment& env, const Vec3& p, double yaw);
 /// Sets outcome kCollision and its message when the run collided; false otherwise.
 bool collisionVerdict(SimulationResult& result);
 /// The q-quantile (0..1, nearest rank) of per-step times, as the JSON's step_time_us reports it.

@@ -13,6 +13,7 @@
 ///   if (r.truncated) warn();   // more points than the buffer holds
 
 #include <cstddef>
+#include <optional>
 
 #include "adit/map/distance_field.hpp"
 #include "adit/map/types.hpp"
@@ -41,5 +42,35 @@ struct ViewCone {
 RockPointsResult rockSurfacePoints(const DistanceField& field, const Vec3& centre, double radius, const ViewCone& cone,
                                    Vec3* out, std::size_t capacity,
                                    std::size_t max_window_voxels = 1u << 18) noexcept;
+
+/// A ground robot's view of the rock: a 2-D scan of what it cannot drive into, one nearest point
+/// per azimuth bin (as a horizontal laser would see it). A 2.5-D traversability test per voxel
+/// column within `radius` (horizontally) of `centre`, the robot standing on a floor at `z_floor`:
+/// the column's floor is the highest rock below the climbable height there, z_floor + max_step
+/// + half a voxel + s tan(max slope) at horizontal distance s (voxel centres are compared, so a
+/// floor one voxel higher, the quantisation of any slope, is never a wall). The column is in the
+/// way when
+///  - rock stands above its floor within the body's `height` (a rib, a pillar, a low roof),
+///  - its floor is more than max_step (at least one voxel: the quantisation of any slope) + half a
+///    voxel above or below the next column toward the robot (a step, or a ledge down),
+///  - its floor rises or falls faster than the slope allows, measured against the column a metre
+///    (or four voxels) nearer the robot, beyond a voxel of quantisation; nearer than that against
+///    the robot's own floor, beyond max_step and a voxel, or
+///  - it has no floor within a metre below the robot's (a drop).
+/// Uses no allocation; visits at most `max_window_voxels` voxel columns (else nothing is written
+/// and the result is truncated).
+struct BandScan {
+  static constexpr int kBins = 24;
+  double distance[kBins];  ///< horizontal distance from the centre to the nearest such column's cube; inf: none
+  Vec3 point[kBins];       ///< that point (z: the robot's floor)
+  bool truncated = false;
+};
+void rockInBand(const DistanceField& field, const Vec3& centre, double radius, double z_floor, double max_step,
+                double slope_tan, double height, BandScan& out, std::size_t max_window_columns = 1u << 16) noexcept;
+
+/// Top of the floor under `p`: searching down from `p` in voxel steps for at most `depth` m, the
+/// height of the first rock voxel's top. None when `p` is not free or nothing is within `depth`.
+/// A few field reads; no allocation.
+std::optional<double> floorBelow(const DistanceField& field, const Vec3& p, double depth) noexcept;
 
 }  // namespace adit::map
