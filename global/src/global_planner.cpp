@@ -351,6 +351,34 @@ struct GlobalPlanner::Impl {
     validity = std::make_unique<RobotValidity>(*field, checker, params);
   }
 
+  // Ground mode: a survey roadway's cross-section is passable when the robot can stand somewhere
+  // on its floor (a gap above a roof fall's rubble is not a way for a ground robot). Empty (the
+  // default clearance test) when flying.
+  RoadwayGraph::SectionTest sectionTest() const {
+    if (!validity->ground()) return {};
+    const RobotValidity* v = validity.get();
+    const map::DistanceField* f = field;
+    return [v, f](const Vec3& c, const Vec3& t, double radius) {
+      const double res = f->resolution();
+      Vec3 side(-t.y(), t.x(), 0.0);
+      side = side.norm() > 1e-6 ? Vec3(side.normalized()) : Vec3(Vec3::UnitY());
+      for (double u = 0.0; u <= radius; u += res)
+        for (const double sgn : {1.0, -1.0}) {
+          if (u == 0.0 && sgn < 0.0) continue;
+          const Vec3 p = c + sgn * u * side;
+          // From high in the section down to its floor: the first free start above the floor.
+          for (const double h : {0.9, 0.5, 0.0, -0.5}) {
+            const Vec3 top = p + Vec3(0, 0, h * radius);
+            if (!f->isFree(top)) continue;
+            const std::optional<Vec3> stand = v->onFloor(top, 2.0 * radius + 1.0);
+            if (stand && v->stateValid(*stand)) return true;
+            break;
+          }
+        }
+      return false;
+    };
+  }
+
   // Outcome for an unusable endpoint, or nullopt when it is fine; `p` is snapped in ground mode.
   std::optional<GlobalPlanResult> checkEndpoint(Vec3* p, bool is_start) const {
     GlobalPlanResult r;
@@ -411,7 +439,8 @@ StatusOr<GlobalPlanner> GlobalPlanner::create(const map::OccupancyMap& map, cons
                                                                      impl->validity->requiredClearance(), options));
     }
     // A free-space graph is built on this field: every passage is open by construction.
-    if (impl->from_survey) impl->graph.refreshBlocked(field, impl->validity->requiredClearance());
+    if (impl->from_survey)
+      impl->graph.refreshBlocked(field, impl->validity->requiredClearance(), map::Aabb(), impl->sectionTest());
   }
   // Libraries do not print: OMPL's console output is off.
   ompl::msg::noOutputHandler();
@@ -662,7 +691,8 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
 }
 
 int GlobalPlanner::mapChanged(const map::Aabb& changed) {
-  return impl_->graph.refreshBlocked(*impl_->field, impl_->validity->requiredClearance(), changed);
+  return impl_->graph.refreshBlocked(*impl_->field, impl_->validity->requiredClearance(), changed,
+                                     impl_->sectionTest());
 }
 
 Status GlobalPlanner::validatePath(const Polyline& path) const { return validatePoints(*impl_->validity, path.points); }

@@ -371,6 +371,11 @@ bool crossSectionPassable(const map::DistanceField& field, const Vec3& c, const 
 }  // namespace
 
 int RoadwayGraph::refreshBlocked(const map::DistanceField& field, double required_clearance_m, const Aabb& window) {
+  return refreshBlocked(field, required_clearance_m, window, SectionTest());
+}
+
+int RoadwayGraph::refreshBlocked(const map::DistanceField& field, double required_clearance_m, const Aabb& window,
+                                 const SectionTest& section_test) {
   const double step = field.resolution();
   int blocked = 0;
   for (RoadwayEdge& e : edges_) {
@@ -416,7 +421,9 @@ int RoadwayGraph::refreshBlocked(const map::DistanceField& field, double require
         const double along = arc + len * k / samples;
         if (along < skip_from || along > e.length_m - skip_to) continue;
         const Vec3 c = a + (len * k / samples) * t;
-        if (crossSectionPassable(field, c, t, e.radius_m, required_clearance_m, step)) continue;
+        if (section_test ? section_test(c, t, e.radius_m)
+                         : crossSectionPassable(field, c, t, e.radius_m, required_clearance_m, step))
+          continue;
         if (passable) first_bad = along, where = c;
         passable = false;
         last_bad = along;

@@ -154,6 +154,12 @@ class RoadwayGraph {
   /// of edges blocked afterwards.
   int refreshBlocked(const map::DistanceField& field, double required_clearance_m,
                      const map::Aabb& window = map::Aabb());
+  /// The cross-section test of a survey graph's edge at axis point `c` (axis direction `t`, the
+  /// roadway's `radius`): true when the robot can pass there. The default is a point of the
+  /// section with clearance >= the required; a ground robot must stand on the section's floor.
+  using SectionTest = std::function<bool(const Vec3& c, const Vec3& t, double radius)>;
+  int refreshBlocked(const map::DistanceField& field, double required_clearance_m, const map::Aabb& window,
+                     const SectionTest& section_test);
 
   /// A* over the unblocked edges that pass `filter`, from the edge nearest to `start` (whose
   /// corridor holds it) to the one nearest to `goal`. Start and goal may lie on a blocked edge:
