@@ -9,7 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
-#include <unordered_set>
+#include <tuple>
 
 #include "distance_field_impl.hpp"
 
@@ -48,30 +48,22 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
     }
   }
 
-  // One walk of the octree creates the tiles on demand and marks the free voxels; the dense
-  // tile index is built afterwards from the tiles' coordinates.
-  std::unordered_map<std::uint64_t, std::uint32_t> tile_of;
+  // One walk of the octree marks the free voxels in a bit set (a bit per voxel, in 16^3 blocks);
+  // the tiles are then laid out block by block in index order, so that neighbouring tiles sit
+  // close in memory, and only tiles with a free voxel are allocated.
+  internal::BitVoxelSet free_set;
   std::uint64_t last_key = ~std::uint64_t{0};
-  Block* last_tile = nullptr;
-  // A fill ratio of 1/4 is typical of roadways; the cap keeps a hostile map from reserving more
-  // than 2 GiB up front (the vector still grows past it when the tiles are really there).
-  impl->blocks.reserve(std::size_t(std::min(
-      {double(max_blocks), 4.0 * double(map.stats().free_voxels) / kBlockVoxels + 64, 65536.0})));
-  adviseHugePages(impl->blocks);
+  internal::BitVoxelSet::Block* last_block = nullptr;
   bool overflow = false;
-  auto tile = [&](int bx, int by, int bz) -> Block* {
+  auto block = [&](int bx, int by, int bz) -> internal::BitVoxelSet::Block* {
     const std::uint64_t key = internal::packBlock(bx, by, bz);
-    if (key == last_key) return last_tile;
-    auto [it, inserted] = tile_of.try_emplace(key, std::uint32_t(impl->blocks.size()));
-    if (inserted) {
-      if (impl->blocks.size() >= max_blocks) { overflow = true; tile_of.erase(it); return nullptr; }
-      impl->appendTile({bx, by, bz});
-    }
+    if (key == last_key) return last_block;
+    if (free_set.blockCount() >= max_blocks && !free_set.find(bx, by, bz)) { overflow = true; return nullptr; }
     last_key = key;
-    last_tile = &impl->blocks[it->second];  // valid until the next appendTile()
-    return last_tile;
+    last_block = &free_set.block(bx, by, bz);  // valid until the next new block
+    return last_block;
   };
-  // Sets a box of voxels free (or rock); a leaf of up to 16 voxels lies in one tile.
+  // Sets a box of voxels free (or rock), a row of up to 16 voxels at a time.
   auto mark = [&](const int box_lo[3], const int box_hi[3], bool free) {
     // Keys 0 and 65535 stay rock, so every line of the transform ends in rock inside the key range.
     int lo[3], hi[3];
@@ -83,14 +75,17 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
     for (int bz = lo[2] >> kBlockBits; bz <= hi[2] >> kBlockBits && !overflow; ++bz)
       for (int by = lo[1] >> kBlockBits; by <= hi[1] >> kBlockBits && !overflow; ++by)
         for (int bx = lo[0] >> kBlockBits; bx <= hi[0] >> kBlockBits && !overflow; ++bx) {
-          Block* blk = tile(bx, by, bz);
+          internal::BitVoxelSet::Block* blk = block(bx, by, bz);
           if (!blk) return;
           const int x0 = std::max(lo[0], bx << kBlockBits), x1 = std::min(hi[0], (bx << kBlockBits) + kBlockMask);
           const int y0 = std::max(lo[1], by << kBlockBits), y1 = std::min(hi[1], (by << kBlockBits) + kBlockMask);
           const int z0 = std::max(lo[2], bz << kBlockBits), z1 = std::min(hi[2], (bz << kBlockBits) + kBlockMask);
+          const auto bits = std::uint16_t(((1u << (x1 - x0 + 1)) - 1u) << (x0 & kBlockMask));
           for (int z = z0; z <= z1; ++z)
-            for (int y = y0; y <= y1; ++y)
-              for (int x = x0; x <= x1; ++x) (*blk)[std::size_t(localIndex(x, y, z))] = free ? kFreeBit : 0;
+            for (int y = y0; y <= y1; ++y) {
+              std::uint16_t& row = (*blk)[std::size_t((y & kBlockMask) + kBlockSize * (z & kBlockMask))];
+              row = free ? std::uint16_t(row | bits) : std::uint16_t(row & ~bits);
+            }
         }
   };
   if (unknown_free) {
@@ -102,7 +97,7 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
                         std::to_string(std::uint64_t(blocks_needed)) + " tiles of 16^3 voxels (limit " +
                         std::to_string(max_blocks) + "); use --unknown rock or a coarser map");
     mark(bounds_keys.lo, bounds_keys.hi, true);
-    // Occupied leaves inside the bounds only: the tiles there exist already.
+    // Occupied leaves inside the bounds only: the blocks there exist already.
     visitLeaves(tree, [&](const int lo[3], int size, bool occupied) {
       if (!occupied) return;
       const int hi[3] = {lo[0] + size - 1, lo[1] + size - 1, lo[2] + size - 1};
@@ -124,12 +119,59 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
   }
   if (overflow)
     return outOfRange("distance field: the free space needs more than " + std::to_string(max_blocks) +
-                      " tiles of 16^3 voxels (" + std::to_string(max_blocks * 32 / 1024) + " MiB)");
-  if (impl->blocks.empty()) return failedPrecondition("distance field: the map has no free voxel");
+                      " tiles of 16^3 voxels (" + std::to_string(max_blocks * 16 / 1024) + " MiB)");
+  // Blocks in index order (z, y, x); per block, its tiles that hold a free voxel.
+  std::vector<std::uint32_t> order(free_set.blockCount());
+  for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    const auto& ca = free_set.blockCoord(a);
+    const auto& cb = free_set.blockCoord(b);
+    return std::tie(ca[2], ca[1], ca[0]) < std::tie(cb[2], cb[1], cb[0]);
+  });
+  auto tileRows = [](const internal::BitVoxelSet::Block& blk, int j, auto&& fn) {
+    const int sx = (j & kSubMask) << kTileBits, sy = ((j >> kSubBits) & kSubMask) << kTileBits,
+              sz = (j >> (2 * kSubBits)) << kTileBits;
+    for (int z = 0; z < kTileSize; ++z)
+      for (int y = 0; y < kTileSize; ++y)
+        fn(y, z, unsigned(blk[std::size_t((sy + y) + kBlockSize * (sz + z))] >> sx) & ((1u << kTileSize) - 1u));
+  };
+  if (order.empty()) return failedPrecondition("distance field: the map has no free voxel");
+  std::size_t tile_count = 0;
+  for (std::uint32_t i : order)
+    for (int j = 0; j < kTilesPerBlock; ++j) {
+      unsigned any = 0;
+      tileRows(free_set.blockAt(i), j, [&](int, int, unsigned bits) { any |= bits; });
+      tile_count += any ? 1 : 0;
+    }
+  impl->tiles.reserve(tile_count + 1);
+  adviseHugePages(impl->tiles);
+  impl->appendTile();  // kRockTile
+  for (std::uint32_t i : order) {
+    const internal::BitVoxelSet::Block& blk = free_set.blockAt(i);
+    // Every block the walk touched gets a region, even one that ended all rock (unknown space
+    // inside the bounds, cleared again by an occupied leaf): a region costs 44 bytes, and the
+    // block count stays what estimateDistanceField() predicts.
+    const std::int32_t region = impl->appendRegion(free_set.blockCoord(i));
+    for (int j = 0; j < kTilesPerBlock; ++j) {
+      unsigned any = 0;
+      tileRows(blk, j, [&](int, int, unsigned bits) { any |= bits; });
+      if (!any) continue;
+      const std::int32_t t = impl->appendTile();
+      impl->regions[std::size_t(region)][std::size_t(j)] = t;
+      Tile& tile = impl->tiles[std::size_t(t)];
+      tileRows(blk, j, [&](int y, int z, unsigned bits) {
+        for (int x = 0; x < kTileSize; ++x)
+          tile[std::size_t(localIndex(x, y, z))] = (bits >> x) & 1u ? kFreeBit : 0;
+      });
+    }
+  }
   ADIT_RETURN_IF_ERROR(impl->rebuildIndex());
   if (progress) progress("reading free space", 1.0);
   const auto t1 = std::chrono::steady_clock::now();
   impl->transformAll(progress);
+  if (impl->far_overflow)
+    return outOfRange("distance field: more than " + std::to_string(kMaxFarSites) +
+                      " free voxels lie farther from rock than the cells reach; use a coarser resolution");
   const auto t2 = std::chrono::steady_clock::now();
   impl->refreshStats();
   impl->stats.transform_seconds = std::chrono::duration<double>(t2 - t1).count();
@@ -137,19 +179,29 @@ StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const Prog
   return DistanceField(std::move(impl));
 }
 
+StatusOr<DistanceField> DistanceField::buildWithNearLimitForTesting(const OccupancyMap& map, int max_offset) {
+  if (max_offset < 0 || max_offset > kOffsetMax) return invalidArgument("near limit out of range");
+  ADIT_ASSIGN_OR_RETURN(DistanceField f, DistanceField::build(map));
+  f.impl_->near_limit = max_offset;
+  f.impl_->transformAll({});
+  f.impl_->refreshStats();
+  return f;
+}
+
 bool DistanceField::isFree(const Vec3& p) const noexcept {
   int k[3];
-  return impl_->voxelKey(p, k) && isFreeWord(impl_->word(k[0], k[1], k[2]));
+  return impl_->voxelKey(p, k) && isFreeCell(impl_->cell(k[0], k[1], k[2]));
 }
 
 Vec3 DistanceField::nearestRockVoxel(const Vec3& p) const noexcept {
   const double res = impl_->res;
   int k[3];
   if (!impl_->voxelKey(p, k)) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-  std::uint64_t w = impl_->word(k[0], k[1], k[2]);
-  if (!isFreeWord(w)) w = rockWord(k[0], k[1], k[2]);
-  if (!hasSite(w)) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-  return {centreOf(siteCoord(w, 0), res), centreOf(siteCoord(w, 1), res), centreOf(siteCoord(w, 2), res)};
+  const Cell c = impl_->cell(k[0], k[1], k[2]);
+  if (!isFreeCell(c)) return {centreOf(k[0], res), centreOf(k[1], res), centreOf(k[2], res)};
+  if (!hasSite(c)) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  const std::uint64_t s = impl_->siteOf(c, k[0], k[1], k[2]);
+  return {centreOf(keyCoord(s, 0), res), centreOf(keyCoord(s, 1), res), centreOf(keyCoord(s, 2), res)};
 }
 
 DistanceSample DistanceField::query(const Vec3& p) const noexcept {
@@ -166,47 +218,78 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
   const int base[3] = {internal::floorToInt(ux - 0.5) + internal::kKeyOffset,
                        internal::floorToInt(uy - 0.5) + internal::kKeyOffset,
                        internal::floorToInt(uz - 0.5) + internal::kKeyOffset};
-  std::uint64_t words[8];
-  if ((base[0] & kBlockMask) != kBlockMask && (base[1] & kBlockMask) != kBlockMask &&
-      (base[2] & kBlockMask) != kBlockMask) {
-    // Common case: all 8 in one tile, one index read; the 8 loads are independent.
-    const std::int32_t b = m.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
-    if (b < 0) return out;  // the whole neighbourhood, p's voxel included, is rock
-    const std::uint64_t* blk = m.blocks[std::size_t(b)].data() + localIndex(base[0], base[1], base[2]);
-    constexpr int kDy = kBlockSize, kDz = kBlockSize * kBlockSize;
-    words[0] = blk[0];         words[1] = blk[1];
-    words[2] = blk[kDy];       words[3] = blk[kDy + 1];
-    words[4] = blk[kDz];       words[5] = blk[kDz + 1];
-    words[6] = blk[kDz + kDy]; words[7] = blk[kDz + kDy + 1];
+  Cell cells[8];
+  if ((base[0] & kTileMask) != kTileMask && (base[1] & kTileMask) != kTileMask &&
+      (base[2] & kTileMask) != kTileMask) {
+    // All 8 in one tile: one index read, one region read, 8 independent loads.
+    const std::int32_t r = m.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
+    if (r < 0) return out;  // the whole neighbourhood, p's voxel included, is rock
+    const std::int32_t t = m.regions[std::size_t(r)][std::size_t(subIndex(base[0], base[1], base[2]))];
+    const Cell* tile = m.tiles[std::size_t(t)].data() + localIndex(base[0], base[1], base[2]);
+    constexpr int kDy = kTileSize, kDz = kTileSize * kTileSize;
+    cells[0] = tile[0];         cells[1] = tile[1];
+    cells[2] = tile[kDy];       cells[3] = tile[kDy + 1];
+    cells[4] = tile[kDz];       cells[5] = tile[kDz + 1];
+    cells[6] = tile[kDz + kDy]; cells[7] = tile[kDz + kDy + 1];
+  } else if ((base[0] & kBlockMask) != kBlockMask && (base[1] & kBlockMask) != kBlockMask &&
+             (base[2] & kBlockMask) != kBlockMask) {
+    // Across tiles of one block (tiles are small: the commoner case), still one index read;
+    // rock tiles are the shared all-rock tile, so the 8 loads neither branch nor wait on each
+    // other.
+    const std::int32_t r = m.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
+    if (r < 0) return out;  // the whole neighbourhood, p's voxel included, is rock
+    const std::int32_t* region = m.regions[std::size_t(r)].data();
+    const Tile* tiles = m.tiles.data();
+    int sub[3][2], loc[3][2];
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < 2; ++i) {
+        sub[a][i] = ((base[a] + i) >> kTileBits) & kSubMask;
+        loc[a][i] = (base[a] + i) & kTileMask;
+      }
+    for (int c = 0; c < 8; ++c) {
+      const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
+      const std::int32_t t = region[sub[0][i] | (sub[1][j] << kSubBits) | (sub[2][k] << (2 * kSubBits))];
+      cells[c] = tiles[t][std::size_t(loc[0][i] | (loc[1][j] << kTileBits) | (loc[2][k] << (2 * kTileBits)))];
+    }
   } else {
-    m.gatherAcrossTiles(base, words);
+    m.gatherAcrossTiles(base, cells);
   }
   // Coordinates of p relative to the base voxel's centre, in voxels (each in [0, 1)).
   const double qx = ux - double(base[0] - internal::kKeyOffset) - 0.5;
   const double qy = uy - double(base[1] - internal::kKeyOffset) - 0.5;
   const double qz = uz - double(base[2] - internal::kKeyOffset) - 0.5;
   const int own_corner = (qx >= 0.5 ? 1 : 0) | (qy >= 0.5 ? 2 : 0) | (qz >= 0.5 ? 4 : 0);
-  if (!isFreeWord(words[own_corner])) return out;
-  // Distance from p to each candidate site's cube, branch-free; a rock corner is its own site.
-  double best = std::numeric_limits<double>::infinity();
-  double bx = 0, by = 0, bz = 0;
+  if (!isFreeCell(cells[own_corner])) return out;
+  // Each corner's site relative to base: its offset plus the corner's own position (a rock
+  // corner's offset is 0: it is its own site).
+  int site[3][8];
+  Cell any = 0;
   for (int c = 0; c < 8; ++c) {
-    const std::uint64_t w = words[c];
-    const bool free = isFreeWord(w);
-    const double sx = free ? double(siteCoord(w, 0) - base[0]) : double(c & 1);
-    const double sy = free ? double(siteCoord(w, 1) - base[1]) : double((c >> 1) & 1);
-    const double sz = free ? double(siteCoord(w, 2) - base[2]) : double(c >> 2);
-    const double ex = std::max(std::abs(qx - sx) - 0.5, 0.0);
-    const double ey = std::max(std::abs(qy - sy) - 0.5, 0.0);
-    const double ez = std::max(std::abs(qz - sz) - 0.5, 0.0);
-    const double d2 = (free && !hasSite(w)) ? std::numeric_limits<double>::infinity() : ex * ex + ey * ey + ez * ez;
-    const bool better = d2 < best;
-    best = better ? d2 : best;
-    bx = better ? std::copysign(ex, qx - sx) : bx;
-    by = better ? std::copysign(ey, qy - sy) : by;
-    bz = better ? std::copysign(ez, qz - sz) : bz;
+    site[0][c] = cellOffset(cells[c], 0) + (c & 1);
+    site[1][c] = cellOffset(cells[c], 1) + ((c >> 1) & 1);
+    site[2][c] = cellOffset(cells[c], 2) + (c >> 2);
+    any |= cells[c];
   }
+  if (any & kFarBit) m.resolveFar(cells, base, site);
+  // Distance from p to each candidate site's cube: one pass over the 8 that the compiler
+  // vectorises, then the first nearest (no running minimum inside the arithmetic).
+  const double q[3] = {qx, qy, qz};
+  double e[3][8], d2[8];
+  for (int c = 0; c < 8; ++c) {
+    double sum = 0;
+    for (int a = 0; a < 3; ++a) {
+      e[a][c] = std::max(std::abs(q[a] - double(site[a][c])) - 0.5, 0.0);
+      sum += e[a][c] * e[a][c];
+    }
+    d2[c] = (isFreeCell(cells[c]) && !hasSite(cells[c])) ? std::numeric_limits<double>::infinity() : sum;
+  }
+  int bc = 0;
+  for (int c = 1; c < 8; ++c) bc = d2[c] < d2[bc] ? c : bc;
+  const double best = d2[bc];
   if (!(best < std::numeric_limits<double>::infinity())) return out;  // no rock known
+  const double bx = std::copysign(e[0][bc], qx - double(site[0][bc]));
+  const double by = std::copysign(e[1][bc], qy - double(site[1][bc]));
+  const double bz = std::copysign(e[2][bc], qz - double(site[2][bc]));
   out.in_rock = false;
   out.distance = std::sqrt(best) * m.res;
   const double dx = bx * m.res, dy = by * m.res, dz = bz * m.res;
@@ -240,7 +323,7 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed, Dista
     window_voxels *= double(w.hi[a] - w.lo[a] + 1);
   }
   // A window larger than the tiles themselves: rebuilding from the octree is cheaper, and bounded.
-  if (window_voxels > std::max(4.0 * double(m.blocks.size()) * kBlockVoxels, 1e6)) {
+  if (window_voxels > std::max(4.0 * double(m.regions.size()) * kBlockVoxels, 1e6)) {
     StatusOr<DistanceField> fresh = build(map);
     if (!fresh.ok()) return fresh.status();
     *this = std::move(fresh).value();
@@ -257,10 +340,10 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed, Dista
     for (int y = w.lo[1]; y <= w.hi[1]; ++y)
       for (int x = w.lo[0]; x <= w.hi[0]; ++x) {
         const Vec3 c(centreOf(x, m.res), centreOf(y, m.res), centreOf(z, m.res));
-        const bool was_free = isFreeWord(m.word(x, y, z));
+        const bool was_free = isFreeCell(m.cell(x, y, z));
         if (map.isFree(c)) {
           now_free.push_back({x, y, z});
-          coords.push_back({x >> kBlockBits, y >> kBlockBits, z >> kBlockBits});
+          coords.push_back({x >> kTileBits, y >> kTileBits, z >> kTileBits});
           free_delta += was_free ? 0 : 1;
         } else {
           m.setFree(x, y, z, false);
@@ -294,7 +377,7 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed, Dista
     if (volume > 2e8) {  // the window grew to most of a large map: a full pass is cheaper
       m.transformAll({});
       rep.full_transform = true;
-      rep.voxels_recomputed = m.blocks.size() * std::uint64_t(kBlockVoxels);
+      rep.voxels_recomputed = (m.tiles.size() - 1) * std::uint64_t(kTileVoxels);
       break;
     }
     worst = m.transformBox(r, write);
@@ -305,6 +388,8 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed, Dista
     if (worst <= margin || whole) break;
     margin *= 2;
   }
+  if (m.far_overflow) return outOfRange("distance field update: the far table is full; rebuild the field");
+  m.compactFar();
   // Incremental statistics: a full scan would cost as much as the update itself. The largest
   // clearance only grows here (it stays an upper bound, which is all update() needs of it).
   m.refreshMemoryStats();

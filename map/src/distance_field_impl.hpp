@@ -2,7 +2,7 @@
 #pragma once
 // Private to adit_map: the distance field's storage, shared by its three sources —
 // distance_field.cpp (build from the octree, queries, windowed update), distance_field_storage.cpp
-// (tiles, the dense tile index, statistics) and distance_field_transform.cpp (the separable
+// (tiles, the two-level tile index, statistics) and distance_field_transform.cpp (the separable
 // Euclidean feature transform). See distance_field.hpp for the contract.
 #include <octomap/OcTree.h>
 
@@ -23,28 +23,64 @@ using internal::kBlockSize;
 using internal::kBlockVoxels;
 using internal::keyOf;
 
-// A voxel word: for a free voxel, the key of its nearest rock voxel (16 bits per axis) plus two
-// flags; a rock voxel is 0 and is its own site, so new tiles need no more than zero pages.
-constexpr std::uint64_t kFreeBit = std::uint64_t{1} << 48;
-constexpr std::uint64_t kSiteBit = std::uint64_t{1} << 49;
-constexpr std::uint64_t kKeyMask = (std::uint64_t{1} << 48) - 1;
+// Storage: 16^3 blocks (the dense top-level index, one entry per block of the bounding box) are
+// split into 4^3 tiles, and only tiles that hold a free voxel exist. On the district 16^3 tiles
+// are 32 % free, 8^3 tiles 51 %, 4^3 tiles 73 %: with 4-byte cells, 4^3 tiles come to 6 bytes per
+// free voxel with the index (8^3 tiles to 8.2), a quarter of the 16^3 tiles of 8-byte words.
+constexpr int kTileBits = internal::kFieldTileBits;
+constexpr int kTileSize = 1 << kTileBits;
+constexpr int kTileMask = kTileSize - 1;
+constexpr int kTileVoxels = kTileSize * kTileSize * kTileSize;
+constexpr int kSubBits = kBlockBits - kTileBits;  // tiles per block edge: 1 << kSubBits
+constexpr int kSubMask = (1 << kSubBits) - 1;
+constexpr int kTilesPerBlock = 1 << (3 * kSubBits);
 
+// A cell: 0 is rock (its own nearest rock voxel), so new tiles need no more than zero pages. A
+// free cell holds the offset from the voxel to its nearest rock voxel, 9 bits per axis: a
+// roadway's clearance is a few metres, far inside +-255 voxels. A site farther than that on some
+// axis (a wide chamber at a fine resolution, unknown space taken as free) is kept exactly in the
+// far table, whose index the cell then holds.
+using Cell = std::uint32_t;
+constexpr Cell kFreeBit = Cell{1} << 31;
+constexpr Cell kSiteBit = Cell{1} << 30;
+constexpr Cell kFarBit = Cell{1} << 29;
+constexpr int kOffsetBits = 9;
+constexpr int kOffsetMax = (1 << (kOffsetBits - 1)) - 1;
+constexpr Cell kOffsetField = (Cell{1} << kOffsetBits) - 1;
+constexpr Cell kFarIndexMask = kFarBit - 1;
+constexpr std::uint64_t kMaxFarSites = kFarIndexMask + std::uint64_t{1};
+
+inline bool isFreeCell(Cell c) { return c & kFreeBit; }
+inline bool hasSite(Cell c) { return c & kSiteBit; }
+inline bool isFarCell(Cell c) { return c & kFarBit; }
+// Offset on `axis` of a near cell (0 for rock), sign-extended from its 9 bits.
+inline int cellOffset(Cell c, int axis) {
+  return int(std::int32_t(c << (32 - kOffsetBits * (axis + 1)))) >> (32 - kOffsetBits);
+}
+
+// A site as a whole key (16 bits per axis): what the far table and the transform hold.
 inline std::uint64_t packKey(int x, int y, int z) {
   return std::uint64_t(std::uint16_t(x)) | (std::uint64_t(std::uint16_t(y)) << 16) |
          (std::uint64_t(std::uint16_t(z)) << 32);
 }
-inline int siteCoord(std::uint64_t w, int axis) { return int((w >> (16 * axis)) & 0xFFFF); }
-inline std::uint64_t rockWord(int x, int y, int z) { return packKey(x, y, z) | kSiteBit; }
-inline bool isFreeWord(std::uint64_t w) { return w & kFreeBit; }
-inline bool hasSite(std::uint64_t w) { return w & kSiteBit; }
+inline int keyCoord(std::uint64_t k, int axis) { return int((k >> (16 * axis)) & 0xFFFF); }
 
-using Block = std::array<std::uint64_t, kBlockVoxels>;
+using Tile = std::array<Cell, kTileVoxels>;
+// A block's tiles. Tile 0 is all rock and shared by every rock tile of every region, so that a
+// lookup within a region never branches; it is never written.
+using Region = std::array<std::int32_t, kTilesPerBlock>;
+constexpr std::int32_t kRockTile = 0;
+
 inline int localIndex(int x, int y, int z) {
-  return (x & kBlockMask) | ((y & kBlockMask) << kBlockBits) | ((z & kBlockMask) << (2 * kBlockBits));
+  return (x & kTileMask) | ((y & kTileMask) << kTileBits) | ((z & kTileMask) << (2 * kTileBits));
+}
+inline int subIndex(int x, int y, int z) {
+  return ((x >> kTileBits) & kSubMask) | (((y >> kTileBits) & kSubMask) << kSubBits) |
+         (((z >> kTileBits) & kSubMask) << (2 * kSubBits));
 }
 
 // Tiles are read at random by queries: 2 MiB pages spare most TLB misses.
-void adviseHugePages(std::vector<Block>& blocks);
+void adviseHugePages(std::vector<Tile>& tiles);
 
 struct BoxI {
   int lo[3], hi[3];  // inclusive voxel keys
@@ -81,9 +117,14 @@ struct DistanceField::Impl {
   double res = 0.1, inv = 10.0;
   int bmin[3] = {0, 0, 0};   // block grid origin (block coords)
   int bdim[3] = {0, 0, 0};   // block grid size
-  std::vector<std::int32_t> index;  // dense, -1 = rock
-  std::vector<Block> blocks;
-  std::vector<std::array<int, 3>> block_coords;
+  std::vector<std::int32_t> index;  // dense over the blocks, -1 = rock; else a region
+  std::vector<Region> regions;      // one per block that holds free space
+  std::vector<std::array<int, 3>> block_coords;  // of each region
+  std::vector<Tile> tiles;
+  std::vector<std::uint64_t> far;   // sites (packed keys) of the cells flagged kFarBit
+  std::uint64_t far_unused = 0;     // entries no cell names any more (update() rewrote them)
+  bool far_overflow = false;        // a site found no room in the far table
+  int near_limit = kOffsetMax;      // lowered by buildWithNearLimitForTesting() only
   DistanceFieldStats stats;
 
   std::int32_t blockIndex(int bx, int by, int bz) const {
@@ -92,10 +133,15 @@ struct DistanceField::Impl {
       return -1;
     return index[(std::size_t(z) * std::size_t(bdim[1]) + std::size_t(y)) * std::size_t(bdim[0]) + std::size_t(x)];
   }
-  // The 8 words around a tile edge: rare, kept out of line so that query() stays small.
-  [[gnu::noinline, gnu::cold]] void gatherAcrossTiles(const int base[3], std::uint64_t words[8]) const {
-    for (int c = 0; c < 8; ++c) words[c] = word(base[0] + (c & 1), base[1] + ((c >> 1) & 1), base[2] + (c >> 2));
+  // kRockTile where there is no tile.
+  std::int32_t tileIndex(int x, int y, int z) const {
+    const std::int32_t r = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
+    return r < 0 ? kRockTile : regions[std::size_t(r)][std::size_t(subIndex(x, y, z))];
   }
+  // The 8 cells around a block edge: kept out of line so that query() stays small.
+  [[gnu::noinline]] void gatherAcrossTiles(const int base[3], Cell cells[8]) const;
+  // Sites of the far cells among the 8 (relative to base); rare, out of line.
+  [[gnu::noinline, gnu::cold]] void resolveFar(const Cell cells[8], const int base[3], int s[3][8]) const;
   // Key of the voxel holding p; false for NaN and beyond the key range (rock there).
   bool voxelKey(const Vec3& p, int k[3]) const {
     const double lim = 32767.0 * res;  // beyond: keys 0 or 65535
@@ -105,28 +151,55 @@ struct DistanceField::Impl {
     }
     return true;
   }
-  std::uint64_t word(int x, int y, int z) const {
-    const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
-    return b < 0 ? 0 : blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))];
+  Cell cell(int x, int y, int z) const {
+    return tiles[std::size_t(tileIndex(x, y, z))][std::size_t(localIndex(x, y, z))];
   }
+  // The nearest rock voxel of a free cell with a site at (x, y, z), as a packed key.
+  std::uint64_t siteOf(Cell c, int x, int y, int z) const {
+    if (isFarCell(c)) return far[c & kFarIndexMask];
+    return packKey(x + cellOffset(c, 0), y + cellOffset(c, 1), z + cellOffset(c, 2));
+  }
+  // The cell of free voxel (x, y, z) whose nearest rock voxel is `site`; sites out of the
+  // offset range go to the far table.
+  Cell encodeSite(int x, int y, int z, std::uint64_t site) {
+    const int d[3] = {keyCoord(site, 0) - x, keyCoord(site, 1) - y, keyCoord(site, 2) - z};
+    auto fits = [this](int v) { return std::abs(v) <= near_limit; };
+    if (fits(d[0]) && fits(d[1]) && fits(d[2]))
+      return kFreeBit | kSiteBit | (Cell(d[0]) & kOffsetField) | ((Cell(d[1]) & kOffsetField) << kOffsetBits) |
+             ((Cell(d[2]) & kOffsetField) << (2 * kOffsetBits));
+    if (far.size() >= kMaxFarSites) {  // 4 GiB of far sites: build() and update() refuse the map
+      far_overflow = true;
+      return kFreeBit;
+    }
+    far.push_back(site);
+    return kFreeBit | kSiteBit | kFarBit | Cell(far.size() - 1);
+  }
+  // A cell about to be overwritten: its far entry, if any, becomes unused.
+  void retire(Cell c) { far_unused += isFarCell(c) ? 1 : 0; }
 
   void setFree(int x, int y, int z, bool free) {
-    const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
-    if (b < 0) return;  // rock stays implicit
-    blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))] = free ? kFreeBit : 0;
+    const std::int32_t t = tileIndex(x, y, z);
+    if (t == kRockTile) return;  // rock stays implicit
+    Cell& c = tiles[std::size_t(t)][std::size_t(localIndex(x, y, z))];
+    retire(c);
+    c = free ? kFreeBit : 0;
   }
 
   // ---- tiles and statistics (distance_field_storage.cpp)
-  // Allocates (rock-initialised) tiles for the given distinct block coords and rebuilds the
-  // dense index over the union of old and new tiles.
-  Status allocate(const std::vector<std::array<int, 3>>& coords);
-  // A new all-rock tile (value-initialised words are 0). Capacity grows geometrically, and the
+  // Allocates (rock-initialised) tiles for the given distinct tile coords (key >> kTileBits),
+  // with regions for blocks that had none, and rebuilds the top-level index if blocks were added.
+  Status allocate(const std::vector<std::array<int, 3>>& tile_coords);
+  // A new region (all tiles rock) for block c; not in the index until rebuildIndex().
+  std::int32_t appendRegion(const std::array<int, 3>& c);
+  // A new all-rock tile (value-initialised cells are 0). Capacity grows geometrically, and the
   // new range is advised onto huge pages.
-  Block& appendTile(const std::array<int, 3>& c);
-  // The dense tile index over the bounding box of all tiles: 4 bytes per 16^3 voxels of the box
-  // (37 MB for 2 km x 1 km x 150 m at 0.2 m). Refused beyond 2^26 entries (256 MiB), which only
-  // free space scattered over kilometres at a fine resolution reaches.
+  std::int32_t appendTile();
+  // The dense block index over the bounding box of all blocks: 4 bytes per 16^3 voxels of the
+  // box (37 MB for 2 km x 1 km x 150 m at 0.2 m). Refused beyond 2^26 entries (256 MiB), which
+  // only free space scattered over kilometres at a fine resolution reaches.
   Status rebuildIndex();
+  // Drops far-table entries no cell names once they outnumber the live ones.
+  void compactFar();
   void refreshMemoryStats();
   void refreshStats();
 

@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: BSD-3-Clause
-// The distance field's tiles, dense tile index and statistics.
+// The distance field's tiles, two-level tile index, far table and statistics.
 #include <sys/mman.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "distance_field_impl.hpp"
@@ -12,46 +13,68 @@
 namespace adit::map {
 namespace dfield {
 
-void adviseHugePages(std::vector<Block>& blocks) {
+void adviseHugePages(std::vector<Tile>& tiles) {
 #ifdef MADV_HUGEPAGE
   constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
-  const auto begin = reinterpret_cast<std::uintptr_t>(blocks.data());
-  const std::uintptr_t end = begin + blocks.capacity() * sizeof(Block);
+  const auto begin = reinterpret_cast<std::uintptr_t>(tiles.data());
+  const std::uintptr_t end = begin + tiles.capacity() * sizeof(Tile);
   const std::uintptr_t lo = (begin + kHuge - 1) & ~(kHuge - 1), hi = end & ~(kHuge - 1);
   if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
 #else
-  (void)blocks;
+  (void)tiles;
 #endif
 }
 
 }  // namespace dfield
 
-
-// Allocates (rock-initialised) tiles for the given distinct block coords and rebuilds the
-// dense index over the union of old and new tiles.
-Status DistanceField::Impl::allocate(const std::vector<std::array<int, 3>>& coords) {
-  std::vector<std::array<int, 3>> fresh;
-  for (const auto& c : coords)
-    if (blockIndex(c[0], c[1], c[2]) < 0) fresh.push_back(c);
-  if (fresh.empty()) return {};
-  for (const auto& c : fresh) appendTile(c);
-  return rebuildIndex();
+void DistanceField::Impl::gatherAcrossTiles(const int base[3], Cell cells[8]) const {
+  for (int c = 0; c < 8; ++c) cells[c] = cell(base[0] + (c & 1), base[1] + ((c >> 1) & 1), base[2] + (c >> 2));
 }
 
-// A new all-rock tile (value-initialised words are 0). Capacity grows geometrically, and the
-// new range is advised onto huge pages.
-Block& DistanceField::Impl::appendTile(const std::array<int, 3>& c) {
-  if (blocks.size() == blocks.capacity()) {
-    blocks.reserve(std::max<std::size_t>(64, 2 * blocks.capacity()));
-    adviseHugePages(blocks);
+void DistanceField::Impl::resolveFar(const Cell cells[8], const int base[3], int s[3][8]) const {
+  for (int c = 0; c < 8; ++c) {
+    if (!isFarCell(cells[c])) continue;
+    const std::uint64_t site = far[cells[c] & kFarIndexMask];
+    for (int a = 0; a < 3; ++a) s[a][c] = keyCoord(site, a) - base[a];
   }
-  block_coords.push_back(c);
-  return blocks.emplace_back();
 }
 
-// The dense tile index over the bounding box of all tiles: 4 bytes per 16^3 voxels of the box
-// (37 MB for 2 km x 1 km x 150 m at 0.2 m). Refused beyond 2^26 entries (256 MiB), which only
-// free space scattered over kilometres at a fine resolution reaches.
+Status DistanceField::Impl::allocate(const std::vector<std::array<int, 3>>& tile_coords) {
+  // Blocks created here are not in the index until it is rebuilt, once, at the end.
+  std::map<std::array<int, 3>, std::int32_t> fresh;
+  for (const auto& t : tile_coords) {
+    const int x = t[0] << kTileBits, y = t[1] << kTileBits, z = t[2] << kTileBits;
+    if (tileIndex(x, y, z) != kRockTile) continue;
+    const std::array<int, 3> b = {x >> kBlockBits, y >> kBlockBits, z >> kBlockBits};
+    std::int32_t r = blockIndex(b[0], b[1], b[2]);
+    if (r < 0) {
+      auto [it, inserted] = fresh.try_emplace(b, std::int32_t(regions.size()));
+      if (inserted) appendRegion(b);
+      r = it->second;
+    }
+    std::int32_t& slot = regions[std::size_t(r)][std::size_t(subIndex(x, y, z))];
+    if (slot == kRockTile) slot = appendTile();
+  }
+  return fresh.empty() ? Status{} : rebuildIndex();
+}
+
+std::int32_t DistanceField::Impl::appendRegion(const std::array<int, 3>& c) {
+  Region r;
+  r.fill(kRockTile);
+  regions.push_back(r);
+  block_coords.push_back(c);
+  return std::int32_t(regions.size() - 1);
+}
+
+std::int32_t DistanceField::Impl::appendTile() {
+  if (tiles.size() == tiles.capacity()) {
+    tiles.reserve(std::max<std::size_t>(64, 2 * tiles.capacity()));
+    adviseHugePages(tiles);
+  }
+  tiles.emplace_back();
+  return std::int32_t(tiles.size() - 1);
+}
+
 Status DistanceField::Impl::rebuildIndex() {
   int lo[3], hi[3];
   for (int a = 0; a < 3; ++a) { lo[a] = std::numeric_limits<int>::max(); hi[a] = std::numeric_limits<int>::min(); }
@@ -76,27 +99,53 @@ Status DistanceField::Impl::rebuildIndex() {
   return {};
 }
 
+void DistanceField::Impl::compactFar() {
+  if (far_unused < 4096 || 2 * far_unused < far.size()) return;
+  std::vector<std::uint64_t> live;
+  live.reserve(far.size() - std::min<std::size_t>(far.size(), far_unused));
+  for (Tile& t : tiles)
+    for (Cell& c : t)
+      if (isFarCell(c)) {
+        live.push_back(far[c & kFarIndexMask]);
+        c = (c & ~kFarIndexMask) | Cell(live.size() - 1);
+      }
+  far = std::move(live);
+  far_unused = 0;
+}
+
 void DistanceField::Impl::refreshMemoryStats() {
-  stats.blocks = blocks.size();
+  stats.blocks = regions.size();
   stats.index_entries = index.size();
-  stats.memory_bytes = blocks.size() * sizeof(Block) + index.size() * sizeof(std::int32_t) +
-                       block_coords.size() * sizeof(block_coords[0]);
+  stats.tiles = tiles.empty() ? 0 : tiles.size() - 1;  // not the shared rock tile
+  stats.tile_edge_voxels = kTileSize;
+  stats.far_sites = far.size();
+  stats.memory_bytes = tiles.size() * sizeof(Tile) + regions.size() * sizeof(Region) +
+                       index.size() * sizeof(std::int32_t) + block_coords.size() * sizeof(block_coords[0]) +
+                       far.size() * sizeof(far[0]);
 }
 
 void DistanceField::Impl::refreshStats() {
   refreshMemoryStats();
   std::uint64_t free_count = 0;
   double max_d2 = 0;
-  for (std::size_t i = 0; i < blocks.size(); ++i) {
-    const auto& c = block_coords[i];
-    for (int l = 0; l < kBlockVoxels; ++l) {
-      const std::uint64_t w = blocks[i][std::size_t(l)];
-      if (!isFreeWord(w)) continue;
-      ++free_count;
-      const int x = (c[0] << kBlockBits) + (l & kBlockMask), y = (c[1] << kBlockBits) + ((l >> kBlockBits) & kBlockMask),
-                z = (c[2] << kBlockBits) + (l >> (2 * kBlockBits));
-      const double dx = x - siteCoord(w, 0), dy = y - siteCoord(w, 1), dz = z - siteCoord(w, 2);
-      max_d2 = std::max(max_d2, dx * dx + dy * dy + dz * dz);
+  for (std::size_t r = 0; r < regions.size(); ++r) {
+    const auto& b = block_coords[r];
+    for (int j = 0; j < kTilesPerBlock; ++j) {
+      const std::int32_t t = regions[r][std::size_t(j)];
+      if (t == kRockTile) continue;
+      const int x0 = (b[0] << kBlockBits) + ((j & kSubMask) << kTileBits);
+      const int y0 = (b[1] << kBlockBits) + (((j >> kSubBits) & kSubMask) << kTileBits);
+      const int z0 = (b[2] << kBlockBits) + ((j >> (2 * kSubBits)) << kTileBits);
+      for (int l = 0; l < kTileVoxels; ++l) {
+        const Cell c = tiles[std::size_t(t)][std::size_t(l)];
+        if (!isFreeCell(c)) continue;
+        ++free_count;
+        if (!hasSite(c)) continue;
+        const int x = x0 + (l & kTileMask), y = y0 + ((l >> kTileBits) & kTileMask), z = z0 + (l >> (2 * kTileBits));
+        const std::uint64_t s = siteOf(c, x, y, z);
+        const double dx = x - keyCoord(s, 0), dy = y - keyCoord(s, 1), dz = z - keyCoord(s, 2);
+        max_d2 = std::max(max_d2, dx * dx + dy * dy + dz * dz);
+      }
     }
   }
   stats.free_voxels = free_count;

@@ -78,16 +78,37 @@ class LineSolver {
   bool all_zero_ = true;
 };
 
-// Squared distance from voxel `key` to the site in `w`, over the axes before `axis` (the axes a
-// previous pass has already resolved; the other coordinates of the site equal the voxel's).
-inline double partialF(const int key[3], std::uint64_t w, int axis) {
+// Squared distance from voxel `key` to `site` (a packed key), over the axes before `axis` (the
+// axes a previous pass has already resolved; the other coordinates of the site equal the voxel's).
+inline double partialF(const int key[3], std::uint64_t site, int axis) {
   double f = 0;
   for (int a = 0; a < axis; ++a) {
-    const double d = key[a] - siteCoord(w, a);
+    const double d = key[a] - keyCoord(site, a);
     f += d * d;
   }
   return f;
 }
+
+// Between the passes of transformAll() a free cell holds the site found so far, relative to
+// the voxel and modulo 2^16 on each axis resolved (any key difference fits, exactly): after the
+// x pass, kFreeBit | dx; after the y pass, dx | dy << 16, never 0 since the site is rock and the
+// voxel free. Rock cells stay 0 throughout. Only the last pass writes the final cell format.
+inline bool isFreeBetweenPasses(Cell c, int axis) { return axis < 2 ? isFreeCell(c) : c != 0; }
+inline std::uint64_t siteBetweenPasses(Cell c, const int key[3], int axis) {
+  const int x = axis >= 1 ? (key[0] + int(c & 0xFFFF)) & 0xFFFF : key[0];
+  const int y = axis >= 2 ? (key[1] + int(c >> 16)) & 0xFFFF : key[1];
+  return packKey(x, y, key[2]);
+}
+inline Cell cellBetweenPasses(std::uint64_t site, const int key[3], int axis) {
+  const Cell dx = Cell(std::uint16_t(keyCoord(site, 0) - key[0]));
+  if (axis == 0) return kFreeBit | dx;
+  return dx | (Cell(std::uint16_t(keyCoord(site, 1) - key[1])) << 16);
+}
+
+// transformBox()'s dense grid: the whole site key per voxel (16 bits per axis) plus two flags.
+constexpr std::uint64_t kGridFree = std::uint64_t{1} << 48;
+constexpr std::uint64_t kGridSite = std::uint64_t{1} << 49;
+constexpr std::uint64_t kGridKey = (std::uint64_t{1} << 48) - 1;
 
 }  // namespace
 
@@ -95,19 +116,28 @@ inline double partialF(const int key[3], std::uint64_t w, int axis) {
 // grouped in lines; gaps between tiles (and the ends) are rock, of which only the two voxels
 // bounding each gap can be nearest for anything outside it.
 void DistanceField::Impl::transformAll(const ProgressFn& progress) {
-  for (Block& b : blocks)
-    for (std::uint64_t& w : b)
-      if (isFreeWord(w)) w = kFreeBit;  // the first pass must see rock voxels only
+  far.clear();
+  far_unused = 0;
+  far_overflow = false;
+  for (Tile& t : tiles)
+    for (Cell& c : t) c = isFreeCell(c) ? kFreeBit : 0;  // the first pass must see rock voxels only
+  std::vector<std::array<int, 3>> tile_coords(tiles.size());
+  for (std::size_t r = 0; r < regions.size(); ++r)
+    for (int j = 0; j < kTilesPerBlock; ++j)
+      if (const std::int32_t t = regions[r][std::size_t(j)]; t != kRockTile)
+        tile_coords[std::size_t(t)] = {(block_coords[r][0] << kSubBits) + (j & kSubMask),
+                                       (block_coords[r][1] << kSubBits) + ((j >> kSubBits) & kSubMask),
+                                       (block_coords[r][2] << kSubBits) + (j >> (2 * kSubBits))};
   LineSolver solver;
-  std::vector<std::pair<int, std::uint64_t*>> queries;
+  std::vector<std::pair<int, Cell*>> queries;
   for (int axis = 0; axis < 3; ++axis) {
     const int b1 = (axis + 1) % 3, b2 = (axis + 2) % 3;
-    // Tiles sorted by (other two block coords, own coord) form the lines.
-    std::vector<std::uint32_t> order(blocks.size());
-    for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+    // Tiles sorted by (other two tile coords, own coord) form the lines.
+    std::vector<std::uint32_t> order(tiles.size() - 1);
+    for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i + 1;  // not the shared rock tile
     std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-      const auto& ca = block_coords[a];
-      const auto& cb = block_coords[b];
+      const auto& ca = tile_coords[a];
+      const auto& cb = tile_coords[b];
       if (ca[b2] != cb[b2]) return ca[b2] < cb[b2];
       if (ca[b1] != cb[b1]) return ca[b1] < cb[b1];
       return ca[axis] < cb[axis];
@@ -115,46 +145,55 @@ void DistanceField::Impl::transformAll(const ProgressFn& progress) {
     std::size_t start = 0;
     while (start < order.size()) {
       std::size_t end = start + 1;
-      while (end < order.size() && block_coords[order[end]][b1] == block_coords[order[start]][b1] &&
-             block_coords[order[end]][b2] == block_coords[order[start]][b2])
+      while (end < order.size() && tile_coords[order[end]][b1] == tile_coords[order[start]][b1] &&
+             tile_coords[order[end]][b2] == tile_coords[order[start]][b2])
         ++end;
-      for (int u = 0; u < kBlockSize; ++u)
-        for (int v = 0; v < kBlockSize; ++v) {
+      for (int u = 0; u < kTileSize; ++u)
+        for (int v = 0; v < kTileSize; ++v) {
           int key[3];
-          key[b1] = (block_coords[order[start]][b1] << kBlockBits) + u;
-          key[b2] = (block_coords[order[start]][b2] << kBlockBits) + v;
+          key[b1] = (tile_coords[order[start]][b1] << kTileBits) + u;
+          key[b2] = (tile_coords[order[start]][b2] << kTileBits) + v;
           solver.clear();
           queries.clear();
           auto addRock = [&](int p) {
             // Keys 0 and 65535 are always rock (see build()), so nothing beyond them is needed.
             if (p < 0 || p > 65535) return;
             key[axis] = p;
-            solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
+            solver.add(p, 0.0, packKey(key[0], key[1], key[2]));
           };
           int prev_end = std::numeric_limits<int>::min();
           for (std::size_t i = start; i < end; ++i) {
-            const int first = block_coords[order[i]][axis] << kBlockBits;
+            const int first = tile_coords[order[i]][axis] << kTileBits;
             if (first != prev_end + 1) {
               if (prev_end != std::numeric_limits<int>::min()) addRock(prev_end + 1);
               if (prev_end == std::numeric_limits<int>::min() || first - 1 > prev_end + 1) addRock(first - 1);
             }
-            Block& blk = blocks[order[i]];
-            for (int p = first; p < first + kBlockSize; ++p) {
+            Tile& tile = tiles[order[i]];
+            for (int p = first; p < first + kTileSize; ++p) {
               key[axis] = p;
-              std::uint64_t& w = blk[std::size_t(localIndex(key[0], key[1], key[2]))];
-              if (!isFreeWord(w)) {
-                solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
+              Cell& c = tile[std::size_t(localIndex(key[0], key[1], key[2]))];
+              if (!isFreeBetweenPasses(c, axis)) {
+                solver.add(p, 0.0, packKey(key[0], key[1], key[2]));
               } else {
-                if (hasSite(w)) solver.add(p, partialF(key, w, axis), w & kKeyMask);
-                queries.emplace_back(p, &w);
+                // Every line holds rock (its ends at least), so after the first pass every free
+                // voxel has a site.
+                if (axis > 0) {
+                  const std::uint64_t site = siteBetweenPasses(c, key, axis);
+                  solver.add(p, partialF(key, site, axis), site);
+                }
+                queries.emplace_back(p, &c);
               }
             }
-            prev_end = first + kBlockSize - 1;
+            prev_end = first + kTileSize - 1;
           }
           addRock(prev_end + 1);
           if (queries.empty()) continue;
           solver.prepare();
-          for (auto& [p, w] : queries) *w = kFreeBit | kSiteBit | solver.solve(p);
+          for (auto& [p, c] : queries) {
+            key[axis] = p;
+            const std::uint64_t site = solver.solve(p);
+            *c = axis < 2 ? cellBetweenPasses(site, key, axis) : encodeSite(key[0], key[1], key[2], site);
+          }
         }
       start = end;
     }
@@ -179,8 +218,7 @@ double DistanceField::Impl::transformBox(const BoxI& r, BoxI write) {
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y)
       for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
-        const std::uint64_t w = word(x, y, z);
-        at(x, y, z) = isFreeWord(w) ? kFreeBit : 0;
+        at(x, y, z) = isFreeCell(cell(x, y, z)) ? kGridFree : 0;
       }
   LineSolver solver;
   std::vector<std::pair<int, std::uint64_t*>> queries;
@@ -194,20 +232,20 @@ double DistanceField::Impl::transformBox(const BoxI& r, BoxI write) {
         for (int p = r.lo[axis]; p <= r.hi[axis]; ++p) {
           key[axis] = p;
           std::uint64_t& w = at(key[0], key[1], key[2]);
-          if (!isFreeWord(w)) {
-            solver.add(p, 0.0, rockWord(key[0], key[1], key[2]));
+          if (!(w & kGridFree)) {
+            solver.add(p, 0.0, packKey(key[0], key[1], key[2]));
           } else {
-            if (hasSite(w)) solver.add(p, partialF(key, w, axis), w & kKeyMask);
+            if (w & kGridSite) solver.add(p, partialF(key, w & kGridKey, axis), w & kGridKey);
             queries.emplace_back(p, &w);
           }
         }
         if (queries.empty()) continue;
         if (solver.empty()) {
-          for (auto& q : queries) *q.second = kFreeBit;
+          for (auto& q : queries) *q.second = kGridFree;
           continue;
         }
         solver.prepare();
-        for (auto& [p, w] : queries) *w = kFreeBit | kSiteBit | solver.solve(p);
+        for (auto& [p, w] : queries) *w = kGridFree | kGridSite | solver.solve(p);
       }
   }
   double worst = 0;
@@ -215,16 +253,20 @@ double DistanceField::Impl::transformBox(const BoxI& r, BoxI write) {
     for (int y = write.lo[1]; y <= write.hi[1]; ++y)
       for (int x = write.lo[0]; x <= write.hi[0]; ++x) {
         const std::uint64_t w = at(x, y, z);
-        if (!isFreeWord(w)) continue;
-        if (!hasSite(w)) return std::numeric_limits<double>::infinity();
-        const double dx = x - siteCoord(w, 0), dy = y - siteCoord(w, 1), dz = z - siteCoord(w, 2);
+        if (!(w & kGridFree)) continue;
+        if (!(w & kGridSite)) return std::numeric_limits<double>::infinity();
+        const double dx = x - keyCoord(w, 0), dy = y - keyCoord(w, 1), dz = z - keyCoord(w, 2);
         worst = std::max(worst, std::sqrt(dx * dx + dy * dy + dz * dz));
       }
   for (int z = write.lo[2]; z <= write.hi[2]; ++z)
     for (int y = write.lo[1]; y <= write.hi[1]; ++y)
       for (int x = write.lo[0]; x <= write.hi[0]; ++x) {
-        const std::int32_t b = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
-        if (b >= 0) blocks[std::size_t(b)][std::size_t(localIndex(x, y, z))] = at(x, y, z);
+        const std::int32_t t = tileIndex(x, y, z);
+        if (t == kRockTile) continue;
+        Cell& c = tiles[std::size_t(t)][std::size_t(localIndex(x, y, z))];
+        retire(c);
+        const std::uint64_t w = at(x, y, z);
+        c = (w & kGridFree) ? encodeSite(x, y, z, w & kGridKey) : 0;
       }
   return worst;
 }

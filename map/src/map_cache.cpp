@@ -5,7 +5,8 @@
 //   Header (fixed size): magic, version, endianness, the key, six section descriptors
 //   (offset, size, checksum64), checksum64 of everything before it.
 //   Sections: kMeta (map statistics, field scalars), kOctree (OcTree::writeData's stream),
-//   kIndex (the field's dense tile index), kCoords (tile coordinates), kBlocks (the tiles).
+//   kIndex (the field's dense block index), kCoords (block coordinates), kRegions (each block's
+//   tiles), kTiles (the tiles), kFar (the far sites).
 #include "adit/map/map_cache.hpp"
 
 #include <fcntl.h>
@@ -38,8 +39,9 @@ namespace fs = std::filesystem;
 
 constexpr char kMagic[8] = {'a', 'd', 'i', 't', 'm', 'c', '\r', '\n'};
 constexpr std::uint32_t kEndianTag = 0x01020304u;
-enum Section : int { kMeta, kOctree, kIndex, kCoords, kBlocks, kSectionCount };
-const char* const kSectionNames[kSectionCount] = {"statistics", "octree", "tile index", "tile coordinates", "tiles"};
+enum Section : int { kMeta, kOctree, kIndex, kCoords, kRegions, kTiles, kFar, kSectionCount };
+const char* const kSectionNames[kSectionCount] = {"statistics",   "octree", "block index", "block coordinates",
+                                                  "block tiles", "tiles",  "far sites"};
 
 struct SectionDesc {
   std::uint64_t offset, size, checksum;
@@ -61,7 +63,7 @@ struct Meta {
   std::uint64_t free_voxels, occupied_voxels, unknown_voxels, octree_nodes;
   double field_resolution;
   std::int64_t bmin[3], bdim[3];
-  std::uint64_t blocks, index_entries;
+  std::uint64_t blocks, index_entries, tiles, far_sites, tile_edge;
   std::uint64_t f_free_voxels, f_blocks, f_index_entries, f_memory_bytes;
   double f_build_seconds, f_transform_seconds, f_max_distance_m;
 };
@@ -212,8 +214,11 @@ Status MapCacheIo::write(const World& world, const MapCacheKey& key, const std::
   m.unknown_voxels = s.unknown_voxels;
   m.octree_nodes = s.octree_nodes;
   m.field_resolution = f.res;
-  m.blocks = f.blocks.size();
+  m.blocks = f.regions.size();
   m.index_entries = f.index.size();
+  m.tiles = f.tiles.size();
+  m.far_sites = f.far.size();
+  m.tile_edge = kTileSize;
   m.f_free_voxels = f.stats.free_voxels;
   m.f_blocks = f.stats.blocks;
   m.f_index_entries = f.stats.index_entries;
@@ -222,10 +227,15 @@ Status MapCacheIo::write(const World& world, const MapCacheKey& key, const std::
   m.f_transform_seconds = f.stats.transform_seconds;
   m.f_max_distance_m = f.stats.max_distance_m;
 
-  const void* data[kSectionCount] = {&m, tree.data(), f.index.data(), f.block_coords.data(), f.blocks.data()};
-  const std::uint64_t sizes[kSectionCount] = {sizeof m, tree.size(), f.index.size() * sizeof(std::int32_t),
+  const void* data[kSectionCount] = {&m,                  tree.data(),    f.index.data(), f.block_coords.data(),
+                                     f.regions.data(),    f.tiles.data(), f.far.data()};
+  const std::uint64_t sizes[kSectionCount] = {sizeof m,
+                                              tree.size(),
+                                              f.index.size() * sizeof(std::int32_t),
                                               f.block_coords.size() * sizeof(std::array<int, 3>),
-                                              f.blocks.size() * sizeof(Block)};
+                                              f.regions.size() * sizeof(Region),
+                                              f.tiles.size() * sizeof(Tile),
+                                              f.far.size() * sizeof(std::uint64_t)};
   Header h{};
   std::memcpy(h.magic, kMagic, sizeof kMagic);
   h.version = key.version;
@@ -303,7 +313,12 @@ StatusOr<World> MapCacheIo::read(const std::string& cache_path, const std::strin
   if (m.blocks > options.max_field_blocks)
     return failedPrecondition(cache_path + ": the field has " + std::to_string(m.blocks) + " tiles, above the limit " +
                               std::to_string(options.max_field_blocks));
-  const double bytes = double(h.section[kOctree].size) + double(m.index_entries) * 4.0 + double(m.blocks) * sizeof(Block);
+  if (m.tile_edge != std::uint64_t(kTileSize) || m.tiles < 1 || m.tiles > m.blocks * kTilesPerBlock + 1 ||
+      m.far_sites > m.tiles * kTileVoxels)
+    return refuse("tile counts do not match the blocks");
+  const double bytes = double(h.section[kOctree].size) + double(m.index_entries) * 4.0 +
+                       double(m.blocks) * (sizeof(Region) + 12.0) + double(m.tiles) * sizeof(Tile) +
+                       double(m.far_sites) * 8.0;
   if (bytes > double(options.load.max_memory_bytes))
     return failedPrecondition(cache_path + ": the cached world needs " + std::to_string(std::uint64_t(bytes)) +
                               " bytes, above the memory limit");
@@ -325,13 +340,18 @@ StatusOr<World> MapCacheIo::read(const std::string& cache_path, const std::strin
   ADIT_RETURN_IF_ERROR(section(kIndex, impl->index.data(), m.index_entries * sizeof(std::int32_t)));
   impl->block_coords.resize(std::size_t(m.blocks));
   ADIT_RETURN_IF_ERROR(section(kCoords, impl->block_coords.data(), m.blocks * sizeof(std::array<int, 3>)));
-  impl->blocks.reserve(std::size_t(m.blocks));
-  adviseHugePages(impl->blocks);
-  impl->blocks.resize(std::size_t(m.blocks));
-  ADIT_RETURN_IF_ERROR(section(kBlocks, impl->blocks.data(), m.blocks * sizeof(Block)));
-  // Every tile the index names exists and sits where its coordinates say; each tile is named
-  // once. A query trusts the index, so a hostile one must not get this far.
-  std::vector<char> named(impl->blocks.size(), 0);
+  impl->regions.resize(std::size_t(m.blocks));
+  ADIT_RETURN_IF_ERROR(section(kRegions, impl->regions.data(), m.blocks * sizeof(Region)));
+  impl->tiles.reserve(std::size_t(m.tiles));
+  adviseHugePages(impl->tiles);
+  impl->tiles.resize(std::size_t(m.tiles));
+  ADIT_RETURN_IF_ERROR(section(kTiles, impl->tiles.data(), m.tiles * sizeof(Tile)));
+  impl->far.resize(std::size_t(m.far_sites));
+  ADIT_RETURN_IF_ERROR(section(kFar, impl->far.data(), m.far_sites * sizeof(std::uint64_t)));
+  // Every block the index names exists and sits where its coordinates say, and each block and
+  // each tile is named once; every far cell names a far site. A query trusts all of these, so a
+  // hostile file must not get this far.
+  std::vector<char> named(impl->regions.size(), 0);
   for (std::size_t i = 0; i < impl->index.size(); ++i) {
     const std::int32_t b = impl->index[i];
     if (b == -1) continue;
@@ -344,6 +364,20 @@ StatusOr<World> MapCacheIo::read(const std::string& cache_path, const std::strin
       return refuse("tile coordinates disagree with the index");
   }
   if (std::find(named.begin(), named.end(), 0) != named.end()) return refuse("a tile the index does not name");
+  std::vector<char> tile_named(impl->tiles.size(), 0);
+  tile_named[kRockTile] = 1;
+  for (const Region& r : impl->regions)
+    for (const std::int32_t t : r) {
+      if (t == kRockTile) continue;
+      if (t < 0 || std::uint64_t(t) >= m.tiles || tile_named[std::size_t(t)]) return refuse("a block names a bad tile");
+      tile_named[std::size_t(t)] = 1;
+    }
+  if (std::find(tile_named.begin(), tile_named.end(), 0) != tile_named.end()) return refuse("a tile no block names");
+  for (const Cell c : impl->tiles[kRockTile])
+    if (c != 0) return refuse("the shared rock tile is not rock");
+  for (const Tile& t : impl->tiles)
+    for (const Cell c : t)
+      if (isFarCell(c) && (c & kFarIndexMask) >= m.far_sites) return refuse("a cell names a far site that is not there");
   impl->stats.free_voxels = m.f_free_voxels;
   impl->stats.blocks = m.f_blocks;
   impl->stats.index_entries = m.f_index_entries;

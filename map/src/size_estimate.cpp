@@ -23,7 +23,12 @@ namespace {
 constexpr double kOctreeBytesPerNode = 40.0;      // 16 B node + 64 B child array per inner node
 constexpr double kOctreeBuildBytesPerVoxel = 45.0;  // setNodeValue on unpruned leaves
 constexpr double kYamlBytesPerToken = 700.0;      // 10^5 stations (5*10^5 tokens): 328 MB peak
-constexpr int kTileVoxels = internal::kBlockVoxels;
+// The field's layout (distance_field_impl.hpp): 16^3 blocks, each an index entry, coordinates
+// and a record of its 8^3 tiles; the tiles hold 4-byte cells.
+constexpr int kBlockVoxels = internal::kBlockVoxels;
+constexpr int kTileBits = internal::kFieldTileBits;
+constexpr double kTileBytes = double(1 << (3 * kTileBits)) * 4.0;
+constexpr double kBlockBytes = 12.0 + 4.0 * double(1 << (3 * (internal::kBlockBits - kTileBits)));
 
 std::uint64_t tileKey(int bx, int by, int bz) {
   return std::uint64_t(std::uint32_t(bx)) | (std::uint64_t(std::uint32_t(by)) << 20) |
@@ -92,8 +97,9 @@ double estimateVoxelizeBytes(const SurveyNetwork& network) {
 }
 
 double distanceFieldBytesPerTile() {
-  // Voxel words, the tile's coordinates, its hash-map entry while building.
-  return double(kTileVoxels) * 8.0 + 12.0 + 48.0;
+  // A block whose tiles are all allocated, its record and coordinates, the build's bit set and
+  // hash-map entry for it.
+  return double(kBlockVoxels) * 4.0 + kBlockBytes + 512.0 + 48.0;
 }
 
 DistanceFieldEstimate estimateDistanceField(const OccupancyMap& map) {
@@ -106,17 +112,19 @@ DistanceFieldEstimate estimateDistanceField(const OccupancyMap& map) {
     const Aabb b = map.bounds();
     if (b.empty()) return e;
     const double res = map.resolution(), inv = 1.0 / res;
-    double tiles = 1;
+    double tiles = 1, cell_tiles = 1;
     for (int a = 0; a < 3; ++a) {
       const int k0 = internal::keyOf(b.min[a] + 0.5 * res, inv), k1 = internal::keyOf(b.max[a] - 0.5 * res, inv);
       const double n = std::ceil((k1 - k0 + 1) / 16.0 + 1);
       tiles *= n;
+      cell_tiles *= double((k1 >> kTileBits) - (k0 >> kTileBits) + 1);  // those the box touches
     }
     e.tiles = std::uint64_t(tiles);
     e.index_cells = e.tiles;
+    e.cell_tiles = std::uint64_t(cell_tiles);
   } else {
-    std::unordered_set<std::uint64_t> small_tiles;
-    std::uint64_t big_tiles = 0;
+    std::unordered_set<std::uint64_t> small_tiles, small_cell_tiles;
+    std::uint64_t big_tiles = 0, big_cell_tiles = 0;
     for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
       if (tree.isNodeOccupied(*it)) continue;
       const int size = 1 << (depth - it.getDepth());
@@ -136,14 +144,21 @@ DistanceFieldEstimate estimateDistanceField(const OccupancyMap& map) {
       } else {
         small_tiles.insert(tileKey(t0[0], t0[1], t0[2]));
       }
+      if (size >= (1 << kTileBits)) {
+        const std::uint64_t n = std::uint64_t(size >> kTileBits);
+        big_cell_tiles += n * n * n;
+      } else {
+        small_cell_tiles.insert(tileKey(l[0] >> kTileBits, l[1] >> kTileBits, l[2] >> kTileBits));
+      }
     }
     e.tiles = big_tiles + small_tiles.size();
+    e.cell_tiles = big_cell_tiles + small_cell_tiles.size();
     if (e.tiles > 0) {
       e.index_cells = 1;
       for (int a = 0; a < 3; ++a) e.index_cells *= std::uint64_t(hi[a] - lo[a] + 1);
     }
   }
-  e.bytes = double(e.tiles) * distanceFieldBytesPerTile() + double(e.index_cells) * 4.0;
+  e.bytes = double(e.tiles) * kBlockBytes + double(e.cell_tiles) * kTileBytes + double(e.index_cells) * 4.0;
   return e;
 }
 

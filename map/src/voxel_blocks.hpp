@@ -16,6 +16,9 @@ constexpr int kBlockBits = 4;
 constexpr int kBlockSize = 1 << kBlockBits;  // voxels per block edge
 constexpr int kBlockMask = kBlockSize - 1;
 constexpr int kBlockVoxels = kBlockSize * kBlockSize * kBlockSize;
+// The distance field splits each block into tiles of (1 << kFieldTileBits)^3 voxels (see
+// distance_field_impl.hpp); the size estimate counts them.
+constexpr int kFieldTileBits = 2;
 
 // floor() for |v| < 2^31 without a libm call (baseline x86-64 has no SSE4.1 round): the
 // distance field's hot path takes six of them per query.

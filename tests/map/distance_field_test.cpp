@@ -173,5 +173,64 @@ TEST(DistanceField, MemoryIsProportionalToRoadwaysNotBoundingBox) {
   EXPECT_LT(df->stats().bytesPerFreeVoxel(), 64.0);
 }
 
+// Sites beyond the cells' offset range live in the far table. Clearances of 255 voxels take a
+// free ball of 70 M voxels to reach, so the test lowers the range to 1 voxel: nearly every site
+// goes through the table, and the answers (sites, distances, gradients; after window updates
+// too) must be exactly those of the normal field, and of brute force.
+TEST(DistanceField, SitesInTheFarTableAreExact) {
+  OccupancyMap map = test::voxelizeOrFail(test::junctionNetwork(0.25));
+  StatusOr<DistanceField> near = DistanceField::build(map);
+  StatusOr<DistanceField> far = DistanceField::buildWithNearLimitForTesting(map, 1);
+  ASSERT_TRUE(near.ok() && far.ok());
+  EXPECT_EQ(near->stats().far_sites, 0u);
+  EXPECT_GT(far->stats().far_sites, far->stats().free_voxels / 2);
+  EXPECT_EQ(near->stats().free_voxels, far->stats().free_voxels);
+  EXPECT_EQ(near->stats().max_distance_m, far->stats().max_distance_m);
+  StatusOr<BruteForceDistance> oracle = BruteForceDistance::create(map);
+  ASSERT_TRUE(oracle.ok());
+  auto same = [&](const DistanceField& a, const DistanceField& b, int seed) {
+    std::mt19937_64 rng(seed);
+    const double res = map.resolution();
+    for (int i = 0; i < 3000; ++i) {
+      const Vec3 p = test::randomPoint(rng, map.bounds());
+      const DistanceSample x = a.query(p), y = b.query(p);
+      ASSERT_EQ(x.in_rock, y.in_rock) << p.transpose();
+      ASSERT_EQ(x.distance, y.distance) << p.transpose();
+      ASSERT_EQ(x.gradient, y.gradient) << p.transpose();
+      const Vec3 c = ((p / res).array().floor() + 0.5) * res;
+      if (a.isFree(c)) {
+        ASSERT_EQ(a.nearestRockVoxel(c), b.nearestRockVoxel(c)) << c.transpose();
+      }
+    }
+  };
+  same(*near, *far, 5);
+  std::mt19937_64 rng(6);
+  for (int i = 0; i < 300; ++i) {
+    const Vec3 p = test::randomPoint(rng, map.bounds());
+    const DistanceSample a = far->query(p), b = oracle->query(p);
+    ASSERT_EQ(a.in_rock, b.in_rock) << p.transpose();
+    EXPECT_NEAR(a.distance, b.distance, 0.5 * map.resolution()) << p.transpose();
+    EXPECT_GE(a.distance + 1e-9, b.distance);
+  }
+  // Rubble falls, is cleared, falls again: the far entries the updates rewrite are dropped
+  // once they outnumber the live ones, and the answers stay those of a fresh build.
+  std::vector<Vec3> rubble;
+  for (double x = 3.0; x < 4.0; x += 0.25)
+    for (double y = -0.5; y < 0.5; y += 0.25)
+      for (double z = 0.1; z < 1.1; z += 0.25) rubble.push_back({x, y, z});
+  const Aabb window({3.0, -0.5, 0.1}, {4.0, 0.5, 1.1});
+  for (int round = 0; round < 6; ++round) {
+    const VoxelState s = round % 2 == 0 ? VoxelState::kOccupied : VoxelState::kFree;
+    ASSERT_TRUE(map.setVoxels(rubble, s).ok());
+    ASSERT_TRUE(near->update(map, window).ok());
+    ASSERT_TRUE(far->update(map, window).ok());
+    same(*near, *far, 10 + round);
+  }
+  StatusOr<DistanceField> fresh = DistanceField::build(map);
+  ASSERT_TRUE(fresh.ok());
+  same(*fresh, *far, 20);
+  EXPECT_LE(far->stats().far_sites, 2 * far->stats().free_voxels + 4096);
+}
+
 }  // namespace
 }  // namespace adit::map

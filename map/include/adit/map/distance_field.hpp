@@ -9,11 +9,13 @@
 /// a conservative clearance subtract half a voxel, or ask CollisionChecker.
 ///
 /// Algorithm: an exact separable Euclidean feature transform (Felzenszwalb-Huttenlocher lower
-/// envelopes, one pass per axis) over sparse 16^3 tiles. Only tiles that hold free voxels are
-/// allocated; everything else is rock, so a 2 km x 1 km district costs memory in proportion to
-/// its roadways, not its bounding box. Each free voxel stores the key of its nearest rock voxel
-/// (8 bytes); a query reads the 8 voxels around the point and returns the distance from the point
-/// to the nearest of their rock voxels, measured to the voxel's surface (a cube of edge `res`).
+/// envelopes, one pass per axis) over sparse 4^3 tiles, indexed by a dense grid of 16^3 blocks.
+/// Only tiles that hold free voxels are allocated; everything else is rock, so a 2 km x 1 km
+/// district costs memory in proportion to its roadways, not its bounding box. Each free voxel
+/// stores the offset to its nearest rock voxel in 4 bytes (sites beyond +-255 voxels on an axis
+/// are kept exactly in a side table), about 6 bytes per free voxel in all; a query reads the 8
+/// voxels around the point and returns the distance from the point to the nearest of their rock
+/// voxels, measured to the voxel's surface (a cube of edge `res`).
 ///
 /// Conventions: the field is unsigned. Inside rock the distance is 0 and the gradient is zero.
 /// Outside the map's key range everything is rock.
@@ -42,14 +44,17 @@ struct DistanceSample {
 
 struct DistanceFieldStats {
   std::uint64_t free_voxels = 0;
-  std::uint64_t blocks = 0;             ///< allocated 16^3 tiles
-  std::uint64_t index_entries = 0;      ///< dense tile index cells (4 bytes each)
-  std::uint64_t memory_bytes = 0;       ///< tiles + index
+  std::uint64_t blocks = 0;             ///< 16^3 blocks that hold free space (the index's regions)
+  std::uint64_t index_entries = 0;      ///< dense block index cells (4 bytes each)
+  std::uint64_t memory_bytes = 0;       ///< tiles + index + far table
   double build_seconds = 0.0;          ///< whole build: reading the octree + transform
   double transform_seconds = 0.0;      ///< the Euclidean transform alone
   double max_distance_m = 0.0;          ///< largest clearance in the map
+  std::uint64_t tiles = 0;              ///< allocated tiles of tile_edge_voxels^3 voxels, 4 bytes a voxel
+  std::uint64_t tile_edge_voxels = 0;
+  std::uint64_t far_sites = 0;          ///< free voxels whose nearest rock is beyond the cell's offset range
   double bytesPerFreeVoxel() const { return free_voxels ? double(memory_bytes) / double(free_voxels) : 0.0; }
-  /// Voxels processed per second (allocated tiles x 4096 / time), whole build or transform only.
+  /// Voxels processed per second (blocks x 4096 / time), whole build or transform only.
   double voxelsPerSecond() const { return build_seconds > 0 ? double(blocks) * 4096.0 / build_seconds : 0.0; }
   double transformVoxelsPerSecond() const {
     return transform_seconds > 0 ? double(blocks) * 4096.0 / transform_seconds : 0.0;
@@ -68,9 +73,14 @@ struct DistanceFieldUpdateReport {
 class DistanceField {
  public:
   /// Builds the field from the map under its unknown-space policy. Refuses maps whose free space
-  /// would need more than `max_blocks` tiles (32 KiB each).
+  /// would need more than `max_blocks` blocks of 16^3 voxels (at most 16 KiB each).
   static StatusOr<DistanceField> build(const OccupancyMap& map, const ProgressFn& progress = {},
                                        std::uint64_t max_blocks = 1u << 20);
+
+  /// For tests only: build(map), with the sites a cell holds as an offset cut to `max_offset`
+  /// voxels per axis (instead of 255), so that the far table, which only clearances of tens of
+  /// metres reach, is exercised on small maps. Exactness does not depend on the limit.
+  static StatusOr<DistanceField> buildWithNearLimitForTesting(const OccupancyMap& map, int max_offset);
 
   DistanceField(DistanceField&&) noexcept;
   DistanceField& operator=(DistanceField&&) noexcept;

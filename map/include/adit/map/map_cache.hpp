@@ -39,7 +39,7 @@ struct WorldOptions;
 
 /// Bump whenever the file layout, the voxelizer, the octree readers or the distance field change
 /// what they build: a cache of another version is foreign and is rebuilt.
-inline constexpr std::uint32_t kMapCacheVersion = 1;
+inline constexpr std::uint32_t kMapCacheVersion = 2;
 
 struct MapCacheOptions {
   bool enabled = false;

@@ -50,13 +50,15 @@ double estimateVoxelizeBytes(const SurveyNetwork& network);
 struct DistanceFieldEstimate {
   std::uint64_t tiles = 0;        ///< 16^3-voxel tiles the field will allocate (exact)
   std::uint64_t index_cells = 0;  ///< cells of its dense tile index
+  std::uint64_t cell_tiles = 0;   ///< 8^3-voxel tiles of 4-byte cells within them (exact)
   double bytes = 0.0;
 };
 /// The tiles DistanceField::build() would allocate for this map under its unknown policy,
 /// counted by one walk of the octree without allocating a tile (or, under UnknownPolicy::kFree,
 /// from the bounding box, which the field fills). Costs a fraction of a second on the bundled map.
 DistanceFieldEstimate estimateDistanceField(const OccupancyMap& map);
-/// Bytes per distance-field tile (32 KiB of voxel words plus bookkeeping).
+/// Bytes per 16^3-voxel distance-field tile at most, while building (16 KiB of cells plus
+/// bookkeeping): what bounds the tiles a memory budget allows.
 double distanceFieldBytesPerTile();
 
 /// Bytes estimateRoadwayLength() needs for the map's top view (5 bytes per cell).
