@@ -68,6 +68,31 @@ TEST(NavigatedScenario, DistrictRescueReroutesThroughAnotherCrossCut) {
   EXPECT_EQ(route.back(), "return-airway");
 }
 
+// The same rescue with a tracked ground robot (issue 16): on the floor all the way, the rubble is
+// no way through for it, and it arrives within 10 % of the flying run's time.
+TEST(NavigatedScenario, DistrictRescueByATrackedGroundRobotReroutesOnTheFloor) {
+  std::optional<local::Environment> truth;
+  const NavigatedRun r = run("district_rescue_ground.yaml", &truth);
+  const NavigatedRun fly = run("district_rescue.yaml");
+  EXPECT_EQ(r.run.outcome, local::Outcome::kArrived) << r.run.message;
+  EXPECT_EQ(r.run.collisions, 0);
+  EXPECT_GT(r.min_fall_clearance_m, 0.0);
+  ASSERT_FALSE(r.events.empty());
+  const std::vector<std::string>& route = r.events.back().route;
+  EXPECT_NE(std::find(route.begin(), route.end(), "crosscut-160"), route.end());
+  EXPECT_LE(r.run.arrival_time_s, 1.1 * fly.run.arrival_time_s);
+  // Every sample stands on the floor: the centre 0.3 m above the rock under it (a voxel of
+  // quantisation on the sloping roadways).
+  ASSERT_TRUE(truth.has_value());
+  const map::DistanceField& field = *truth->field();
+  for (const local::TrajectorySample& s : r.run.trajectory) {
+    double floor = s.position.z();
+    while (field.isFree(map::Vec3(s.position.x(), s.position.y(), floor)) && floor > s.position.z() - 3.0)
+      floor -= 0.01;
+    EXPECT_NEAR(s.position.z() - floor, 0.3, field.resolution() + 0.011) << "t = " << s.t_s;
+  }
+}
+
 TEST(NavigatedScenario, SealedRoadwayEndsInNoRouteWithinSeconds) {
   const NavigatedRun r = run("sealed_roadway.yaml");
   EXPECT_EQ(r.run.outcome, local::Outcome::kNoRoute) << r.run.message;
