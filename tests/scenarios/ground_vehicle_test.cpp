@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <deque>
 #include <memory>
 #include <optional>
 #include <random>
@@ -19,6 +18,7 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/occupancy_map.hpp"
 #include "adit/map/rock_points.hpp"
+#include "support/pillar_field.hpp"
 #include "support/synthetic_roadway.hpp"
 
 namespace adit::local {
@@ -275,105 +275,6 @@ TEST(GroundVehicle, EachDriveKeepsItsKinematics) {
 
 // ---- pillar fields: the BARN benchmark's kind of clutter, as a 1.95 m slab -----------------
 
-constexpr double kCell = 0.15;       // pillar lattice and voxel size
-constexpr int kCols = 80, kRows = 30;  // 12 m x 4.5 m
-constexpr double kSlabHeight = 1.95;
-
-struct PillarField {
-  std::unique_ptr<World> world;
-  std::vector<char> pillar;  // kRows x kCols
-  Vec3 origin;               // centre of cell (0, 0) on the floor
-  double floor_z = 0.0;
-  bool at(int r, int c) const { return pillar[std::size_t(r * kCols + c)] != 0; }
-  Vec3 cellCentre(int r, int c, double z) const { return Vec3(origin.x() + c * kCell, origin.y() + r * kCell, z); }
-};
-
-// A cellular-automaton field (random fill, then smoothing: BARN's recipe), clear for 2 m at each
-// end. Pillars are whole voxel columns from the floor to the roof.
-PillarField pillarField(std::uint64_t seed, double fill) {
-  PillarField f;
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  std::vector<char> g(std::size_t(kRows * kCols), 0);
-  for (int r = 0; r < kRows; ++r)
-    for (int c = 14; c < kCols - 14; ++c) g[std::size_t(r * kCols + c)] = u(rng) < fill;
-  for (int pass = 0; pass < 2; ++pass) {
-    std::vector<char> h = g;
-    for (int r = 0; r < kRows; ++r)
-      for (int c = 14; c < kCols - 14; ++c) {
-        int n = 0;
-        for (int dr = -1; dr <= 1; ++dr)
-          for (int dc = -1; dc <= 1; ++dc)
-            if ((dr || dc) && r + dr >= 0 && r + dr < kRows && g[std::size_t((r + dr) * kCols + c + dc)]) ++n;
-        h[std::size_t(r * kCols + c)] = n >= 5 || (g[std::size_t(r * kCols + c)] && n >= 2);
-      }
-    g = h;
-  }
-  f.pillar = g;
-  map::SurveyNetwork net =
-      test::straightRoadway(map::CrossSection::rectangle(kRows * kCell, kSlabHeight), kCols * kCell, kCell);
-  f.world = std::make_unique<World>();
-  f.world->map = std::make_unique<map::OccupancyMap>(test::voxelizeOrFail(net));
-  // The slab's voxels: find the floor at the roadway's middle, then the cell grid over its width.
-  StatusOr<map::DistanceField> probe = map::DistanceField::build(*f.world->map);
-  EXPECT_TRUE(probe.ok());
-  const std::optional<double> floor = map::floorBelow(*probe, Vec3(kCols * kCell / 2, 0, 1.0), 3.0);
-  EXPECT_TRUE(floor.has_value());
-  f.floor_z = floor.value_or(0.0);
-  // Cell centres on voxel centres: the first free column from the south rib.
-  double y0 = 0.0;
-  for (double y = 0.0; y > -4.0; y -= kCell)
-    if (probe->isFree(Vec3(kCols * kCell / 2, y, f.floor_z + 0.5))) y0 = y;
-  f.origin = Vec3(0.5 * kCell, y0, f.floor_z);
-  std::vector<Vec3> rock;
-  for (int r = 0; r < kRows; ++r)
-    for (int c = 0; c < kCols; ++c)
-      if (f.at(r, c))
-        for (double z = f.floor_z + 0.5 * kCell; z < f.floor_z + kSlabHeight; z += kCell)
-          rock.push_back(f.cellCentre(r, c, z));
-  EXPECT_TRUE(f.world->map->setVoxels(rock, map::VoxelState::kOccupied).ok());
-  f.world->finish();
-  return f;
-}
-
-// The oracle: breadth-first search over the cells where a disc of `radius` keeps `margin` from
-// every pillar's square and the ribs; west end to east end. The cell path, or empty.
-std::vector<std::pair<int, int>> gridPassage(const PillarField& f, double radius, double margin) {
-  auto fits = [&](int r, int c) {
-    const Vec3 p = f.cellCentre(r, c, f.floor_z + 1.0);
-    if (!f.world->field->isFree(p)) return false;
-    // Rock of the ribs and pillars alike, at the body's height: the field is exact there.
-    return f.world->field->distance(p) >= radius + margin;
-  };
-  std::vector<int> prev(std::size_t(kRows * kCols), -2);
-  std::deque<int> open;
-  for (int r = 0; r < kRows; ++r)
-    if (fits(r, 2)) {
-      prev[std::size_t(r * kCols + 2)] = -1;
-      open.push_back(r * kCols + 2);
-    }
-  int end = -1;
-  while (!open.empty() && end < 0) {
-    const int cur = open.front();
-    open.pop_front();
-    const int r = cur / kCols, c = cur % kCols;
-    if (c == kCols - 3) end = cur;
-    const int dr[4] = {1, -1, 0, 0}, dc[4] = {0, 0, 1, -1};
-    for (int k = 0; k < 4; ++k) {
-      const int nr = r + dr[k], nc = c + dc[k];
-      if (nr < 0 || nr >= kRows || nc < 2 || nc > kCols - 3) continue;
-      const int n = nr * kCols + nc;
-      if (prev[std::size_t(n)] != -2 || !fits(nr, nc)) continue;
-      prev[std::size_t(n)] = cur;
-      open.push_back(n);
-    }
-  }
-  std::vector<std::pair<int, int>> path;
-  for (int c = end; c >= 0; c = prev[std::size_t(c)]) path.emplace_back(c / kCols, c % kCols);
-  std::reverse(path.begin(), path.end());
-  return path;
-}
-
 TEST(GroundVehicle, PillarFieldsOnTheFloorNoCollisionWithTheOraclePath) {
   // The case: a 0.27 m robot among 0.15 m pillars in a 1.95 m slab (as a sphere it bobbed
   // between floor and roof and collided in all 60 worlds). Here a differential robot, circle:0.27,
@@ -381,9 +282,15 @@ TEST(GroundVehicle, PillarFieldsOnTheFloorNoCollisionWithTheOraclePath) {
   constexpr double kRadius = 0.27;
   int worlds = 0, passable = 0, arrived = 0, collided = 0;
   for (std::uint64_t seed = 1; seed <= 12; ++seed) {
-    const PillarField f = pillarField(seed, 0.12);
+    test::PillarFieldSpec spec;
+    spec.seed = seed;
+    const std::unique_ptr<test::PillarField> field = test::makePillarField(spec);
+    ASSERT_TRUE(field->field);
+    const test::PillarField& f = *field;
+    StatusOr<Environment> env = Environment::borrow(*f.map, *f.field);
+    ASSERT_TRUE(env.ok()) << env.status().message();
     ++worlds;
-    const std::vector<std::pair<int, int>> cells = gridPassage(f, kRadius, 0.05);
+    const std::vector<std::pair<int, int>> cells = test::gridPassage(f, kRadius, 0.05, 2, spec.cols - 3);
     if (cells.empty()) continue;
     ++passable;
     Scenario sc;
@@ -411,7 +318,7 @@ TEST(GroundVehicle, PillarFieldsOnTheFloorNoCollisionWithTheOraclePath) {
     sc.start = sc.expected_path.points.front();
     sc.goal = sc.expected_path.points.back();
     sc.t_max_s = 4.0 * 12.0 / r.v_max_mps;
-    StatusOr<SimulationResult> run = simulate(sc, *f.world->env);
+    StatusOr<SimulationResult> run = simulate(sc, *env);
     ASSERT_TRUE(run.ok()) << run.status().message();
     double z_lo = 1e9, z_hi = -1e9;
     for (const TrajectorySample& s : run->trajectory) {
