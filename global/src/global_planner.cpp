@@ -660,6 +660,19 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     return finish(result);
   }
 
+  if (validity->ground()) {
+    // Every break point exactly half the robot's height above its floor. A state within the
+    // ground tolerance is valid (its body is checked standing on the floor), but the local layer
+    // steers at the point itself, and one left below the floor's top lies in rock.
+    std::vector<Vec3> on = result.path.points;
+    bool all = true;
+    for (Vec3& p : on) {
+      const std::optional<Vec3> q = snap(*validity, p, 0.3);
+      all = all && q.has_value();
+      if (q) p = *q;
+    }
+    if (all && validatePoints(*validity, on).ok()) result.path.points = std::move(on);
+  }
   result.outcome = GlobalPlanOutcome::kExactSolution;
   result.length_m = result.path.length();
   // Clearance along the path, a sample per voxel.
