@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include "adit/local/potential_terms.hpp"
 #include "adit/map/collision.hpp"
@@ -159,7 +160,8 @@ double LocalPlanner::slopeAhead(const Vec3& q, const Vec3& u) const {
   return std::clamp((*f - floor_z_) / run, -tan_max, tan_max);
 }
 
-void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, double dt, StepCommand& cmd) {
+void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, const Vec3& wish, double dt,
+                                StepCommand& cmd) {
   const RobotLimits& R = params_.robot;
   constexpr double kYawGain = 2.0;        // [1/s]: heading error to yaw rate (pure-pursuit-like)
   constexpr double kReverseRad = 2.2;     // wanted direction this far behind: back off in reverse
@@ -186,6 +188,11 @@ void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, doub
     double err = speed > 1e-3 ? wrap(std::atan2(want.y(), want.x()) - yaw) : 0.0;
     double sign = 1.0;
     const bool car = R.drive == DriveType::kAckermann;
+    // The envelope stopped the wish: tracks and differential wheels still turn toward it on the
+    // spot (the covering circle turns in place without touching anything), so that the next
+    // period starts facing the way out rather than frozen facing the rock.
+    if (!car && speed <= 1e-3 && Vec3(wish.x(), wish.y(), 0.0).norm() > 1e-3)
+      err = wrap(std::atan2(wish.y(), wish.x()) - yaw);
     // Backing off (a slow wish behind the robot): reverse rather than turn about.
     if (std::abs(err) > kReverseRad && speed <= 0.55 * v_max) {
       sign = -1.0;
@@ -221,6 +228,26 @@ void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, doub
   // speed comes down (no further than braking at a_max allows).
   if (params_.envelope.enabled) {
     const double floor = stoppingFloor(q);
+    if ((R.drive == DriveType::kDifferential || R.drive == DriveType::kSkid) && std::abs(vf) > 1e-6 &&
+        !stoppingRunClear(q, v_new, dt, floor)) {
+      // Braking while the heading swings toward rock curves the stopping run into it (a robot
+      // turning out of a bend at speed): the yaw rate within reach whose run is clear, nearest
+      // the wish, if there is one.
+      double best = w, best_cost = std::numeric_limits<double>::infinity();
+      for (int i = 0; i <= 8; ++i) {
+        const double wi = w_lo + (w_hi - w_lo) * double(i) / 8.0, yaw_end = yaw + wi * dt;
+        if (std::abs(wi - w) < best_cost &&
+            stoppingRunClear(q, onFloor(vf * Vec3(std::cos(yaw_end), std::sin(yaw_end), 0.0)), dt, floor)) {
+          best = wi;
+          best_cost = std::abs(wi - w);
+        }
+      }
+      // None clear: brake straight on (what the envelope's barrier assumed), not swinging on,
+      // unless the robot stops within this period anyway (then it turns on the spot).
+      if (std::isfinite(best_cost)) w = best;
+      else if (std::abs(vf0) > a_max * dt) w = std::clamp(0.0, w_lo, w_hi);
+      v_new = onFloor(vf * Vec3(std::cos(yaw + w * dt), std::sin(yaw + w * dt), 0.0));
+    }
     if (!stoppingRunClear(q, v_new, dt, floor)) {
       const double h0 = Vec3(v_new.x(), v_new.y(), 0.0).norm();
       const double slowest = std::max(0.0, std::abs(vf0) - a_max * dt);
@@ -324,7 +351,9 @@ void LocalPlanner::gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, 
     // floor's plane, by rock that is in its way, never by the floor it drives on.
     const bool all_points = params_.method == Method::kWang2014 || params_.method == Method::kVff ||
                             params_.method == Method::kCvff;
-    scanBand(q, range);
+    // Pursuit asks whether the line to its point is clear of the band's rock (a floor too steep
+    // is rock there, and the field does not know it): the scan reaches that far.
+    scanBand(q, params_.pursuit.enabled ? std::max(range, params_.pursuit.lookahead_m) : range);
     int best = -1;
     for (int b = 0; b < map::BandScan::kBins; ++b) {
       if (!std::isfinite(band_.distance[b])) continue;
@@ -530,6 +559,71 @@ bool LocalPlanner::goalInSight(const Vec3& q, const Vec3& goal) const {
   for (int k = 1; k <= n; ++k)
     if (world_.field->distance(probe(q + d * (double(k) / double(n)))) < rr) return false;
   return true;
+}
+
+bool LocalPlanner::pursuitPoint(const Vec3& q, const map::Polyline& path, const Vec3& proj, Vec3* point) const {
+  const std::size_t n = path.points.size();
+  if (n < 2) return false;
+  // Rock of the body's band (steps and floors too steep to climb included), in the floor's plane.
+  const double clear = params_.robot.radius_m + params_.envelope.keep_m;
+  auto bandClear = [&](const Vec3& to) {
+    const Vec3 a(q.x(), q.y(), 0.0), b(to.x(), to.y(), 0.0);
+    for (int k = 0; k < map::BandScan::kBins; ++k) {
+      if (!std::isfinite(band_.distance[k])) continue;
+      const Vec3 p(band_.point[k].x(), band_.point[k].y(), 0.0);
+      if ((nearestOnSegment(p, a, b) - p).norm() < clear) return false;
+    }
+    return true;
+  };
+  // The floor along the line: no step above max_step, no rise steeper than max_slope_deg (the
+  // band sees such floors only once they stand higher than the robot could climb to them).
+  const RobotLimits& R = params_.robot;
+  const double res = world_.field->resolution(), tan_max = std::tan(R.max_slope_deg * kPi / 180.0);
+  auto floorClear = [&](const Vec3& to) {
+    // Over a metre at least, whatever the line's length: a short line up a ramp too steep rises
+    // no more than a step.
+    Vec3 d(to.x() - q.x(), to.y() - q.y(), 0.0);
+    if (d.norm() < 1e-9) return true;
+    d *= std::max(1.0, d.norm()) / d.norm();
+    const double run = d.norm();
+    const int m = std::clamp(int(std::ceil(run / res)), 1, kMaxSightSamples);
+    double prev = floor_z_;
+    for (int k = 1; k <= m; ++k) {
+      const double s = run * double(k) / double(m);
+      const Vec3 p = q + d * (double(k) / double(m));
+      const std::optional<double> f = map::floorBelow(
+          *world_.field, Vec3(p.x(), p.y(), floor_z_ + s * tan_max + R.max_step_m + res), 2.0 * (s * tan_max + R.max_step_m + res));
+      if (!f || std::abs(*f - prev) > R.max_step_m + res * 0.5 || std::abs(*f - floor_z_) > s * tan_max + R.max_step_m + 0.5 * res)
+        return false;
+      prev = *f;
+    }
+    return true;
+  };
+  double left = params_.pursuit.lookahead_m;
+  Vec3 at = proj;
+  for (std::size_t i = segment_ + 1; i < n && left > 0.0; ++i) {
+    const Vec3& next = path.points[i];
+    const double d = (next - at).norm();
+    if (d >= left) {
+      at += (next - at) * (left / d);
+      break;
+    }
+    left -= d;
+    at = next;  // the path ends sooner: its end
+  }
+  // A shorter lookahead would let the robot creep up to what only the whole line shows (the foot
+  // of a ramp too steep for it). At a bend the line to the lookahead point cuts the corner: then
+  // the break point itself, the path's own corner. Where neither line is clear, the field decides.
+  if (goalInSight(q, at) && bandClear(at) && floorClear(at)) {
+    *point = at;
+    return true;
+  }
+  const Vec3& corner = path.points[std::min(segment_ + 1, n - 1)];
+  if ((corner - q).norm() > 1e-3 && goalInSight(q, corner) && bandClear(corner) && floorClear(corner)) {
+    *point = corner;
+    return true;
+  }
+  return false;
 }
 
 StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& path, const map::MovingObstacle* moving,
@@ -816,6 +910,26 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     const Vec3 dir = unitOr(tangent + std::clamp(0.5 - rho, -1.0, 1.0) * g, tangent);
     steer_to = q + P.monitor.virtual_goal_offset_m * dir;
     v_des = 0.6 * v_max * dir + v_max * moving_force / P.monitor.full_speed_force;
+  } else if (Vec3 carrot = Vec3::Zero();
+             ground_ && P.pursuit.enabled && !has_subgoal_ && n >= 2 && pursuitPoint(q, path, proj, &carrot) &&
+             // A car-like robot cannot turn about on the spot: a point behind it is the field's
+             // (which backs and fills), not a pursuit's.
+             (P.robot.drive != DriveType::kAckermann ||
+              (carrot - q).dot(Vec3(std::cos(state.yaw), std::sin(state.yaw), 0.0)) > 0.0)) {
+    // The path ahead is clear (PursuitParams): along it, giving way to movers as an escape does,
+    // slow enough at the next break point to turn there rather than overshoot it (as regulated
+    // pure pursuit slows for curvature): the turn's cosine of full speed, braking at a_max / 2.
+    double speed = v_max;
+    if (segment_ + 2 < n) {
+      const Vec3 in = path.points[segment_ + 1] - path.points[segment_];
+      const Vec3 out = path.points[segment_ + 2] - path.points[segment_ + 1];
+      if (in.norm() > 1e-9 && out.norm() > 1e-9) {
+        const double turn = std::clamp(in.dot(out) / (in.norm() * out.norm()), 0.15, 1.0) * v_max;
+        speed = std::min(v_max, std::sqrt(turn * turn + a_max * (path.points[segment_ + 1] - q).norm()));
+      }
+    }
+    v_des = speed * unitOr(Vec3(carrot - q), Vec3::Zero()) + v_max * moving_force / P.monitor.full_speed_force;
+    steer_to = carrot;
   } else {
     const double fn = force.norm();
     const double speed = v_max * std::min(1.0, fn / P.monitor.full_speed_force);
@@ -874,6 +988,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   // The safety envelope (EnvelopeParams): whatever the field, the escape or the safety check
   // asked for, the speed toward rock and movers stays what still stops the robot short of them.
   // Off, the terminal phase still caps toward rock: its goal is near rock by design.
+  const Vec3 wish = v_des;  // before the envelope: where a drive that must stop may still face
   if (P.envelope.enabled) v_des = capTowardRock(q, v_des, dt, moving, moving_count);
   else if (terminal) v_des = capTowardRock(q, v_des, dt);
   Vec3 acc = clampNorm((v_des - v) / dt, a_max);
@@ -933,7 +1048,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   cmd.velocity = v_cmd;
   cmd.acceleration = acc;
   if (ground_) {
-    driveCommand(state, v_des, dt, cmd);
+    driveCommand(state, v_des, wish, dt, cmd);
     if (!allFinite(cmd.velocity) || !allFinite(cmd.acceleration) || !std::isfinite(cmd.yaw_rate))
       return refuse("internal: non-finite drive command");
     v_cmd = cmd.velocity;

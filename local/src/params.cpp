@@ -197,6 +197,12 @@ Status EnvelopeParams::validate() const {
       .status();
 }
 
+Status PursuitParams::validate() const {
+  return Checker("PursuitParams")
+      .rule("lookahead_m", lookahead_m, lookahead_m >= 0.1 && lookahead_m <= 10, "in [0.1, 10]")
+      .status();
+}
+
 LocalParams LocalParams::preset(Method m) {
   LocalParams p;
   p.method = m;
@@ -226,6 +232,7 @@ LocalParams LocalParams::paper(Method m) {
   p.terminal.pull_to_go = false;
   p.envelope.enabled = false;
   p.envelope.sight_switch = false;
+  p.pursuit.enabled = false;
   p.wang2014.goal_factor_cap_m = 0.0;
   p.uuv.goal_factor_cap_m = 0.0;
   return p;
@@ -236,6 +243,7 @@ Status LocalParams::validate() const {
   ADIT_RETURN_IF_ERROR(monitor.validate());
   ADIT_RETURN_IF_ERROR(terminal.validate());
   ADIT_RETURN_IF_ERROR(envelope.validate());
+  ADIT_RETURN_IF_ERROR(pursuit.validate());
   switch (method) {
     case Method::kClassic: return classic.validate();
     case Method::kTian2016: return tian2016.validate();

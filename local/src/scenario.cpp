@@ -341,6 +341,7 @@ Scenario parse(const YAML::Node& root, const Reader& r) {
       s.params.monitor.visit(set);
       s.params.terminal.visit(set);
       s.params.envelope.visit(set);
+      s.params.pursuit.visit(set);
       if (!set.found)
         r.fail(kv.first, "params." + key, std::string("unknown field for method ") + methodName(s.params.method));
     }

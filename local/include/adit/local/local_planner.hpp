@@ -171,6 +171,9 @@ class LocalPlanner {
   // The terminal phase's test: the segment q-goal clears rock and static obstacles by the robot's
   // radius (the field sampled every half voxel, at most a fixed number of samples).
   bool goalInSight(const Vec3& q, const Vec3& goal) const;
+  /// Ground mode: the point PursuitParams::lookahead_m along `path` past `proj` (the robot's
+  /// projection onto segment segment_), when the straight line to it is clear; else none.
+  bool pursuitPoint(const Vec3& q, const map::Polyline& path, const Vec3& proj, Vec3* point) const;
   /// The safety envelope's test: a period at `v`, then braking at a_max in a straight line,
   /// keeps the robot's sphere at least `floor` from rock and static obstacles.
   bool stoppingRunClear(const Vec3& q, const Vec3& v, double dt, double floor) const;
@@ -188,7 +191,7 @@ class LocalPlanner {
   double slopeAhead(const Vec3& q, const Vec3& u) const;
   // The drive's command from the holonomic set-point v_cmd (the wish, after the envelope's caps): heading error to yaw rate, forward
   // speed by the heading's agreement, reversing when backing off; the floor's slope to z.
-  void driveCommand(const RobotState& state, const Vec3& v_cmd, double dt, StepCommand& cmd);
+  void driveCommand(const RobotState& state, const Vec3& v_cmd, const Vec3& wish, double dt, StepCommand& cmd);
 
   LocalParams params_;
   World world_;

@@ -291,6 +291,23 @@ struct EnvelopeParams {
   }
 };
 
+/// Ground robots follow a clear expected path by pursuit (as Nav2's and BARN's path followers
+/// do): while the straight line from the robot to a point `pursuit_lookahead_m` ahead along the
+/// path is clear of rock for its covering circle, it steers at that point and the static field's
+/// repulsion rests. Among pillars a repulsion on both sides pushes the robot off a passage the
+/// global layer proved clear, and it stalls there. Where the line is blocked (rock the map did not
+/// show, the robot pushed off the path) the field drives as before; movers keep their repulsion,
+/// the safety check and the envelope throughout. Fly mode keeps the papers' fields.
+struct PursuitParams {
+  bool enabled = true;
+  double lookahead_m = 1.0;  ///< distance of the pursued point along the path [m]
+  Status validate() const;
+  template <class V>
+  void visit(V& v) {
+    v("pursuit", enabled); v("pursuit_lookahead_m", lookahead_m);
+  }
+};
+
 /// Everything step() needs: the method, the model parameters (only the selected one is used),
 /// the robot, the monitor and the terminal phase.
 struct LocalParams {
@@ -304,6 +321,7 @@ struct LocalParams {
   MonitorParams monitor;
   TerminalParams terminal;
   EnvelopeParams envelope;
+  PursuitParams pursuit;
 
   /// The paper's values for `m`, with this project's additions on (the terminal phase). The
   /// classic preset turns escapes off: Khatib's APF has none, which is what the baseline shows.
