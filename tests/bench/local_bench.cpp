@@ -71,18 +71,31 @@ void recordNs(benchmark::State& state, const std::string& name, double total_ns)
 }
 
 void runSteps(benchmark::State& state, Method method, const std::string& record_as, bool envelope = true,
-              int n_movers = -1) {
+              int n_movers = -1, bool ground = false) {
   District& d = district();
   World w;
   w.field = &d.field;
   LocalParams params = LocalParams::preset(method);
   params.envelope.enabled = envelope;
   params.envelope.sight_switch = envelope;
+  // The bundled ground rescue's robot: tracked, 1.0 x 0.7 x 0.6 m, its centre 0.3 m above the floor
+  // (the flying positions are 1.9 m above it), pursuing the path where it is clear.
+  const double drop = ground ? 1.9 - 0.3 : 0.0;
+  if (ground) {
+    RobotLimits& r = params.robot;
+    r.mode = RobotMode::kGround;
+    r.drive = DriveType::kSkid;
+    r.footprint.box = true;
+    r.footprint.length_m = 1.0;
+    r.footprint.width_m = 0.7;
+    r.height_m = 0.6;
+    r.radius_m = r.footprint.circumradius();
+  }
   StatusOr<LocalPlanner> p = LocalPlanner::create(params, w);
   if (!p.ok()) std::abort();
   const std::vector<map::MovingObstacle> mov =
       movers(n_movers >= 0 ? n_movers : record_as.empty() ? 20 : int(state.range(0)));
-  const map::Polyline path{{Vec3(25, 0, 0.575), Vec3(80, 0, -2.23)}};
+  const map::Polyline path{{Vec3(25, 0, 0.575 - drop), Vec3(80, 0, -2.23 - drop)}};
   std::size_t i = 0;
   long stuck_or_arrived = 0;
   const double t0 = threadCpuNs();
@@ -94,7 +107,7 @@ void runSteps(benchmark::State& state, Method method, const std::string& record_
       p->reset();
     }
     RobotState s;
-    s.position = d.robot_positions[i++];
+    s.position = d.robot_positions[i++] - Vec3(0, 0, drop);
     s.velocity = Vec3(0.5, 0, -0.025);
     StepCommand c = p->step(s, path, mov.data(), mov.size(), 0.1);
     stuck_or_arrived += c.status == StepStatus::kStuck || c.status == StepStatus::kArrived;
@@ -116,6 +129,15 @@ void BM_LocalStepEnvelope(benchmark::State& state) {
   runSteps(state, Method::kTian2016, on ? "envelope-on" : "envelope-off", on, 20);
 }
 BENCHMARK(BM_LocalStepEnvelope)->Arg(0)->Arg(1);
+
+// Ground mode (band scan, pursuit, drive command, the drive's stopping runs) beside the flying
+// step, both with the envelope and 20 movers, in one run.
+void BM_LocalStepGround(benchmark::State& state) {
+  const bool ground = state.range(0) != 0;
+  state.SetLabel(ground ? "ground, tracked" : "fly");
+  runSteps(state, Method::kTian2016, ground ? "ground-20" : "fly-20", true, 20, ground);
+}
+BENCHMARK(BM_LocalStepGround)->Arg(0)->Arg(1);
 
 // The models that sum over every rock surface point in range (rockSurfacePoints), 20 obstacles.
 void BM_LocalStepModel(benchmark::State& state) {
@@ -171,6 +193,10 @@ int main(int argc, char** argv) {
   if (off != g_ns_per_step.end() && on != g_ns_per_step.end())
     std::printf("  safety envelope, 20 moving obstacles: off %.2f us, on %.2f us per step, ratio %.2fx\n",
                 off->second / 1e3, on->second / 1e3, on->second / off->second);
+  const auto fly = g_ns_per_step.find("fly-20"), gnd = g_ns_per_step.find("ground-20");
+  if (fly != g_ns_per_step.end() && gnd != g_ns_per_step.end())
+    std::printf("  ground mode, 20 moving obstacles, envelope on: fly %.2f us, ground %.2f us per step, ratio %.2fx\n",
+                fly->second / 1e3, gnd->second / 1e3, gnd->second / fly->second);
   benchmark::Shutdown();
   return 0;
 }
