@@ -563,7 +563,8 @@ bool LocalPlanner::goalInSight(const Vec3& q, const Vec3& goal) const {
 
 bool LocalPlanner::pursuitPoint(const Vec3& q, const map::Polyline& path, const Vec3& proj, Vec3* point) const {
   const std::size_t n = path.points.size();
-  if (n < 2) return false;
+  // Without a field there is neither a floor nor a band scan to check the line against.
+  if (n < 2 || !world_.field) return false;
   // Rock of the body's band (steps and floors too steep to climb included), in the floor's plane.
   const double clear = params_.robot.radius_m + params_.envelope.keep_m;
   auto bandClear = [&](const Vec3& to) {
@@ -614,16 +615,12 @@ bool LocalPlanner::pursuitPoint(const Vec3& q, const map::Polyline& path, const 
   // A shorter lookahead would let the robot creep up to what only the whole line shows (the foot
   // of a ramp too steep for it). At a bend the line to the lookahead point cuts the corner: then
   // the break point itself, the path's own corner. Where neither line is clear, the field decides.
-  if (goalInSight(q, at) && bandClear(at) && floorClear(at)) {
-    *point = at;
-    return true;
-  }
+  auto lineClear = [&](const Vec3& to) { return goalInSight(q, to) && bandClear(to) && floorClear(to); };
   const Vec3& corner = path.points[std::min(segment_ + 1, n - 1)];
-  if ((corner - q).norm() > 1e-3 && goalInSight(q, corner) && bandClear(corner) && floorClear(corner)) {
-    *point = corner;
-    return true;
-  }
-  return false;
+  if (lineClear(at)) *point = at;
+  else if ((corner - q).norm() > 1e-3 && lineClear(corner)) *point = corner;
+  else return false;
+  return true;
 }
 
 StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& path, const map::MovingObstacle* moving,
