@@ -97,6 +97,26 @@ std::uint64_t pathSignature(const map::Polyline& path) {
   return h;
 }
 
+// How far the method's repulsion reaches: rock beyond it is not gathered.
+double repulsionRange(const LocalParams& p) {
+  switch (p.method) {
+    case Method::kClassic: return p.classic.rho0_m;
+    case Method::kTian2016: return p.tian2016.rho0_m;
+    case Method::kWang2014: return std::max(p.wang2014.sensing_radius_m, 0.0);
+    case Method::kVff:
+    case Method::kCvff: return p.vff.p0_m;
+    case Method::kUuv: return p.uuv.rho0_m;
+  }
+  return 0.0;
+}
+
+// The band scan's range: the repulsion's, or pursuit's lookahead when that is longer (pursuit
+// asks whether the line to its point is clear of the band's rock, and the field does not know a
+// floor too steep is rock there).
+double bandRange(const LocalParams& p) {
+  return p.pursuit.enabled ? std::max(repulsionRange(p), p.pursuit.lookahead_m) : repulsionRange(p);
+}
+
 }  // namespace
 
 const char* stepStatusName(StepStatus s) {
@@ -135,6 +155,9 @@ LocalPlanner::LocalPlanner(const LocalParams& params, World world) : params_(par
     // rises a voxel between two samples on a slope, and that voxel is not rock in the way.
     // In open space the floor is flat, half the height under the robot.
     lift_ = params_.robot.probeLift(world_.field ? world_.field->resolution() : 0.0);
+    if (world_.field)
+      band_cache_.reserve(world_.field->resolution(), bandRange(params_) + params_.robot.radius_m, params_.robot.max_step_m,
+                          std::tan(params_.robot.max_slope_deg * kPi / 180.0), params_.robot.height_m);
   }
 }
 
@@ -145,7 +168,7 @@ void LocalPlanner::scanBand(const Vec3& q, double range) {
       map::floorBelow(*world_.field, q + Vec3(0, 0, r.max_step_m), 0.5 * r.height_m + r.max_step_m + 2.0 * res);
   floor_z_ = f ? *f : q.z() - 0.5 * r.height_m;
   map::rockInBand(*world_.field, q, range + r.radius_m, floor_z_, r.max_step_m,
-                  std::tan(r.max_slope_deg * kPi / 180.0), r.height_m, band_);
+                  std::tan(r.max_slope_deg * kPi / 180.0), r.height_m, band_, 1u << 16, &band_cache_);
 }
 
 double LocalPlanner::slopeAhead(const Vec3& q, const Vec3& u) const {
@@ -326,15 +349,7 @@ void LocalPlanner::gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, 
                                    std::size_t moving_count) {
   obstacles_.clear();
   const double rr = params_.robot.radius_m;
-  double range = 0.0;
-  switch (params_.method) {
-    case Method::kClassic: range = params_.classic.rho0_m; break;
-    case Method::kTian2016: range = params_.tian2016.rho0_m; break;
-    case Method::kWang2014: range = std::max(params_.wang2014.sensing_radius_m, 0.0); break;
-    case Method::kVff:
-    case Method::kCvff: range = params_.vff.p0_m; break;
-    case Method::kUuv: range = params_.uuv.rho0_m; break;
-  }
+  const double range = repulsionRange(params_);
   auto keep = [&](const ObstacleData& o) {
     if (!(o.rho <= range)) return;
     if (obstacles_.size() < kMaxObstacles) {
@@ -351,9 +366,7 @@ void LocalPlanner::gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, 
     // floor's plane, by rock that is in its way, never by the floor it drives on.
     const bool all_points = params_.method == Method::kWang2014 || params_.method == Method::kVff ||
                             params_.method == Method::kCvff;
-    // Pursuit asks whether the line to its point is clear of the band's rock (a floor too steep
-    // is rock there, and the field does not know it): the scan reaches that far.
-    scanBand(q, params_.pursuit.enabled ? std::max(range, params_.pursuit.lookahead_m) : range);
+    scanBand(q, bandRange(params_));
     int best = -1;
     for (int b = 0; b < map::BandScan::kBins; ++b) {
       if (!std::isfinite(band_.distance[b])) continue;

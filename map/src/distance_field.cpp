@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -16,7 +17,15 @@
 namespace adit::map {
 
 
-DistanceField::DistanceField(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+namespace {
+// Process-wide, so that a generation names one content of one field, whichever object holds it.
+std::uint64_t nextGeneration() {
+  static std::atomic<std::uint64_t> counter{0};
+  return ++counter;
+}
+}  // namespace
+
+DistanceField::DistanceField(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) { impl_->generation = nextGeneration(); }
 DistanceField::DistanceField(DistanceField&&) noexcept = default;
 DistanceField& DistanceField::operator=(DistanceField&&) noexcept = default;
 DistanceField::DistanceField(const DistanceField& o) : impl_(std::make_unique<Impl>(*o.impl_)) {}
@@ -27,6 +36,7 @@ DistanceField& DistanceField::operator=(const DistanceField& o) {
 DistanceField::~DistanceField() = default;
 
 double DistanceField::resolution() const { return impl_->res; }
+std::uint64_t DistanceField::generation() const noexcept { return impl_->generation; }
 const DistanceFieldStats& DistanceField::stats() const { return impl_->stats; }
 
 StatusOr<DistanceField> DistanceField::build(const OccupancyMap& map, const ProgressFn& progress,
@@ -185,6 +195,7 @@ StatusOr<DistanceField> DistanceField::buildWithNearLimitForTesting(const Occupa
   f.impl_->near_limit = max_offset;
   f.impl_->transformAll({});
   f.impl_->refreshStats();
+  f.impl_->generation = nextGeneration();
   return f;
 }
 
@@ -202,6 +213,17 @@ Vec3 DistanceField::nearestRockVoxel(const Vec3& p) const noexcept {
   if (!hasSite(c)) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   const std::uint64_t s = impl_->siteOf(c, k[0], k[1], k[2]);
   return {centreOf(keyCoord(s, 0), res), centreOf(keyCoord(s, 1), res), centreOf(keyCoord(s, 2), res)};
+}
+
+double DistanceField::voxelClearance(const Vec3& p) const noexcept {
+  int k[3];
+  if (!impl_->voxelKey(p, k)) return 0.0;
+  const Cell c = impl_->cell(k[0], k[1], k[2]);
+  if (!isFreeCell(c)) return 0.0;
+  if (!hasSite(c)) return impl_->res;
+  const std::uint64_t s = impl_->siteOf(c, k[0], k[1], k[2]);
+  const double dx = keyCoord(s, 0) - k[0], dy = keyCoord(s, 1) - k[1], dz = keyCoord(s, 2) - k[2];
+  return impl_->res * std::sqrt(dx * dx + dy * dy + dz * dz);
 }
 
 DistanceSample DistanceField::query(const Vec3& p) const noexcept {
@@ -311,6 +333,7 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed, Dista
   auto finish = [&] { rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   Impl& m = *impl_;
   if (std::abs(map.resolution() - m.res) > 1e-12) return invalidArgument("distance field update: map resolution differs");
+  m.generation = nextGeneration();  // before any voxel changes: readers' caches are stale from here
   if (changed.empty() || !allFinite(changed.min) || !allFinite(changed.max))
     return invalidArgument("distance field update: empty or non-finite window");
   BoxI w;

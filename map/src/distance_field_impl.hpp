@@ -126,6 +126,7 @@ struct DistanceField::Impl {
   bool far_overflow = false;        // a site found no room in the far table
   int near_limit = kOffsetMax;      // lowered by buildWithNearLimitForTesting() only
   DistanceFieldStats stats;
+  std::uint64_t generation = 0;     // DistanceField::generation()
 
   std::int32_t blockIndex(int bx, int by, int bz) const {
     const int x = bx - bmin[0], y = by - bmin[1], z = bz - bmin[2];

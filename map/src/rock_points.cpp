@@ -115,30 +115,180 @@ RockPointsResult rockSurfacePoints(const DistanceField& field, const Vec3& centr
   return r;
 }
 
+namespace {
+// The vertical span of a band scan's column searches, in voxel keys: from a metre (and the
+// slope's fall over the radius) below the robot's floor to the body's top at the radius.
+struct BandSpan {
+  std::int64_t k0 = 0, k1 = 0;
+};
+BandSpan bandSpan(double inv, double radius, double z_floor, double step_tol, double slope_tan, double height) {
+  return {std::int64_t(std::floor((z_floor - 1.0 - radius * slope_tan) * inv)),
+          std::int64_t(std::floor((z_floor + step_tol + radius * slope_tan + height) * inv))};
+}
+// floor(v) as a key, without a call into libm (this runs for every column of every scan);
+// |v| is far below 2^62 here.
+inline std::int64_t floorKey(double v) {
+  const std::int64_t t = std::int64_t(v);
+  return t - std::int64_t(double(t) > v);
+}
+
+// The band's bin of the direction (x, y): bin b covers azimuths from -pi + b 15 deg, as
+// floor((atan2(y, x) + pi) / 15 deg), found by comparing with the bins' edges instead of an
+// atan2 per column (this runs for every column of every scan).
+int azimuthBin(double x, double y) {
+  static_assert(BandScan::kBins == 24, "the edges below are 15 degrees apart");
+  // The angle from -pi is the angle of (-x, -y) from the +x axis, in [0, 2 pi): its quadrant,
+  // then the edges at 15, 30, 45, 60 and 75 degrees within it.
+  const double u = -x, w = -y;
+  double a = 0.0, c = 0.0;
+  int quadrant = 0;
+  if (u > 0.0 && w >= 0.0) {
+    a = u, c = w, quadrant = 0;
+  } else if (u <= 0.0 && w > 0.0) {
+    a = w, c = -u, quadrant = 1;
+  } else if (u < 0.0 && w <= 0.0) {
+    a = -u, c = -w, quadrant = 2;
+  } else if (u >= 0.0 && w < 0.0) {
+    a = -w, c = u, quadrant = 3;
+  } else {
+    return BandScan::kBins / 2;  // (0, 0): atan2 gives 0
+  }
+  constexpr double kTan15 = 0.26794919243112270, kTan30 = 0.57735026918962576, kTan60 = 1.7320508075688772,
+                   kTan75 = 3.7320508075688772;
+  const int sub = int(c >= a * kTan15) + int(c >= a * kTan30) + int(c >= a) + int(c >= a * kTan60) + int(c >= a * kTan75);
+  return std::min(BandScan::kBins - 1, 6 * quadrant + sub);
+}
+
+}  // namespace
+
+bool BandCache::reserve(double resolution, double radius, double max_step, double slope_tan, double height) {
+  *this = BandCache();
+  if (!(resolution > 0.0) || !std::isfinite(resolution) || !(radius >= 0.0) || !std::isfinite(radius) ||
+      !(max_step >= 0.0) || !std::isfinite(max_step) || !(slope_tan >= 0.0) || !std::isfinite(slope_tan) ||
+      !(height > 0.0) || !std::isfinite(height))
+    return false;
+  const double inv = 1.0 / resolution;
+  // A window spans at most 2 r / res + 2 columns a side: distinct columns of one scan never share
+  // a slot of a ring that wide.
+  const double ring = std::ceil(2.0 * radius * inv) + 3.0;
+  const BandSpan span = bandSpan(inv, radius, 0.0, std::max(max_step, resolution) + 0.5 * resolution, slope_tan, height);
+  // A column's searches fit with room for the floor to drift a few voxels before it is re-read.
+  const double words = std::ceil(double(span.k1 - span.k0 + 2 + 16) / 64.0);
+  const double bytes = ring * ring * (words * 16.0 + double(sizeof(Slot)));
+  if (bytes > 64.0 * 1024 * 1024) return false;
+  res_ = resolution;
+  ring_ = std::int64_t(ring);
+  words_ = std::int64_t(words);
+  slots_.assign(std::size_t(ring_ * ring_), Slot());
+
+  known_.assign(std::size_t(ring_ * ring_ * words_), 0);
+  rock_.assign(known_.size(), 0);
+  return true;
+}
+
 void rockInBand(const DistanceField& field, const Vec3& centre, double radius, double z_floor, double max_step,
-                double slope_tan, double height, BandScan& out, std::size_t max_window_columns) noexcept {
+                double slope_tan, double height, BandScan& out, std::size_t max_window_columns,
+                BandCache* cache) noexcept {
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  constexpr double kTwoPi = 6.28318530717958647692;
   for (int b = 0; b < BandScan::kBins; ++b) out.distance[b] = kInf;
   out.truncated = false;
   if (!allFinite(centre) || !std::isfinite(radius) || radius < 0.0 || !std::isfinite(z_floor) ||
       !(max_step >= 0.0) || !std::isfinite(max_step) || !(slope_tan >= 0.0) || !std::isfinite(slope_tan) ||
-      !(height > 0.0) || !std::isfinite(height)) {
+      !(height > 0.0) || !std::isfinite(height) || std::abs(z_floor) > 1e6 ||
+      std::max(std::abs(centre.x()), std::abs(centre.y())) + radius > 1e6) {
     out.truncated = true;
     return;
   }
   const double res = field.resolution(), inv = 1.0 / res, half = 0.5 * res;
-  const std::int64_t i_lo = std::int64_t(std::floor((centre.x() - radius) * inv));
-  const std::int64_t i_hi = std::int64_t(std::floor((centre.x() + radius) * inv));
-  const std::int64_t j_lo = std::int64_t(std::floor((centre.y() - radius) * inv));
-  const std::int64_t j_hi = std::int64_t(std::floor((centre.y() + radius) * inv));
-  if (double(i_hi - i_lo + 1) * double(j_hi - j_lo + 1) > double(max_window_columns)) {
+  const std::int64_t i_lo = floorKey((centre.x() - radius) * inv), i_hi = floorKey((centre.x() + radius) * inv);
+  const std::int64_t j_lo = floorKey((centre.y() - radius) * inv), j_hi = floorKey((centre.y() + radius) * inv);
+  const std::int64_t wi = i_hi - i_lo + 1, wj = j_hi - j_lo + 1;
+  if (double(wi) * double(wj) > double(max_window_columns)) {
     out.truncated = true;
     return;
   }
+  // The cache, when it was sized for this field and a window this wide; what it read is dropped
+  // when the field has changed since.
+  BandCache* bc = nullptr;
+  if (cache && !cache->empty() && std::abs(cache->res_ - res) <= 1e-9 * res && wi <= cache->ring_ && wj <= cache->ring_) {
+    if (cache->generation_ != field.generation()) {
+      for (BandCache::Slot& sl : cache->slots_) sl.valid = false;
+      cache->generation_ = field.generation();
+    }
+    bc = cache;
+  }
+  const std::int64_t cap = bc ? bc->words_ * 64 : 0;
+  // A column of the window (keys ci, cj) as its index in the cache's ring; -1 outside the window.
+  const std::int64_t ring = bc ? bc->ring_ : 1;
+  const std::int64_t ring_i = ((i_lo % ring) + ring) % ring, ring_j = ((j_lo % ring) + ring) % ring;
+  auto slotOf = [&](std::int64_t ci, std::int64_t cj) -> std::int64_t {
+    std::int64_t xi = ci - i_lo, yj = cj - j_lo;
+    if (xi < 0 || xi >= wi || yj < 0 || yj >= wj) return -1;
+    xi += ring_i;
+    yj += ring_j;
+    if (xi >= ring) xi -= ring;
+    if (yj >= ring) yj -= ring;
+    return xi * ring + yj;
+  };
+
+  // The highest rock voxel of column (x, y) from key k_top down to k_bottom; k_bottom - 1 when
+  // there is none. Without the cache every voxel is read; with it, each voxel once while it is
+  // in the ring, free runs skipped by their clearance.
+  auto firstRockDirect = [&](double x, double y, std::int64_t k_top, std::int64_t k_bottom) {
+    for (std::int64_t k = k_top; k >= k_bottom; --k)
+      if (!field.isFree(Vec3(x, y, (double(k) + 0.5) * res))) return k;
+    return k_bottom - 1;
+  };
+  auto firstRock = [&](double x, double y, std::int64_t k_top, std::int64_t k_bottom) {
+    if (!bc || k_top - k_bottom + 1 > cap) return firstRockDirect(x, y, k_top, k_bottom);
+    const std::int64_t ci = floorKey(x * inv), cj = floorKey(y * inv), slot = slotOf(ci, cj);
+    if (slot < 0) return firstRockDirect(x, y, k_top, k_bottom);
+    BandCache::Slot& sl = bc->slots_[std::size_t(slot)];
+    std::uint64_t* kn = bc->known_.data() + std::size_t(slot * bc->words_);
+    std::uint64_t* rk = bc->rock_.data() + std::size_t(slot * bc->words_);
+    if (!sl.valid || sl.i != ci || sl.j != cj || k_bottom < sl.k0 || k_top >= sl.k0 + cap) {
+      sl.valid = true;
+      sl.i = ci;
+      sl.j = cj;
+      sl.k0 = k_bottom - (cap - (k_top - k_bottom + 1)) / 2;  // room for the floor to drift either way
+      std::fill_n(kn, bc->words_, std::uint64_t(0));
+      std::fill_n(rk, bc->words_, std::uint64_t(0));
+    }
+    const std::int64_t lo = k_bottom - sl.k0;
+    std::int64_t b = k_top - sl.k0;
+    while (b >= lo) {
+      const std::int64_t w = b >> 6, base = w * 64, from = std::max(lo, base);
+      const int top = int(b - base), bottom = int(from - base);
+      const std::uint64_t mask = (top == 63 ? ~std::uint64_t(0) : (std::uint64_t(1) << (top + 1)) - 1) &
+                                 ~((std::uint64_t(1) << bottom) - 1);
+      const std::uint64_t unknown = ~kn[w] & mask, rocky = kn[w] & rk[w] & mask;
+      const int hu = unknown ? 63 - __builtin_clzll(unknown) : -1, hr = rocky ? 63 - __builtin_clzll(rocky) : -1;
+      if (hr > hu) return sl.k0 + base + hr;  // every voxel above it in range is known free
+      if (hu < 0) {
+        b = from - 1;
+        continue;
+      }
+      // Read the highest unknown voxel. Free: the voxels below it nearer than its clearance are
+      // free too, and known so.
+      const std::int64_t bit = base + hu;
+      const double clear = field.voxelClearance(Vec3(x, y, (double(sl.k0 + bit) + 0.5) * res));
+      if (!(clear > 0.0)) {
+        kn[w] |= std::uint64_t(1) << hu;
+        rk[w] |= std::uint64_t(1) << hu;
+        continue;
+      }
+      const std::int64_t skip = std::max<std::int64_t>(1, std::int64_t(std::ceil(clear * inv - 1e-6)));
+      for (std::int64_t m = bit; m > bit - skip && m >= 0; --m) kn[m >> 6] |= std::uint64_t(1) << (m & 63);
+      b = bit;
+    }
+    return k_bottom - 1;
+  };
+
   // A floor one voxel higher is the quantisation of any slope, never a step (coarse maps).
   const double step_tol = std::max(max_step, res) + half;
   const double baseline = std::max(1.0, 4.0 * res);  // slopes are measured over a metre
+  auto topKey = [&](double s) { return floorKey((z_floor + step_tol + s * slope_tan + height) * inv); };
+  auto bottomKey = [&](double s) { return floorKey((z_floor - 1.0 - s * slope_tan) * inv); };
   // The floor of the column at (x, y), s metres out: the top of the highest rock voxel whose
   // centre is at most the climbable height there, searched down to a metre below the robot's
   // floor. `blocked` when rock stands above that floor within the body's height.
@@ -150,35 +300,46 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
   auto column = [&](double x, double y, double s) {
     Column c;
     const double climb = z_floor + step_tol + s * slope_tan;
-    const std::int64_t k_top = std::int64_t(std::floor((climb + height) * inv));
-    const std::int64_t k_bottom = std::int64_t(std::floor((z_floor - 1.0 - s * slope_tan) * inv));
-    for (std::int64_t k = k_top; k >= k_bottom; --k) {
-      const double cz = (double(k) + 0.5) * res;
-      if (field.isFree(Vec3(x, y, cz))) continue;
-      if (cz > climb) {
-        c.blocked = true;  // rock in the body's band (the floor is not searched further)
-        return c;
-      }
-      c.floor = true;
-      c.z = cz + half;
+    const std::int64_t k_top = topKey(s), k_bottom = bottomKey(s);
+    const std::int64_t k = firstRock(x, y, k_top, k_bottom);
+    if (k < k_bottom) return c;
+    const double cz = (double(k) + 0.5) * res;
+    if (cz > climb) {
+      c.blocked = true;  // rock in the body's band (the floor is not searched further)
       return c;
     }
+    c.floor = true;
+    c.z = cz + half;
     return c;
+  };
+  // Nearest point of column (i, j) to the centre, its distance, and its bin.
+  struct Near {
+    double nx, ny, s;
+    int bin;
+  };
+  auto nearOf = [&](std::int64_t i, std::int64_t j) {
+    const double cx = (double(i) + 0.5) * res, cy = (double(j) + 0.5) * res;
+    Near n;
+    n.nx = std::clamp(centre.x(), cx - half, cx + half);
+    n.ny = std::clamp(centre.y(), cy - half, cy + half);
+    const double ex = n.nx - centre.x(), ey = n.ny - centre.y();
+    n.s = std::sqrt(ex * ex + ey * ey);
+    n.bin = n.s > 1e-9 ? azimuthBin(ex, ey) : azimuthBin(cx - centre.x(), cy - centre.y());
+    return n;
   };
   for (std::int64_t j = j_lo; j <= j_hi; ++j) {
     const double cy = (double(j) + 0.5) * res;
     for (std::int64_t i = i_lo; i <= i_hi; ++i) {
       const double cx = (double(i) + 0.5) * res;
-      const double nx = std::clamp(centre.x(), cx - half, cx + half), ny = std::clamp(centre.y(), cy - half, cy + half);
-      const double s = std::hypot(nx - centre.x(), ny - centre.y());
+      const Near n = nearOf(i, j);
+      const double s = n.s;
+      const int b = n.bin;
       if (s > radius) continue;
-      const double dx = cx - centre.x(), dy = cy - centre.y();
-      const double az = s > 1e-9 ? std::atan2(ny - centre.y(), nx - centre.x()) : std::atan2(dy, dx);
-      const int b = std::min(BandScan::kBins - 1, std::max(0, int((az + 0.5 * kTwoPi) / kTwoPi * BandScan::kBins)));
       if (s >= out.distance[b]) continue;  // this column cannot be nearer in its bin
       const Column c = column(cx, cy, s);
       bool way = c.blocked || !c.floor;
-      const double d = std::max(std::hypot(dx, dy), 1e-9);
+      const double dx = cx - centre.x(), dy = cy - centre.y();
+      const double d = std::max(std::sqrt(dx * dx + dy * dy), 1e-9);
       if (!way && s >= baseline) {
         // A slope steeper than allowed: against the column a baseline nearer the robot (a voxel of
         // quantisation over the baseline; a step within max_step on a flat baseline passes).
@@ -195,7 +356,7 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
       }
       if (!way) continue;
       out.distance[b] = s;
-      out.point[b] = Vec3(nx, ny, z_floor);
+      out.point[b] = Vec3(n.nx, n.ny, z_floor);
     }
   }
 }

@@ -236,6 +236,7 @@ class LocalPlanner {
   double lift_ = 0.0;       // probe()'s offset
   double floor_z_ = 0.0;    // floor under the robot this period
   map::BandScan band_{};
+  map::BandCache band_cache_;  // what the band scans read, sized at construction for their range
   double car_direction_ = 1.0;  // an Ackermann robot's turn about: +1 forward, -1 reverse
 };
 

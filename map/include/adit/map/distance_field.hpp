@@ -95,6 +95,11 @@ class DistanceField {
   bool isFree(const Vec3& p) const noexcept;
   /// Centre of the nearest rock voxel to the voxel holding p (the stored feature transform).
   Vec3 nearestRockVoxel(const Vec3& p) const noexcept;
+  /// Distance from the centre of the voxel holding p to the centre of its nearest rock voxel
+  /// (the stored transform, exact): every voxel whose centre is nearer than that is free, so a
+  /// scan along a line of voxel centres may skip them. 0 when the voxel is rock; one voxel's
+  /// edge where the transform holds no site (only the voxel itself is then known free).
+  double voxelClearance(const Vec3& p) const noexcept;
 
   /// Re-reads the voxels inside `changed` from `map` (after OccupancyMap::setVoxels) and makes
   /// the field exact again by recomputing the transform over `changed` grown by the largest
@@ -105,6 +110,10 @@ class DistanceField {
 
   double resolution() const;
   const DistanceFieldStats& stats() const;
+  /// Names this content of the field: a new value after every build and update() (process-wide,
+  /// so no two contents share one); a copy keeps its original's. Callers that keep what they read
+  /// (the local planner's band cache) drop it when the generation changes.
+  std::uint64_t generation() const noexcept;
 
  private:
   friend struct MapCacheIo;

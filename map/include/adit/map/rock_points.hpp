@@ -13,7 +13,9 @@
 ///   if (r.truncated) warn();   // more points than the buffer holds
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "adit/map/distance_field.hpp"
 #include "adit/map/types.hpp"
@@ -65,8 +67,42 @@ struct BandScan {
   Vec3 point[kBins];       ///< that point (z: the robot's floor)
   bool truncated = false;
 };
+/// What band scans have read of the field's voxel columns, kept from one scan to the next. Each
+/// column is searched up to three times a scan (its own floor, the step against the column next
+/// to it, the slope against the one a metre nearer), and a robot moves a voxel or less a period:
+/// with this cache each voxel is read once while it stays near the robot, and runs of free
+/// voxels are skipped by the field's exact clearance (a voxel that far from rock has free voxels
+/// below it). A ring of columns about the robot, each tagged with its key; everything is dropped
+/// when the field's generation changes (an update). Allocated once by reserve(); scans do not
+/// allocate, and one that does not fit reads the field voxel by voxel (same result:
+/// tests/map/band_scan_test.cpp).
+class BandCache {
+ public:
+  /// Sizes the cache for scans of up to `radius` on a field of `resolution`, for a robot of
+  /// this height, step and slope limit. Allocates; false (and no cache) when that would take
+  /// more than 64 MiB or the arguments are not finite and positive.
+  bool reserve(double resolution, double radius, double max_step, double slope_tan, double height);
+  bool empty() const { return ring_ == 0; }
+
+ private:
+  friend void rockInBand(const DistanceField&, const Vec3&, double, double, double, double, double, BandScan&,
+                         std::size_t, BandCache*) noexcept;
+  struct Slot {
+    std::int64_t i = 0, j = 0;  // the column's key (x, y), when valid
+    std::int64_t k0 = 0;        // key of the lowest voxel its bits hold
+    bool valid = false;
+  };
+  double res_ = 0.0;
+  std::int64_t ring_ = 0, words_ = 0;
+  std::uint64_t generation_ = 0;
+  const DistanceField* field_ = nullptr;
+  std::vector<Slot> slots_;
+  std::vector<std::uint64_t> known_, rock_;  // words_ per slot: one bit per voxel from k0 up
+};
+
 void rockInBand(const DistanceField& field, const Vec3& centre, double radius, double z_floor, double max_step,
-                double slope_tan, double height, BandScan& out, std::size_t max_window_columns = 1u << 16) noexcept;
+                double slope_tan, double height, BandScan& out, std::size_t max_window_columns = 1u << 16,
+                BandCache* cache = nullptr) noexcept;
 
 /// Top of the floor under `p`: searching down from `p` in voxel steps for at most `depth` m, the
 /// height of the first rock voxel's top. None when `p` is not free or nothing is within `depth`.

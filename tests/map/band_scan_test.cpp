@@ -1,0 +1,236 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// The band scan with its cache against the scan that reads every voxel (the reference), on
+// rugged generated terrain and on pillar fields, along robot-like walks with jumps and field
+// updates in between; and the field's voxel clearance, on which the cache's skips rest, against
+// brute force.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <random>
+#include <vector>
+
+#include "adit/map/distance_field.hpp"
+#include "adit/map/occupancy_map.hpp"
+#include "adit/map/rock_points.hpp"
+#include "support/pillar_field.hpp"
+
+namespace adit::map {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A 16 x 10 m terrain at `res`: a floor of slopes, steps and holes, pillars, overhangs low
+// enough to block a robot, a roof 2.5 m above the floor; unknown (rock) elsewhere.
+OccupancyMap ruggedTerrain(std::uint64_t seed, double res) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const int nx = int(16.0 / res), ny = int(10.0 / res);
+  std::vector<double> floor_z(std::size_t(nx * ny));
+  // Smooth slopes of random direction, plus terraces (steps) and a few holes.
+  const double a = 0.25 * (u(rng) - 0.5), b = 0.25 * (u(rng) - 0.5), wave = 0.4 * u(rng);
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const double x = (i + 0.5) * res, y = (j + 0.5) * res;
+      double z = a * x + b * y + wave * std::sin(0.7 * x) * std::cos(0.5 * y);
+      if (x > 6.0 && x < 6.6) z += 0.3;   // a kerb
+      if (y > 7.0) z += 0.15 * std::floor((x - 2.0) / 1.3);  // a staircase of terraces
+      floor_z[std::size_t(j * nx + i)] = res * std::floor(z / res);
+    }
+  std::vector<Vec3> free, occupied;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const double x = (i + 0.5) * res, y = (j + 0.5) * res, f = floor_z[std::size_t(j * nx + i)];
+      const bool hole = u(rng) < 0.01, pillar = u(rng) < 0.02, overhang = u(rng) < 0.02;
+      for (int k = -int(std::lround(1.5 / res)); k < int(std::lround(2.5 / res)); ++k) {
+        const double z = f + (k + 0.5) * res;  // voxel centres (f is on a voxel face)
+        bool rock = z < f && !hole;
+        if (pillar) rock = rock || z < f + 1.0;
+        if (overhang && z > f + 0.5 && z < f + 0.9) rock = true;
+        (rock ? occupied : free).emplace_back(x, y, z);
+      }
+    }
+  StatusOr<OccupancyMap> m = OccupancyMap::fromVoxels(res, free, occupied);
+  EXPECT_TRUE(m.ok()) << m.status().message();
+  return std::move(*m);
+}
+
+// A flat room of 16 x 10 m, 2.6 m high, floor at z = 0.
+OccupancyMap flatRoom(double res) {
+  std::vector<Vec3> free, occupied;
+  for (double x = 0.5 * res; x < 16.0; x += res)
+    for (double y = 0.5 * res; y < 10.0; y += res)
+      for (int k = -int(std::lround(0.6 / res)); k < int(std::lround(2.6 / res)); ++k)
+        (k < 0 ? occupied : free).emplace_back(x, y, (k + 0.5) * res);
+  StatusOr<OccupancyMap> m = OccupancyMap::fromVoxels(res, free, occupied);
+  EXPECT_TRUE(m.ok()) << m.status().message();
+  return std::move(*m);
+}
+
+void expectSameScan(const BandScan& a, const BandScan& b, const Vec3& at) {
+  ASSERT_EQ(a.truncated, b.truncated) << at.transpose();
+  for (int k = 0; k < BandScan::kBins; ++k) {
+    ASSERT_EQ(a.distance[k], b.distance[k]) << "bin " << k << " at " << at.transpose();
+    if (std::isfinite(a.distance[k])) {
+      ASSERT_EQ(a.point[k], b.point[k]) << "bin " << k << " at " << at.transpose();
+    }
+  }
+}
+
+// The floor under (x, y): below the highest free voxel of the column (under the roof).
+std::optional<double> floorAt(const DistanceField& field, double x, double y) {
+  // Voxel centres: a point on a voxel's face is on one side or the other by rounding.
+  for (double z = 4.0 + 0.5 * field.resolution(); z > -4.0; z -= field.resolution())
+    if (field.isFree(Vec3(x, y, z))) return floorBelow(field, Vec3(x, y, z), 6.0);
+  return std::nullopt;
+}
+
+struct Robot {
+  double radius = 2.6, max_step = 0.15, slope_tan = std::tan(15.0 * kPi / 180.0), height = 0.6;
+};
+
+// A walk of `steps` periods in [lo, hi] (x, y): 5 cm steps in a slowly turning direction, a jump
+// now and then; at each, the cached scan equals the reference. Returns the scans with a way.
+int walkAndCompare(const DistanceField& field, BandCache& cache, const Robot& r, Vec3 lo, Vec3 hi, int steps,
+                   std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Vec3 q(lo.x() + u(rng) * (hi.x() - lo.x()), lo.y() + u(rng) * (hi.y() - lo.y()), 0.0);
+  double heading = 2.0 * kPi * u(rng);
+  int with_way = 0;
+  for (int n = 0; n < steps; ++n) {
+    if (u(rng) < 0.03) {
+      q = Vec3(lo.x() + u(rng) * (hi.x() - lo.x()), lo.y() + u(rng) * (hi.y() - lo.y()), 0.0);
+    } else {
+      heading += 0.3 * (u(rng) - 0.5);
+      q += 0.05 * Vec3(std::cos(heading), std::sin(heading), 0.0);
+      q.x() = std::clamp(q.x(), lo.x(), hi.x());
+      q.y() = std::clamp(q.y(), lo.y(), hi.y());
+    }
+    // The robot's floor: the floor under it, or (over a hole) a made-up height.
+    const std::optional<double> f = floorAt(field, q.x(), q.y());
+    const double z_floor = f ? *f : 0.0;
+    const Vec3 c(q.x(), q.y(), z_floor + 0.3);
+    BandScan ref, got;
+    rockInBand(field, c, r.radius, z_floor, r.max_step, r.slope_tan, r.height, ref);
+    rockInBand(field, c, r.radius, z_floor, r.max_step, r.slope_tan, r.height, got, 1u << 16, &cache);
+    expectSameScan(ref, got, c);
+    if (::testing::Test::HasFatalFailure()) return with_way;
+    with_way += std::any_of(std::begin(ref.distance), std::end(ref.distance), [](double d) { return std::isfinite(d); });
+  }
+  return with_way;
+}
+
+TEST(BandScan, CachedScanEqualsTheReferenceOnRuggedTerrain) {
+  for (std::uint64_t seed : {1u, 2u, 3u}) {
+    for (double res : {0.1, 0.2}) {
+      const OccupancyMap m = ruggedTerrain(seed, res);
+      StatusOr<DistanceField> field = DistanceField::build(m);
+      ASSERT_TRUE(field.ok());
+      Robot r;
+      BandCache cache;
+      ASSERT_TRUE(cache.reserve(res, r.radius, r.max_step, r.slope_tan, r.height));
+      const int with_way = walkAndCompare(*field, cache, r, Vec3(0.5, 0.5, 0), Vec3(15.5, 9.5, 0), 600, seed);
+      if (HasFatalFailure()) return;
+      EXPECT_GT(with_way, 300) << "the terrain should put something in the way of most scans";
+    }
+  }
+}
+
+TEST(BandScan, CachedScanEqualsTheReferenceInPillarFields) {
+  for (std::uint64_t seed : {11u, 12u}) {
+    test::PillarFieldSpec spec;
+    spec.seed = seed;
+    spec.fill = 0.2;
+    const auto pf = test::makePillarField(spec);
+    ASSERT_TRUE(pf && pf->field);
+    Robot r;
+    r.radius = 1.4;  // a small robot's rho0 plus its radius
+    BandCache cache;
+    ASSERT_TRUE(cache.reserve(spec.cell_m, r.radius, r.max_step, r.slope_tan, r.height));
+    const Vec3 lo = pf->cellCentre(0, 0, 0), hi = pf->cellCentre(spec.rows - 1, spec.cols - 1, 0);
+    walkAndCompare(*pf->field, cache, r, lo, hi, 600, seed);
+    if (HasFatalFailure()) return;
+  }
+}
+
+TEST(BandScan, CacheIsDroppedWhenTheFieldChanges) {
+  OccupancyMap m = flatRoom(0.2);
+  StatusOr<DistanceField> field = DistanceField::build(m);
+  ASSERT_TRUE(field.ok());
+  Robot r;
+  BandCache cache;
+  ASSERT_TRUE(cache.reserve(0.2, r.radius, r.max_step, r.slope_tan, r.height));
+  const Vec3 at(8.0, 5.0, 0.0);
+  const std::optional<double> f = floorAt(*field, at.x(), at.y());
+  ASSERT_TRUE(f);
+  const Vec3 c(at.x(), at.y(), *f + 0.3);
+  BandScan before, after, ref;
+  rockInBand(*field, c, r.radius, *f, r.max_step, r.slope_tan, r.height, before, 1u << 16, &cache);
+  // A fall of rubble 1.5 m east of the robot, then the same scan.
+  std::vector<Vec3> rubble;
+  for (double y = at.y() - 0.5; y <= at.y() + 0.5; y += 0.2)
+    for (double z = *f + 0.1; z < *f + 1.0; z += 0.2) rubble.emplace_back(at.x() + 1.5, y, z);
+  const std::uint64_t g0 = field->generation();
+  const DistanceField copy = *field;
+  EXPECT_EQ(copy.generation(), g0) << "a copy holds the same content";
+  ASSERT_TRUE(m.setVoxels(rubble, VoxelState::kOccupied).ok());
+  ASSERT_TRUE(field->update(m, Aabb{at + Vec3(1.0, -1.0, -2.0), at + Vec3(2.0, 1.0, 5.0)}).ok());
+  EXPECT_NE(field->generation(), g0);
+  EXPECT_EQ(copy.generation(), g0);
+  rockInBand(*field, c, r.radius, *f, r.max_step, r.slope_tan, r.height, after, 1u << 16, &cache);
+  rockInBand(*field, c, r.radius, *f, r.max_step, r.slope_tan, r.height, ref);
+  expectSameScan(ref, after, c);
+  // The rubble is in the way now, nearer than anything was in its bin before.
+  const int bin = BandScan::kBins / 2;  // azimuth 0 (east)
+  EXPECT_LT(after.distance[bin], 1.5);
+  EXPECT_GT(before.distance[bin], after.distance[bin]);
+}
+
+TEST(BandScan, ReserveRefusesWhatItCannotHold) {
+  BandCache cache;
+  EXPECT_FALSE(cache.reserve(0.0, 2.0, 0.1, 0.2, 0.6));
+  EXPECT_FALSE(cache.reserve(0.1, std::nan(""), 0.1, 0.2, 0.6));
+  EXPECT_FALSE(cache.reserve(0.001, 50.0, 0.1, 0.2, 0.6)) << "more than 64 MiB";
+  EXPECT_TRUE(cache.empty());
+  EXPECT_TRUE(cache.reserve(0.2, 2.6, 0.15, 0.27, 0.6));
+  EXPECT_FALSE(cache.empty());
+}
+
+TEST(DistanceField, VoxelClearanceIsTheExactDistanceBetweenVoxelCentres) {
+  const OccupancyMap m = ruggedTerrain(7, 0.2);
+  StatusOr<DistanceField> field = DistanceField::build(m);
+  ASSERT_TRUE(field.ok());
+  const double res = 0.2;
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> ux(0.5, 15.5), uy(0.5, 9.5), uz(-1.0, 2.5);
+  int free_points = 0;
+  for (int n = 0; n < 600; ++n) {
+    const Vec3 p(ux(rng), uy(rng), uz(rng));
+    const double c = field->voxelClearance(p);
+    if (!field->isFree(p)) {
+      EXPECT_EQ(c, 0.0);
+      continue;
+    }
+    ++free_points;
+    // Brute force over the voxels around p, by the map itself.
+    const Vec3 centre((std::floor(p.x() / res) + 0.5) * res, (std::floor(p.y() / res) + 0.5) * res,
+                      (std::floor(p.z() / res) + 0.5) * res);
+    double best = std::numeric_limits<double>::infinity();
+    const int reach = int(std::ceil(c / res)) + 1;
+    for (int i = -reach; i <= reach; ++i)
+      for (int j = -reach; j <= reach; ++j)
+        for (int k = -reach; k <= reach; ++k) {
+          const Vec3 v = centre + res * Vec3(i, j, k);
+          if (!m.isFree(v)) best = std::min(best, (v - centre).norm());
+        }
+    EXPECT_NEAR(c, best, 1e-9) << p.transpose();
+  }
+  EXPECT_GT(free_points, 120);
+}
+
+}  // namespace
+}  // namespace adit::map
