@@ -362,11 +362,18 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
 }
 
 std::optional<double> floorBelow(const DistanceField& field, const Vec3& p, double depth) noexcept {
-  if (!allFinite(p) || !std::isfinite(depth) || !field.isFree(p)) return std::nullopt;
-  const double res = field.resolution();
-  for (double dz = res; dz <= depth + res; dz += res) {
-    const Vec3 q = p - Vec3(0, 0, dz);
-    if (!field.isFree(q)) return (std::floor(q.z() / res) + 1.0) * res;
+  if (!allFinite(p) || !std::isfinite(depth) || depth > 1e6 || std::abs(p.z()) > 1e6 || !field.isFree(p))
+    return std::nullopt;
+  const double res = field.resolution(), inv = 1.0 / res;
+  // The voxels under p's own, read at their centres: a sample on the face between two voxels (p
+  // half a body above a floor that is itself on a face, a common case) reads whichever voxel
+  // rounding picks, and the floor came out a voxel low: the ground planner then found no place
+  // to stand on six district roadways (tests/map/band_scan_test.cpp, FloorBelow*).
+  const std::int64_t k0 = floorKey(p.z() * inv);
+  const std::int64_t n = std::int64_t(std::floor(depth * inv)) + 1;
+  for (std::int64_t i = 1; i <= n; ++i) {
+    const std::int64_t k = k0 - i;
+    if (!field.isFree(Vec3(p.x(), p.y(), (double(k) + 0.5) * res))) return double(k + 1) * res;
   }
   return std::nullopt;
 }

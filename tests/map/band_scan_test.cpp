@@ -200,6 +200,35 @@ TEST(BandScan, ReserveRefusesWhatItCannotHold) {
   EXPECT_FALSE(cache.empty());
 }
 
+// A point on the face between two voxels (half a body above a floor that is itself on a face)
+// reads one voxel or the other by rounding; the floor under it must not move by a voxel. Found on
+// the district: at x = 40.5 the floor top is -2.2 and floorBelow((40.5, 0, -1.6000000000000001))
+// said -2.4, so the ground planner found nowhere to stand there and blocked the roadway.
+TEST(FloorBelow, PointsOnVoxelFacesFindTheFloor) {
+  for (double floor_z : {0.0, -2.2, 1.4}) {
+    std::vector<Vec3> free, occupied;
+    const double res = 0.2;
+    for (double x = 0.1; x < 2.0; x += res)
+      for (double y = 0.1; y < 2.0; y += res)
+        for (int k = -5; k < 15; ++k) {
+          const double z = floor_z + (k + 0.5) * res;
+          (k < 0 ? occupied : free).emplace_back(x, y, z);
+        }
+    StatusOr<OccupancyMap> m = OccupancyMap::fromVoxels(res, free, occupied);
+    ASSERT_TRUE(m.ok());
+    StatusOr<DistanceField> field = DistanceField::build(*m);
+    ASSERT_TRUE(field.ok());
+    for (int faces = 1; faces <= 6; ++faces) {
+      const double z = floor_z + faces * res;
+      for (double zz : {z, std::nextafter(z, 1e9), std::nextafter(z, -1e9), floor_z + 0.3 + 0.3}) {
+        const std::optional<double> f = floorBelow(*field, Vec3(1.05, 1.05, zz), 2.0);
+        ASSERT_TRUE(f) << zz;
+        EXPECT_NEAR(*f, floor_z, 1e-9) << "from z = " << zz;
+      }
+    }
+  }
+}
+
 TEST(DistanceField, VoxelClearanceIsTheExactDistanceBetweenVoxelCentres) {
   const OccupancyMap m = ruggedTerrain(7, 0.2);
   StatusOr<DistanceField> field = DistanceField::build(m);
