@@ -563,8 +563,17 @@ StatusOr<Route> RoadwayGraph::route(const Vec3& start, const Vec3& goal, const E
     std::ostringstream m;
     m << "start and goal are disconnected on the roadway graph";
     std::vector<std::string> blocked;
-    for (const RoadwayEdge& e : edges_)
-      if (e.blocked) blocked.push_back(e.roadway + " (" + nodes_[std::size_t(e.from)].name + "-" + nodes_[std::size_t(e.to)].name + ")");
+    for (const RoadwayEdge& e : edges_) {
+      if (!e.blocked) continue;
+      // Where along it, so that a user can look: metres from its first station.
+      const std::string& from = nodes_[std::size_t(e.from)].name;
+      std::ostringstream at;
+      at.precision(1);
+      at << std::fixed << e.blocked_from_m;
+      if (e.blocked_to_m > e.blocked_from_m + 0.05) at << "-" << e.blocked_to_m;
+      blocked.push_back(e.roadway + " (" + from + "-" + nodes_[std::size_t(e.to)].name + ", " + at.str() + " m from " +
+                        from + ")");
+    }
     if (!blocked.empty()) {
       m << "; blocked:";
       for (std::size_t i = 0; i < blocked.size() && i < 8; ++i) m << (i ? ", " : " ") << blocked[i];
