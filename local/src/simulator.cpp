@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -12,6 +13,7 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "adit/map/rock_points.hpp"
 #include "adit/map/world.hpp"
 
 namespace adit::local {
@@ -94,7 +96,38 @@ class Referee {
       tall_ = tall;
       robot_ = r.footprint.box ? map::RobotShape::box(Vec3(r.footprint.length_m, r.footprint.width_m, tall))
                                : map::RobotShape::cylinder(r.footprint.radius_m, tall);
+      if (env.field())
+        band_.reserve(env.field()->resolution(), kClearanceReachM + r.footprint.circumradius(), r.max_step_m,
+                      std::tan(r.max_slope_deg * 3.14159265358979323846 / 180.0), r.height_m);
     }
+  }
+
+  // Ground mode: the body's clearance to what it could drive into, the floor it stands on left
+  // out. The exact body distance (rockDistance) is the gap over the floor (max_step plus a voxel)
+  // whenever nothing else is nearer, so a ground run's smallest clearance said only that. This is
+  // the footprint's horizontal distance to the nearest rock of the body's band (a rib, a pillar,
+  // a step, a drop, a floor too steep: map::rockInBand, the planner's own view of the rock),
+  // read up to kClearanceReachM beyond the footprint; beyond that, the reach itself.
+  static constexpr double kClearanceReachM = 2.0;
+  double groundClearance(const Vec3& centre, double yaw, double floor) const {
+    const RobotLimits& r = sc_.params.robot;
+    if (!env_.field()) return kClearanceReachM;
+    map::BandScan scan;
+    map::rockInBand(*env_.field(), centre, kClearanceReachM + r.footprint.circumradius(), floor, r.max_step_m,
+                    std::tan(r.max_slope_deg * 3.14159265358979323846 / 180.0), r.height_m, scan, 1u << 16, &band_);
+    const double c = std::cos(yaw), s = std::sin(yaw);
+    double best = kClearanceReachM;
+    for (int b = 0; b < map::BandScan::kBins; ++b) {
+      if (!std::isfinite(scan.distance[b])) continue;
+      // The point in the body's frame, against its footprint (box or circle).
+      const double dx = scan.point[b].x() - centre.x(), dy = scan.point[b].y() - centre.y();
+      const double lx = c * dx + s * dy, ly = -s * dx + c * dy;
+      const double gap = r.footprint.box ? std::hypot(std::max(std::abs(lx) - 0.5 * r.footprint.length_m, 0.0),
+                                                      std::max(std::abs(ly) - 0.5 * r.footprint.width_m, 0.0))
+                                         : std::max(std::hypot(lx, ly) - r.footprint.radius_m, 0.0);
+      best = std::min(best, gap);
+    }
+    return best;
   }
 
   double rockDistance(const Eigen::Isometry3d& x) const {
@@ -179,6 +212,7 @@ class Referee {
   const Environment& env_;
   map::RobotShape robot_;
   double bottom_ = 0.0, tall_ = 0.0;
+  mutable map::BandCache band_;  // groundClearance()'s reads, kept from one period to the next
 };
 
 }  // namespace
@@ -236,18 +270,29 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
     p_end = p;
     // Nearest thing to the robot at this instant, and what it is.
     if (d > 0.0) d = referee.rockDistance(body);
+    // What the run reports as its clearance: the same, but for a ground robot the rock is what
+    // stands beside it, not the floor it drives on (read once a period: the band scan is the
+    // costly part; contact is still judged on every sub-sample by the exact distance d).
+    double reported = d;
+    if (ground && d > 0.0)
+      reported = s == subs ? referee.groundClearance(p, yaw0 + yaw_rate * tau, floor)
+                           : std::numeric_limits<double>::infinity();
     int mover = -1;
+    const double before_extra = d;
     if (extra) extra(p, t + tau, d, what);
+    if (d < before_extra) reported = std::min(reported, d);
     for (std::size_t i = 0; i < sc.static_obstacles.size(); ++i) {
       const double ds = referee.staticDistance(body, i);
+      reported = std::min(reported, ds);
       if (ds < d) { d = ds; what = "static obstacle " + std::to_string(i + 1); }
     }
     for (std::size_t i = 0; i < nm; ++i) {
       const double dm = referee.movingDistance(body, i, t + tau);
       if (dm < res.closest[i].distance_m) res.closest[i] = {res.closest[i].name, dm, t + tau};
+      reported = std::min(reported, dm);
       if (dm < d) { d = dm; what = sc.moving_obstacles[i].name; mover = int(i); }
     }
-    res.min_clearance_m = std::min(res.min_clearance_m, d);
+    res.min_clearance_m = std::min(res.min_clearance_m, reported);
     if (d <= 0.0 && !hit && res.collisions == 0) {
       res.first_collision_t_s = t + tau;
       res.first_collision_with = what;
