@@ -191,6 +191,44 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const m
   return makeBatchScenario(base, BatchRoadways::fromSurvey(survey), truth, params, index);
 }
 
+namespace {
+std::string jsonString(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", unsigned(static_cast<unsigned char>(c)));
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+// The shortest text that reads back as x.
+std::string jsonNumber(double x) {
+  char buf[32];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, x);
+  return ec == std::errc() ? std::string(buf, end) : "0";
+}
+}  // namespace
+
+StatusOr<BatchRobot> robotFromJson(const std::string& robot_json) {
+  // JSON is YAML: the robot mapping goes through the scenario reader, in a scenario of its own.
+  StatusOr<local::Scenario> sc =
+      local::parseScenario("start: [0, 0, 0]\ngoal: [1, 0, 0]\nmethod: tian2016\nrobot: " + robot_json + "\n", "robot");
+  if (!sc.ok()) {
+    // "robot:3:9: robot.height: ..." -> "robot.height: ...": the caller says where the mapping is.
+    std::string m = sc.status().message();
+    const std::size_t at = m.find("robot.");
+    return invalidArgument(at != std::string::npos ? m.substr(at) : m);
+  }
+  return BatchRobot{sc->params.robot, sc->sensor_range_m};
+}
+
 StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const BatchRoadways& roadways,
                                             const local::Environment& truth, const BatchParams& params, int index) {
   ADIT_RETURN_IF_ERROR(params.validate());
@@ -203,6 +241,11 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const B
   const std::uint64_t run_seed = batchRunSeed(params.seed, index);
   Drawer draw(segs, roadways.lift, run_seed);
   local::Scenario sc = base;
+  if (!params.robot_json.empty()) {
+    ADIT_ASSIGN_OR_RETURN(const BatchRobot robot, robotFromJson(params.robot_json));
+    sc.params.robot = robot.limits;
+    if (robot.sensor_range_m) sc.sensor_range_m = robot.sensor_range_m;  // else the base's sensor
+  }
   if (params.robot_radius_max_m > 0.0 || params.robot_speed_max_mps > 0.0) {
     // A stream of its own: the draws below stay those of a run without robot ranges.
     std::mt19937_64 robot_rng(batchRunSeed(run_seed ^ 0x524F424F54ull, 0));
@@ -349,11 +392,35 @@ StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::
       ADIT_ASSIGN_OR_RETURN(p.t_max_s, number(v, key));
     } else if (key == "near_rock_goals") {
       ADIT_ASSIGN_OR_RETURN(p.near_rock_goal_share, number(v, key));
+    } else if (key == "robot") {
+      // Kept as JSON (the campaign's identity records it so; a number stays a number, anything
+      // else a string), and read now, so that a mistake is said with this file and line.
+      if (!v.IsMap()) return invalidArgument(where(v, key) + ": expected a mapping, as a scenario's robot");
+      std::string robot = "{";
+      for (const auto& f : v) {
+        if (!f.first.IsScalar() || !f.second.IsScalar())
+          return invalidArgument(where(f.first, "robot") + ": expected name: value pairs");
+        const std::string text = f.second.Scalar();
+        double x = 0.0;
+        const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+        const bool numeric = f.second.Tag() != "!" && !text.empty() && ec == std::errc() &&
+                             end == text.data() + text.size() && std::isfinite(x);
+        if (robot.size() > 1) robot += ", ";
+        robot += jsonString(f.first.Scalar()) + ": " + (numeric ? jsonNumber(x) : jsonString(text));
+      }
+      p.robot_json = robot + "}";
+      if (StatusOr<BatchRobot> r = robotFromJson(p.robot_json); !r.ok())
+        return invalidArgument(where(v, key) + ": " + r.status().message());
     } else {
       return invalidArgument(where(kv.first, key) +
                              ": unknown key (separation, max_moving_obstacles, vehicle_speed, vehicle_radius, "
-                             "roof_fall, robot_radius, robot_speed, t_max, near_rock_goals)");
+                             "roof_fall, robot_radius, robot_speed, t_max, near_rock_goals, robot)");
     }
+  }
+  if (!p.robot_json.empty() && p.robot_radius_max_m > 0.0) {
+    ADIT_ASSIGN_OR_RETURN(const BatchRobot r, robotFromJson(p.robot_json));
+    if (r.limits.ground())
+      return invalidArgument(file + ": robot_radius: a ground robot's size is its footprint (robot.footprint)");
   }
   if (Status s = p.validate(); !s.ok()) return invalidArgument(file + ": " + s.message());
   return p;

@@ -251,6 +251,45 @@ TEST(BatchParamsTest, ParsesTheGeneratorYaml) {
   EXPECT_NE(error("separation: [10, 40\n").find("gen.yaml:"), std::string::npos);
 }
 
+// The generator's robot: a scenario's `robot:` mapping, read by the scenario reader (its keys,
+// ranges and messages), kept as JSON for the campaign's identity, and applied to every scenario.
+TEST_F(BatchTest, GeneratorRobotReplacesTheBaseRobot) {
+  StatusOr<BatchParams> p = parseBatchParams(
+      "t_max: 90\nrobot: {mode: ground, drive: skid, footprint: \"box:1.0,0.7\", height: 0.6, v_max: 0.8}\n", "gen.yaml");
+  ASSERT_TRUE(p.ok()) << p.status().toString();
+  EXPECT_EQ(p->robot_json, "{\"mode\": \"ground\", \"drive\": \"skid\", \"footprint\": \"box:1.0,0.7\", \"height\": 0.6, \"v_max\": 0.8}");
+  // JSON is YAML: the identity's generator object reads back to the same robot.
+  StatusOr<BatchParams> again = parseBatchParams("{\"robot\": " + p->robot_json + "}", "identity");
+  ASSERT_TRUE(again.ok()) << again.status().toString();
+  EXPECT_EQ(again->robot_json, p->robot_json);
+  BatchParams q = shortRuns();
+  q.robot_json = p->robot_json;
+  StatusOr<local::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, q, 3);
+  ASSERT_TRUE(sc.ok()) << sc.status().toString();
+  const local::RobotLimits& r = sc->params.robot;
+  EXPECT_TRUE(r.ground());
+  EXPECT_EQ(r.drive, local::DriveType::kSkid);
+  EXPECT_TRUE(r.footprint.box);
+  EXPECT_DOUBLE_EQ(r.radius_m, r.footprint.circumradius());
+  EXPECT_DOUBLE_EQ(r.v_max_mps, 0.8);
+  EXPECT_EQ(sc->sensor_range_m, base_->sensor_range_m) << "no sensor_range given: the base's";
+  // Start and goal are drawn as without it (its own draws come after).
+  StatusOr<local::Scenario> plain = makeBatchScenario(*base_, *survey_, *truth_, shortRuns(), 3);
+  ASSERT_TRUE(plain.ok());
+  EXPECT_EQ(sc->start, plain->start);
+
+  auto error = [](const std::string& text) {
+    StatusOr<BatchParams> got = parseBatchParams(text, "gen.yaml");
+    return got.ok() ? std::string("accepted") : got.status().message();
+  };
+  EXPECT_NE(error("\nrobot: {mode: ground, height: -1}\n").find("gen.yaml:2: robot: robot.height"), std::string::npos)
+      << error("\nrobot: {mode: ground, height: -1}\n");
+  EXPECT_NE(error("robot: {mode: walk}\n").find("robot.mode"), std::string::npos);
+  EXPECT_NE(error("robot: {wheels: 4}\n").find("robot.wheels"), std::string::npos) << error("robot: {wheels: 4}\n");
+  EXPECT_NE(error("robot: [1, 2]\n").find("expected a mapping"), std::string::npos);
+  EXPECT_NE(error("robot: {mode: ground}\nrobot_radius: [0.3, 0.5]\n").find("footprint"), std::string::npos);
+}
+
 // Robot ranges: every scenario's robot inside them, the same for the same index, and drawn from
 // a stream of their own (the vehicles, drawn after start and goal, come out the same whenever
 // start and goal do).

@@ -82,6 +82,7 @@ nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id) {
   gen["robot_speed"] = range(g.robot_speed_min_mps, g.robot_speed_max_mps);
   gen["t_max"] = g.t_max_s;
   gen["near_rock_goals"] = g.near_rock_goal_share;
+  if (!g.robot_json.empty()) gen["robot"] = nlohmann::ordered_json::parse(g.robot_json);
   nlohmann::ordered_json j;
   j["map"] = id.map;
   j["map_hash"] = id.map_hash;

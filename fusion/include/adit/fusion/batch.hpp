@@ -21,6 +21,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -56,8 +57,20 @@ struct BatchParams {
   /// a run (start, vehicles, roof fall, t_max) is the same as with 0. Kept on the axis when the
   /// moved goal would come within 1 m of a roof fall's ball, or fall outside the separation range.
   double near_rock_goal_share = 0.2;
+  /// The robot every run uses instead of the base scenario's, as a scenario's `robot:` mapping in
+  /// JSON (e.g. {"mode": "ground", "drive": "skid", "footprint": "box:1.0,0.7", "height": 0.6});
+  /// empty: the base scenario's. Read with the scenario file's own rules (robotFromJson).
+  std::string robot_json;
   Status validate() const;
 };
+
+/// The robot a generator's `robot` mapping describes (RobotLimits and sensor range), by the
+/// scenario file's reader: the same keys, ranges and messages.
+struct BatchRobot {
+  local::RobotLimits limits;
+  std::optional<double> sensor_range_m;
+};
+StatusOr<BatchRobot> robotFromJson(const std::string& robot_json);
 
 /// The run's own seed: a SplitMix64 of the batch seed and the index.
 std::uint64_t batchRunSeed(std::uint64_t seed, int index);
@@ -128,6 +141,7 @@ double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p);
 ///   robot_speed: [0.8, 1.2]        # v_max [m/s]; absent: the base scenario's
 ///   t_max: 0                       # simulated-time cap [s]; 0: from the distance
 ///   near_rock_goals: 0.2           # share of goals moved beside the floor or a rib
+///   robot: {mode: ground, drive: skid, footprint: "box:1.0,0.7", height: 0.6}   # a scenario's robot
 /// Errors name the file, line and key: unknown keys, non-numbers, ranges with min > max,
 /// values that validate() refuses.
 StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::string& file,
