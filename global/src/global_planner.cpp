@@ -723,19 +723,24 @@ std::optional<Vec3> GlobalPlanner::backOff(const Vec3& c, double max_move_m) con
     q = *on;
   }
   // Up the gradient the clearance grows by about a step per step until the nearest rock changes;
-  // a ridge between two ribs (both too close) stops it, and the pose is then refused.
-  const double step = 0.5 * f.resolution(), start_distance = f.distance(q);
+  // a ridge between two ribs (both too close) stops it, and the pose is then refused. A ground
+  // robot reads the field where its body's clearance is read (lifted off the floor, which is
+  // otherwise the nearest rock and sends the gradient straight up) and backs off along the floor.
+  const Vec3 up(0, 0, v.lift());
+  const double step = 0.5 * f.resolution(), start_distance = f.distance(q + up);
   for (double moved = (q - c).norm(); moved <= max_move_m + 1e-9; moved += step) {
     if (v.stateValid(q)) return q;
-    const map::DistanceSample s = f.query(q);
-    if (s.in_rock || s.gradient.squaredNorm() < 0.25) return std::nullopt;
-    Vec3 next = q + step * s.gradient.normalized();
+    const map::DistanceSample s = f.query(q + up);
+    Vec3 g = s.gradient;
+    if (v.ground()) g.z() = 0.0;
+    if (s.in_rock || g.squaredNorm() < 0.25) return std::nullopt;
+    Vec3 next = q + step * g.normalized();
     if (v.ground()) {
       const std::optional<Vec3> on = v.onFloor(next + Vec3(0, 0, step), 2.0 * step + v.halfHeight());
       if (!on) return std::nullopt;
       next = *on;
     }
-    if (f.distance(next) + 1e-9 < start_distance) return std::nullopt;  // never closer to rock than it stood
+    if (f.distance(next + up) + 1e-9 < start_distance) return std::nullopt;  // never closer to rock than it stood
     q = next;
   }
   return std::nullopt;

@@ -32,6 +32,8 @@ class RobotValidity {
   /// Field distance needed at the robot's reference point (horizontal radius + margin + res/2).
   double requiredClearance() const { return required_; }
   double halfHeight() const { return half_height_; }
+  /// Ground mode: how far above a standing centre the body's clearance is read (0 flying).
+  double lift() const { return ground() ? lift_ : 0.0; }
   double step() const { return step_; }
   bool ground() const { return params_.mode == PlanMode::kGround; }
 

@@ -121,11 +121,7 @@ class Referee {
       if (!std::isfinite(scan.distance[b])) continue;
       // The point in the body's frame, against its footprint (box or circle).
       const double dx = scan.point[b].x() - centre.x(), dy = scan.point[b].y() - centre.y();
-      const double lx = c * dx + s * dy, ly = -s * dx + c * dy;
-      const double gap = r.footprint.box ? std::hypot(std::max(std::abs(lx) - 0.5 * r.footprint.length_m, 0.0),
-                                                      std::max(std::abs(ly) - 0.5 * r.footprint.width_m, 0.0))
-                                         : std::max(std::hypot(lx, ly) - r.footprint.radius_m, 0.0);
-      best = std::min(best, gap);
+      best = std::min(best, r.footprint.gapTo(c * dx + s * dy, -s * dx + c * dy));
     }
     return best;
   }

@@ -3,6 +3,8 @@
 // mode, and path length against the 26-connected grid optimum.
 #include <gtest/gtest.h>
 
+#include "adit/map/rock_points.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -215,6 +217,28 @@ TEST(GlobalPlanner, BackOffClimbsToTheNearestValidPose) {
   World narrow(test::straightRoadway(CrossSection::rectangle(1.0, 3.0), 12.0));
   GlobalPlanner np = narrow.planner(rrtConnect());
   EXPECT_FALSE(np.backOff(Vec3(6, 0.1, 1.5), 1.0).has_value());  // no pose in it fits
+}
+
+// A ground robot pressed against a rib backs off along the floor: the field read where its body's
+// clearance is read (at the floor the floor is the nearest rock and its gradient points up, and
+// the robot, put back on the floor after each step up, went nowhere: a ground campaign's replans
+// from a tight spot were refused "does not fit").
+TEST(GlobalPlanner, GroundBackOffMovesAlongTheFloor) {
+  World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 12.0));
+  GlobalPlannerParams p = rrtConnect();
+  p.mode = PlanMode::kGround;
+  p.robot = map::RobotShape::box({1.0, 0.7, 0.6});
+  GlobalPlanner planner = w.planner(p);
+  const std::optional<double> floor = map::floorBelow(w.field, Vec3(6, 0, 1.5), 3.0);
+  ASSERT_TRUE(floor);
+  const Vec3 pressed(6, 1.2, *floor + 0.3);  // 0.19 m from the north rib with its covering circle
+  ASSERT_FALSE(planner.stateValid(pressed));
+  const std::optional<Vec3> q = planner.backOff(pressed, 1.0);
+  ASSERT_TRUE(q.has_value());
+  EXPECT_TRUE(planner.stateValid(*q));
+  EXPECT_NEAR(q->z(), pressed.z(), 1e-9) << "on the same floor";
+  EXPECT_LT(q->y(), pressed.y());
+  EXPECT_NEAR(q->x(), pressed.x(), 0.05);
 }
 
 TEST(GlobalPlanner, RevalidationCatchesACorruptedPath) {

@@ -10,6 +10,7 @@
 ///   p.robot.v_max_mps = 1.0;
 ///   if (Status s = p.validate(); !s.ok()) fail(s);
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -161,6 +162,12 @@ struct Footprint {
   double width_m = 0.0;   ///< box
   /// The circle that holds the footprint at any heading: what the potential field sees.
   double circumradius() const { return box ? 0.5 * std::hypot(length_m, width_m) : radius_m; }
+  /// Distance in the floor's plane from the footprint to the point (x, y) of the body's frame
+  /// (x along the heading); 0 on or inside it.
+  double gapTo(double x, double y) const {
+    return box ? std::hypot(std::max(std::abs(x) - 0.5 * length_m, 0.0), std::max(std::abs(y) - 0.5 * width_m, 0.0))
+               : std::max(std::hypot(x, y) - radius_m, 0.0);
+  }
   std::string text() const;
   Status validate() const;
 };
