@@ -60,6 +60,14 @@ GlobalPlannerParams rrtConnect() {
   return p;
 }
 
+// The bundled ground rescue's tracked robot (1.0 x 0.7 x 0.6 m) on the floor.
+GlobalPlannerParams trackedRobot() {
+  GlobalPlannerParams p = rrtConnect();
+  p.mode = PlanMode::kGround;
+  p.robot = map::RobotShape::box({1.0, 0.7, 0.6});
+  return p;
+}
+
 double gridLength(const World& w, const GlobalPlanner& planner, const Vec3& a, const Vec3& b) {
   StatusOr<GridPathResult> g =
       gridOptimum([&](const Vec3& c) { return planner.stateValid(c); }, w.map.resolution(), a, b);
@@ -225,9 +233,7 @@ TEST(GlobalPlanner, BackOffClimbsToTheNearestValidPose) {
 // from a tight spot were refused "does not fit").
 TEST(GlobalPlanner, GroundBackOffMovesAlongTheFloor) {
   World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 12.0));
-  GlobalPlannerParams p = rrtConnect();
-  p.mode = PlanMode::kGround;
-  p.robot = map::RobotShape::box({1.0, 0.7, 0.6});
+  const GlobalPlannerParams p = trackedRobot();
   GlobalPlanner planner = w.planner(p);
   const std::optional<double> floor = map::floorBelow(w.field, Vec3(6, 0, 1.5), 3.0);
   ASSERT_TRUE(floor);
@@ -330,9 +336,7 @@ TEST(GlobalPlanner, SameSeedSamePathByteForByte) {
 
 TEST(GlobalPlanner, GroundModeStaysOnTheFloor) {
   World w(test::bentRoadway(CrossSection::rectangle(4.0, 3.0), 0.2));
-  GlobalPlannerParams p = rrtConnect();
-  p.mode = PlanMode::kGround;
-  p.robot = map::RobotShape::box({1.0, 0.7, 0.6});
+  const GlobalPlannerParams p = trackedRobot();
   GlobalPlanner planner = w.planner(p);
   GlobalPlanResult r = planner.plan({1.4, 0.5, 1.0}, {18.5, 10.8, 2.0});
   ASSERT_TRUE(r.solved()) << r.message;
