@@ -74,8 +74,8 @@ struct BandScan {
 /// voxels are skipped by the field's exact clearance (a voxel that far from rock has free voxels
 /// below it). A ring of columns about the robot, each tagged with its key; everything is dropped
 /// when the field's generation changes (an update). Allocated once by reserve(); scans do not
-/// allocate, and one that does not fit reads the field voxel by voxel (same result:
-/// tests/map/band_scan_test.cpp).
+/// allocate, and one that does not fit reads the field voxel by voxel (the same result: the
+/// tests hold the two equal on rugged terrain and pillar fields).
 class BandCache {
  public:
   /// Sizes the cache for scans of up to `radius` on a field of `resolution`, for a robot of
