@@ -81,16 +81,7 @@ void runSteps(benchmark::State& state, Method method, const std::string& record_
   // The bundled ground rescue's robot: tracked, 1.0 x 0.7 x 0.6 m, its centre 0.3 m above the floor
   // (the flying positions are 1.9 m above it), pursuing the path where it is clear.
   const double drop = ground ? 1.9 - 0.3 : 0.0;
-  if (ground) {
-    RobotLimits& r = params.robot;
-    r.mode = RobotMode::kGround;
-    r.drive = DriveType::kSkid;
-    r.footprint.box = true;
-    r.footprint.length_m = 1.0;
-    r.footprint.width_m = 0.7;
-    r.height_m = 0.6;
-    r.radius_m = r.footprint.circumradius();
-  }
+  if (ground) params.robot = RobotLimits::trackedRescue();
   StatusOr<LocalPlanner> p = LocalPlanner::create(params, w);
   if (!p.ok()) std::abort();
   const std::vector<map::MovingObstacle> mov =

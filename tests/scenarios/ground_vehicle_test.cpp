@@ -63,14 +63,7 @@ Scenario trackedRobot(Method m, const Vec3& start, const Vec3& goal) {
   sc.name = "ground";
   sc.file = "generated";
   sc.params = LocalParams::preset(m);
-  RobotLimits& r = sc.params.robot;
-  r.mode = RobotMode::kGround;
-  r.drive = DriveType::kSkid;
-  r.footprint.box = true;
-  r.footprint.length_m = 1.0;
-  r.footprint.width_m = 0.7;
-  r.height_m = 0.6;
-  r.radius_m = r.footprint.circumradius();
+  sc.params.robot = RobotLimits::trackedRescue();
   sc.start = start;
   sc.goal = goal;
   sc.expected_path.points = {start, goal};

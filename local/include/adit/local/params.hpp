@@ -195,6 +195,19 @@ struct RobotLimits {
   double max_steer_deg = 30.0;    ///< ackermann: steering angle limit
   double wheelbase_m = 0.0;       ///< ackermann: 0 = 0.6 x the footprint's length (or diameter)
   bool ground() const { return mode == RobotMode::kGround; }
+  /// The bundled ground rescue's robot (maps/scenarios/district_rescue_ground.yaml): tracked, skid
+  /// steering, a 1.0 x 0.7 m box 0.6 m high; the other limits as the defaults.
+  static RobotLimits trackedRescue() {
+    RobotLimits r;
+    r.mode = RobotMode::kGround;
+    r.drive = DriveType::kSkid;
+    r.footprint.box = true;
+    r.footprint.length_m = 1.0;
+    r.footprint.width_m = 0.7;
+    r.height_m = 0.6;
+    r.radius_m = r.footprint.circumradius();
+    return r;
+  }
   /// Ackermann's wheelbase as used.
   double wheelbase() const {
     return wheelbase_m > 0.0 ? wheelbase_m : 0.6 * (footprint.box ? footprint.length_m : 2.0 * footprint.radius_m);

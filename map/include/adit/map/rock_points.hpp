@@ -95,7 +95,6 @@ class BandCache {
   double res_ = 0.0;
   std::int64_t ring_ = 0, words_ = 0;
   std::uint64_t generation_ = 0;
-  const DistanceField* field_ = nullptr;
   std::vector<Slot> slots_;
   std::vector<std::uint64_t> known_, rock_;  // words_ per slot: one bit per voxel from k0 up
 };
