@@ -378,4 +378,36 @@ std::optional<double> floorBelow(const DistanceField& field, const Vec3& p, doub
   return std::nullopt;
 }
 
+FloorSlope floorSlope(const DistanceField& field, const Vec3& at, double yaw, double half_window, double slope_tan,
+                      double step, int n) noexcept {
+  FloorSlope out;
+  if (!allFinite(at) || !std::isfinite(yaw) || !(half_window > 0.0) || half_window > 1e3 || n < 2 || n > 64) return out;
+  const double res = field.resolution();
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  // Normal equations of z = z0 + along * u + across * v over the samples (u, v in the body frame).
+  double suu = 0, svv = 0, suv = 0, su = 0, sv = 0, sz = 0, suz = 0, svz = 0;
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b) {
+      const double u = half_window * (2.0 * a / (n - 1) - 1.0), v = half_window * (2.0 * b / (n - 1) - 1.0);
+      const double reach = std::hypot(u, v) * slope_tan + step + res;
+      const Vec3 top(at.x() + u * c - v * s, at.y() + u * s + v * c, at.z() + reach);
+      const std::optional<double> f = floorBelow(field, top, 2.0 * reach);
+      if (!f || std::abs(*f - at.z()) > reach) continue;
+      const double z = *f - at.z();
+      ++out.samples;
+      suu += u * u, svv += v * v, suv += u * v, su += u, sv += v, sz += z, suz += u * z, svz += v * z;
+    }
+  const double m = out.samples;
+  // Centred sums: the plane's offset drops out, leaving a 2 x 2 system for the two slopes.
+  const double cuu = suu - su * su / std::max(m, 1.0), cvv = svv - sv * sv / std::max(m, 1.0);
+  const double cuv = suv - su * sv / std::max(m, 1.0);
+  const double cuz = suz - su * sz / std::max(m, 1.0), cvz = svz - sv * sz / std::max(m, 1.0);
+  const double det = cuu * cvv - cuv * cuv;
+  // Samples along one line (or fewer than three) do not fix a plane.
+  if (out.samples < 3 || det <= 1e-9 * std::max(cuu * cvv, 1e-12)) return out;
+  out.along = (cuz * cvv - cvz * cuv) / det;
+  out.across = (cvz * cuu - cuz * cuv) / det;
+  return out;
+}
+
 }  // namespace adit::map

@@ -154,7 +154,8 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& accel
 /// The same for a whole command: a ground robot also turns at cmd.yaw_rate. In ground mode the
 /// robot drives on the floor: each sub-sample's height is half the robot's height above the floor
 /// under it (found from the last floor, climbing at most max_step), its pitch and roll follow the
-/// floor under the footprint's ends and sides, and the body (the footprint's box or cylinder,
+/// floor's plane fitted over a 2.5 m square under it (map::floorSlope: the incline, not the voxel
+/// stair under the body), clamped to max_slope_deg, and the body (the footprint's box or cylinder,
 /// from max_step plus one voxel above the floor to its height) is checked exactly with FCL.
 /// Floor contact is no collision; rock in the body, a step higher than max_step (the body runs
 /// into it) or no floor within a metre under the robot ("a drop") is.

@@ -108,4 +108,21 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
 /// A few field reads; no allocation.
 std::optional<double> floorBelow(const DistanceField& field, const Vec3& p, double depth) noexcept;
 
+/// The floor's rise per metre along a heading and across it, as a ground vehicle's body settles:
+/// the least-squares plane through the floor (floorBelow) at n x n samples over a square of
+/// half-side `half_window` centred on `at` (x, y, and z the floor there) and turned to `yaw`.
+/// A voxel map quantises a sloping floor into stairs one voxel high; the plane through a body's own
+/// ends tilts it by a whole stair on every stair edge (16 degrees for a 0.7 m-wide body on a 0.2 m
+/// map), the fit over the window by at most 0.75 res / half_window, a real incline by its slope.
+/// Samples with no floor (beyond a rib) or on another level (farther than r * slope_tan + step
+/// from the centre's floor at distance r) are left out; with too few left to fix a plane the
+/// floor counts as level. No allocation.
+struct FloorSlope {
+  double along = 0.0;   ///< rise per metre along (cos yaw, sin yaw)
+  double across = 0.0;  ///< rise per metre along (-sin yaw, cos yaw), the vehicle's left
+  int samples = 0;      ///< samples in the fit
+};
+FloorSlope floorSlope(const DistanceField& field, const Vec3& at, double yaw, double half_window, double slope_tan,
+                      double step, int n = 9) noexcept;
+
 }  // namespace adit::map
