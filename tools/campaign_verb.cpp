@@ -216,7 +216,20 @@ std::string reportPage(const Json& j) {
     h += "<tr><td>" + htmlEscape(outcome) + "</td><td>" + std::to_string(count.get<long long>()) + "</td><td>" +
          percent(f) + "</td><td>" + bar(f, outcome == "arrived" ? "#2a9d8f" : "#e76f51") + "</td></tr>\n";
   }
-  h += "</table>\n<h2>Success rate by scenario feature</h2>\n";
+  h += "</table>\n";
+  // What the runs that ran out of time or got stuck would need (local::EndCause).
+  if (counts.contains("end_causes") && !counts["end_causes"].empty()) {
+    h += "<h2>Why runs timed out or got stuck</h2>\n<p><code>route_outlasts_t_max</code>: the route the robot was "
+         "given last could not be driven in the time left even at v_max (a detour round a roof fall); "
+         "<code>short_of_goal</code>: ended within the terminal range of the goal; <code>en_route</code>: the rest."
+         "</p>\n<table><tr><th>outcome</th><th>cause</th><th>scenarios</th></tr>\n";
+    for (const auto& [outcome, causes] : counts["end_causes"].items())
+      for (const auto& [cause, count] : causes.items())
+        h += "<tr><td>" + htmlEscape(outcome) + "</td><td>" + htmlEscape(cause) + "</td><td>" +
+             std::to_string(count.get<long long>()) + "</td></tr>\n";
+    h += "</table>\n";
+  }
+  h += "<h2>Success rate by scenario feature</h2>\n";
   for (const auto& [feature, buckets] : j["success_rate_by_feature"].items()) {
     h += "<h3>" + htmlEscape(feature) + "</h3>\n<table><tr><th>bucket</th><th>scenarios</th><th>success rate</th><th></th></tr>\n";
     for (const auto& [label, b] : buckets.items()) {

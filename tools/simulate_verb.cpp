@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <limits>
+#include <map>
 #include <array>
 #include <set>
 #include <thread>
@@ -381,6 +382,7 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
   j["terminal_phase"] = sc.params.terminal.enabled;
   j["outcome"] = outcomeName(r.outcome);
   if (!r.message.empty()) j["message"] = r.message;
+  if (r.end_cause != EndCause::kNone) j["end_cause"] = endCauseName(r.end_cause);
   j["arrival_time"] = r.arrived() ? nlohmann::ordered_json(us(r.arrival_time_s)) : nlohmann::ordered_json(nullptr);
   j["arrival_tolerance"] = mm(r.arrival_tolerance_m);
   j["path_length"] = mm(r.path_length_m);
@@ -778,8 +780,10 @@ nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base,
     outcomes[o] = 0;
   int arrived = 0, bad_arrivals = 0, dishonest = 0, replans = 0, runs_replanned = 0;
   std::vector<double> p50, p99, arrival;
+  std::map<std::string, std::map<std::string, int>> end_causes;
   for (const fusion::BatchRunResult& r : runs) {
     outcomes[r.outcome] = outcomes.value(r.outcome, 0) + 1;
+    if (r.end_cause != EndCause::kNone) ++end_causes[r.outcome][endCauseName(r.end_cause)];
     replans += r.replans;
     runs_replanned += r.replans > 0;
     if (r.outcome == "error") continue;
@@ -804,6 +808,7 @@ nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base,
   j["arrivals_beyond_tolerance"] = dishonest;
   j["replans"] = {{"total", replans}, {"runs_with_replans", runs_replanned}, {"mean", ratio(replans / n)}};
   j["no_route"] = outcomes["no_route"];
+  j["end_causes"] = end_causes;
   j["arrival_time"] = arrival.empty() ? nlohmann::ordered_json(nullptr)
                                       : nlohmann::ordered_json{{"p50", us(stepTimePercentile(arrival, 0.5))},
                                                                {"p90", us(stepTimePercentile(arrival, 0.9))}};

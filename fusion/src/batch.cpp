@@ -460,13 +460,14 @@ BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::En
   out.step_p99_us = r.step_time_p99_us;
   out.final_goal_distance_m = r.final_goal_distance_m;
   out.arrival_tolerance_m = r.arrival_tolerance_m;
+  out.end_cause = r.end_cause;
   return out;
 }
 
 const char* batchCsvHeader() {
   return "index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us,"
          "collisions,final_goal_distance,arrival_tolerance,vehicles,roof_fall,separation,robot_radius,robot_speed,"
-         "roadway_width";
+         "roadway_width,end_cause";
 }
 
 std::string batchCsvRow(const BatchRunResult& r) {
@@ -475,17 +476,17 @@ std::string batchCsvRow(const BatchRunResult& r) {
          number(r.step_p50_us) + "," + number(r.step_p99_us) + "," + std::to_string(r.collisions) + "," +
          number(r.final_goal_distance_m) + "," + number(r.arrival_tolerance_m) + "," + std::to_string(r.vehicles) +
          "," + (r.roof_fall ? "1" : "0") + "," + number(r.separation_m) + "," + number(r.robot_radius_m) + "," +
-         number(r.robot_speed_mps) + "," + number(r.roadway_width_m);
+         number(r.robot_speed_mps) + "," + number(r.roadway_width_m) + "," + local::endCauseName(r.end_cause);
 }
 
 namespace {
 
-constexpr int kCsvColumns = 18;
+constexpr int kCsvColumns = 19;
 const char* const kCsvColumnNames[kCsvColumns] = {
     "index",      "seed",        "outcome",           "arrival_time", "path_length", "min_clearance",
     "replans",    "step_p50_us", "step_p99_us",       "collisions",   "final_goal_distance",
     "arrival_tolerance", "vehicles", "roof_fall",     "separation",   "robot_radius", "robot_speed",
-    "roadway_width"};
+    "roadway_width", "end_cause"};
 
 std::string columnError(int c, std::string_view text, const char* why) {
   std::string shown(text.substr(0, 40));
@@ -569,6 +570,13 @@ StatusOr<BatchRunResult> parseBatchCsvRow(std::string_view line) {
   ADIT_ASSIGN_OR_RETURN(r.robot_radius_m, csvNumber(f[15], 15, 0.0, kLength));
   ADIT_ASSIGN_OR_RETURN(r.robot_speed_mps, csvNumber(f[16], 16, 0.0, kLength));
   ADIT_ASSIGN_OR_RETURN(r.roadway_width_m, csvNumber(f[17], 17, 0.0, kLength));
+  const std::optional<local::EndCause> cause = local::endCauseFromName(f[18]);
+  if (!cause)
+    return invalidArgument(columnError(18, f[18], "is not an end cause (empty, route_outlasts_t_max, short_of_goal, en_route)"));
+  r.end_cause = *cause;
+  const bool needs_cause = r.outcome == "timeout" || r.outcome == "stuck";
+  if (needs_cause != (r.end_cause != local::EndCause::kNone))
+    return invalidArgument(columnError(18, f[18], needs_cause ? "is empty for a timeout or stuck run" : "is given for an outcome that has none"));
   return r;
 }
 

@@ -76,6 +76,32 @@ const char* outcomeName(Outcome o) {
   return "?";
 }
 
+const char* endCauseName(EndCause c) {
+  switch (c) {
+    case EndCause::kNone: return "";
+    case EndCause::kRouteOutlastsTime: return "route_outlasts_t_max";
+    case EndCause::kShortOfGoal: return "short_of_goal";
+    case EndCause::kEnRoute: return "en_route";
+  }
+  return "?";
+}
+
+std::optional<EndCause> endCauseFromName(std::string_view name) {
+  for (EndCause c : {EndCause::kNone, EndCause::kRouteOutlastsTime, EndCause::kShortOfGoal, EndCause::kEnRoute})
+    if (name == endCauseName(c)) return c;
+  return std::nullopt;
+}
+
+EndCause endCause(const Scenario& sc, Outcome outcome, double goal_distance_m, double path_made_at_s,
+                  double path_length_m) {
+  if (outcome != Outcome::kTimeout && outcome != Outcome::kStuck) return EndCause::kNone;
+  const double v = sc.params.robot.v_max_mps;
+  if (outcome == Outcome::kTimeout && v > 0.0 && path_made_at_s + path_length_m / v > sc.t_max_s)
+    return EndCause::kRouteOutlastsTime;
+  if (goal_distance_m <= sc.params.terminal.range_m) return EndCause::kShortOfGoal;
+  return EndCause::kEnRoute;
+}
+
 // ---- simulate ---------------------------------------------------------------------------------
 
 namespace {
@@ -514,6 +540,7 @@ StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment&
     res.outcome = Outcome::kTimeout;
     res.message = "t_max reached";
   }
+  res.end_cause = endCause(sc, res.outcome, res.final_goal_distance_m, 0.0, sc.expected_path.length());
   if (!res.trajectory.empty()) res.trajectory.back().status = last;
   return res;
 }

@@ -165,9 +165,10 @@ TEST_F(BatchTest, RunsAreHonestAndIndependentOfOrder) {
       EXPECT_EQ(a.collisions, 0) << "run " << i;
       EXPECT_LE(a.final_goal_distance_m, 0.5) << "run " << i;
     }
-    // The CSV row has the header's 18 columns and reads back as the run, to its 3 decimals.
+    // The CSV row has the header's 19 columns and reads back as the run, to its 3 decimals.
     const std::string row = batchCsvRow(a);
-    EXPECT_EQ(std::count(row.begin(), row.end(), ','), 17) << row;
+    EXPECT_EQ(std::count(row.begin(), row.end(), ','), 18) << row;
+    EXPECT_EQ(a.end_cause != local::EndCause::kNone, a.outcome == "timeout" || a.outcome == "stuck") << row;
     StatusOr<BatchRunResult> back = parseBatchCsvRow(row);
     ASSERT_TRUE(back.ok()) << back.status().message() << "\n" << row;
     EXPECT_EQ(batchCsvRow(*back), row);
@@ -178,12 +179,13 @@ TEST_F(BatchTest, RunsAreHonestAndIndependentOfOrder) {
     EXPECT_EQ(back->collisions, a.collisions);
     EXPECT_EQ(back->vehicles, a.vehicles);
     EXPECT_EQ(back->roof_fall, a.roof_fall);
+    EXPECT_EQ(back->end_cause, a.end_cause);
   }
 }
 
 // The CSV reader for untrusted rows (campaign merge): every column checked, named on refusal.
 TEST(BatchCsvRow, RefusesWhatARunCannotHaveWritten) {
-  const std::string good = "3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000";
+  const std::string good = "3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,";
   StatusOr<BatchRunResult> r = parseBatchCsvRow(good);
   ASSERT_TRUE(r.ok()) << r.status().message();
   EXPECT_EQ(r->index, 3);
@@ -191,22 +193,32 @@ TEST(BatchCsvRow, RefusesWhatARunCannotHaveWritten) {
   EXPECT_DOUBLE_EQ(r->arrival_time_s, 12.5);
   EXPECT_TRUE(r->roof_fall);
   EXPECT_DOUBLE_EQ(r->roadway_width_m, 4.0);
+  EXPECT_EQ(r->end_cause, local::EndCause::kNone);
   // Empty where a run writes none: a timeout has no arrival time, a run no clearance sample.
-  EXPECT_TRUE(std::isnan(parseBatchCsvRow("3,42,timeout,,30.250,,1,1.200,15.000,0,,0.500,2,0,25.000,0.400,1.000,4.000")
+  EXPECT_EQ(parseBatchCsvRow("3,42,stuck,,30.250,,1,1.200,15.000,0,2.000,0.500,2,0,25.000,0.400,1.000,4.000,short_of_goal")
+                ->end_cause,
+            local::EndCause::kShortOfGoal);
+  EXPECT_TRUE(std::isnan(parseBatchCsvRow("3,42,timeout,,30.250,,1,1.200,15.000,0,,0.500,2,0,25.000,0.400,1.000,4.000,en_route")
                              ->arrival_time_s));
   const std::pair<const char*, const char*> bad[] = {
-      {"3,42,arrived,12.5", "4 columns, expected 18"},
-      {"3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,9", "more than 18"},
-      {"-3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000", "column 1 (index)"},
-      {"3,18446744073709551616,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000",
+      {"3,42,arrived,12.5", "4 columns, expected 19"},
+      {"3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,,9", "more than 19"},
+      {"-3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,", "column 1 (index)"},
+      {"3,18446744073709551616,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,",
        "column 2 (seed): '18446744073709551616' is beyond"},
-      {"3,42,flew,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000", "is not an outcome"},
-      {"3,42,arrived,12.500,nan,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000", "column 5 (path_length)"},
-      {"3,42,arrived,12.500,1e300,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000", "column 5 (path_length)"},
-      {"3,42,arrived,12.500,2000000000.0,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000",
+      {"3,42,flew,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,", "is not an outcome"},
+      {"3,42,arrived,12.500,nan,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,", "column 5 (path_length)"},
+      {"3,42,arrived,12.500,1e300,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,", "column 5 (path_length)"},
+      {"3,42,arrived,12.500,2000000000.0,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,",
        "column 5 (path_length): '2000000000.0' is out of range"},
-      {"3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,7,25.000,0.400,1.000,4.000", "column 14 (roof_fall)"},
-      {"3,42,arrived,12.500,30.250,0.800, 1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000", "column 7 (replans)"},
+      {"3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,7,25.000,0.400,1.000,4.000,", "column 14 (roof_fall)"},
+      // The end cause: one of the names, given exactly for timeout and stuck rows.
+      {"3,42,timeout,,30.250,0.800,1,1.200,15.000,0,9.000,0.500,2,1,25.000,0.400,1.000,4.000,lost", "is not an end cause"},
+      {"3,42,timeout,,30.250,0.800,1,1.200,15.000,0,9.000,0.500,2,1,25.000,0.400,1.000,4.000,",
+       "column 19 (end_cause): '' is empty for a timeout or stuck run"},
+      {"3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,en_route",
+       "is given for an outcome that has none"},
+      {"3,42,arrived,12.500,30.250,0.800, 1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,", "column 7 (replans)"},
   };
   for (const auto& [row, why] : bad) {
     StatusOr<BatchRunResult> refused = parseBatchCsvRow(row);

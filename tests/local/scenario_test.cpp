@@ -219,3 +219,31 @@ TEST(Scenario, MissingFileIsNamed) {
 
 }  // namespace
 }  // namespace adit::local
+
+namespace adit::local {
+namespace {
+
+// Timeouts and stuck runs sorted by what they would need: the time budget (the route given last
+// could not be driven in the time left even at v_max), the field near the goal (ended within the
+// terminal range), or the way along the route.
+TEST(EndCause, SortsTimeoutsAndStuckRuns) {
+  Scenario sc;
+  sc.t_max_s = 100.0;
+  sc.params.robot.v_max_mps = 1.0;
+  sc.params.terminal.range_m = 4.0;
+  EXPECT_EQ(endCause(sc, Outcome::kTimeout, 80.0, 0.0, 150.0), EndCause::kRouteOutlastsTime);
+  EXPECT_EQ(endCause(sc, Outcome::kTimeout, 30.0, 60.0, 50.0), EndCause::kRouteOutlastsTime);  // replanned late
+  EXPECT_EQ(endCause(sc, Outcome::kTimeout, 20.0, 10.0, 50.0), EndCause::kEnRoute);
+  EXPECT_EQ(endCause(sc, Outcome::kTimeout, 3.0, 10.0, 50.0), EndCause::kShortOfGoal);
+  // A stuck run never blames the time, however long its route.
+  EXPECT_EQ(endCause(sc, Outcome::kStuck, 3.0, 0.0, 500.0), EndCause::kShortOfGoal);
+  EXPECT_EQ(endCause(sc, Outcome::kStuck, 10.0, 0.0, 500.0), EndCause::kEnRoute);
+  for (Outcome o : {Outcome::kArrived, Outcome::kCollision, Outcome::kNoRoute, Outcome::kHitByFall, Outcome::kHitByMover})
+    EXPECT_EQ(endCause(sc, o, 50.0, 0.0, 500.0), EndCause::kNone) << outcomeName(o);
+  for (EndCause c : {EndCause::kNone, EndCause::kRouteOutlastsTime, EndCause::kShortOfGoal, EndCause::kEnRoute})
+    EXPECT_EQ(endCauseFromName(endCauseName(c)), c);
+  EXPECT_FALSE(endCauseFromName("lost").has_value());
+}
+
+}  // namespace
+}  // namespace adit::local

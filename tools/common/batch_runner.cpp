@@ -32,18 +32,18 @@ std::string batchRecord(const fusion::BatchRunResult& r) {
   std::replace_if(msg.begin(), msg.end(), [](char c) { return c == '\t' || c == '\n' || c == '\r'; }, ' ');
   char buf[512];
   std::snprintf(buf, sizeof buf,
-                "%d\t%llu\t%s\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t",
+                "%d\t%llu\t%s\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t%d\t%d\t%.17g\t%.17g\t%.17g\t%.17g\t%s\t",
                 r.index, static_cast<unsigned long long>(r.seed), r.outcome.c_str(), r.arrival_time_s, r.path_length_m,
                 r.min_clearance_m, r.collisions, r.replans, r.step_p50_us, r.step_p99_us, r.final_goal_distance_m,
                 r.arrival_tolerance_m, r.vehicles, int(r.roof_fall), r.separation_m, r.robot_radius_m, r.robot_speed_mps,
-                r.roadway_width_m);
+                r.roadway_width_m, local::endCauseName(r.end_cause));
   return buf + msg + "\n";
 }
 
 std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) {
   std::vector<std::string> f;
   std::size_t from = 0;
-  for (int k = 0; k < 18; ++k) {
+  for (int k = 0; k < 19; ++k) {
     const std::size_t tab = line.find('\t', from);
     if (tab == std::string::npos) return std::nullopt;
     f.push_back(line.substr(from, tab - from));
@@ -69,6 +69,9 @@ std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) 
   r.robot_radius_m = num(f[15]);
   r.robot_speed_mps = num(f[16]);
   r.roadway_width_m = num(f[17]);
+  const std::optional<local::EndCause> cause = local::endCauseFromName(f[18]);
+  if (!cause) return std::nullopt;
+  r.end_cause = *cause;
   r.message = line.substr(from);
   return r;
 }

@@ -137,6 +137,7 @@ CampaignStats::CampaignStats() {
 Status CampaignStats::add(const fusion::BatchRunResult& r) {
   ++scenarios;
   ++outcomes[r.outcome];
+  if (r.end_cause != local::EndCause::kNone) ++end_causes[r.outcome][local::endCauseName(r.end_cause)];
   if (r.separation_m > 0.0) {
     ++by_feature["vehicles"][std::to_string(r.vehicles)][r.outcome];
     ++by_feature["roof_fall"][r.roof_fall ? "yes" : "no"][r.outcome];
@@ -173,6 +174,8 @@ Status CampaignStats::add(const CampaignStats& o) {
   ADIT_RETURN_IF_ERROR(checkedAdd(arrival_time_ms, o.arrival_time_ms, "arrival_time_ms_sum"));
   ADIT_RETURN_IF_ERROR(checkedAdd(path_length_mm, o.path_length_mm, "path_length_mm_sum"));
   if (o.min_clearance_m) min_clearance_m = std::min(min_clearance_m.value_or(*o.min_clearance_m), *o.min_clearance_m);
+  for (const auto& [outcome, causes] : o.end_causes)
+    for (const auto& [cause, n] : causes) ADIT_RETURN_IF_ERROR(checkedAdd(end_causes[outcome][cause], n, "end_causes"));
   for (const auto& [feature, buckets] : o.by_feature)
     for (const auto& [label, counts] : buckets)
       for (const auto& [outcome, n] : counts)
@@ -196,6 +199,7 @@ nlohmann::ordered_json CampaignStats::toJson() const {
   c["path_length_mm_sum"] = path_length_mm;
   c["min_clearance"] = min_clearance_m ? Json(*min_clearance_m) : Json(nullptr);
   c["outcomes_by_feature"] = Json(by_feature);
+  c["end_causes"] = Json(end_causes);
   Json t = {{"bucket_upper_edges", kStepEdgesUs}, {"p50_per_run", step_p50}, {"p99_per_run", step_p99}};
   return {{"counts", c}, {"step_time_us", t}};
 }
@@ -203,8 +207,10 @@ nlohmann::ordered_json CampaignStats::toJson() const {
 bool isFailure(const fusion::BatchRunResult& r) { return r.outcome != "arrived" || r.collisions > 0; }
 
 nlohmann::ordered_json failureEntry(const fusion::BatchRunResult& r) {
-  return {{"index", r.index}, {"seed", r.seed}, {"outcome", r.outcome}, {"collisions", r.collisions},
-          {"message", r.message}};
+  nlohmann::ordered_json e = {{"index", r.index}, {"seed", r.seed}, {"outcome", r.outcome}, {"collisions", r.collisions}};
+  if (r.end_cause != local::EndCause::kNone) e["end_cause"] = local::endCauseName(r.end_cause);
+  e["message"] = r.message;
+  return e;
 }
 
 std::size_t maxShardCsvBytes(long long rows) { return std::size_t(rows + 1) * 1024; }
@@ -285,10 +291,12 @@ StatusOr<std::vector<nlohmann::ordered_json>> checkShardSummary(const nlohmann::
     const nlohmann::json& e = listed[i++];
     if (!e.is_object()) return invalidArgument(where + ": expected an object");
     nlohmann::ordered_json expect = failureEntry(r);
-    for (const char* key : {"index", "seed", "outcome", "collisions"}) {
-      if (!e.contains(key) || e[key] != nlohmann::json::parse(expect[key].dump()))
-        return invalidArgument(where + "/" + key + " is " + (e.contains(key) ? e[key].dump() : "nothing") +
-                               ", its rows give " + expect[key].dump());
+    for (const char* key : {"index", "seed", "outcome", "collisions", "end_cause"}) {
+      const bool want = expect.contains(key), has = e.contains(key);
+      if (!want && !has) continue;
+      if (!want || !has || e[key] != nlohmann::json::parse(expect[key].dump()))
+        return invalidArgument(where + "/" + key + " is " + (has ? e[key].dump() : "nothing") + ", its rows give " +
+                               (want ? expect[key].dump() : "nothing"));
     }
     if (!e.contains("message") || !e["message"].is_string() || e["message"].get_ref<const std::string&>().size() > 4096)
       return invalidArgument(where + "/message: expected a string of at most 4096 bytes");

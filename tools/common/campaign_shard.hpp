@@ -69,6 +69,8 @@ struct CampaignStats {
   long long replans = 0, runs_with_replans = 0, arrival_time_ms = 0, path_length_mm = 0;
   std::optional<double> min_clearance_m;
   std::array<long long, kStepEdgesUs.size() + 1> step_p50{}, step_p99{};
+  /// Timeout and stuck runs by local::EndCause: outcome -> cause name -> count.
+  std::map<std::string, std::map<std::string, long long>> end_causes;
   /// Outcome counts by scenario feature: feature -> bucket label -> outcome -> count.
   std::map<std::string, std::map<std::string, std::map<std::string, long long>>> by_feature;
 

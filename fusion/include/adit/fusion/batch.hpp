@@ -116,6 +116,7 @@ struct BatchRunResult {
   double step_p99_us = 0.0;
   double final_goal_distance_m = 0.0;
   double arrival_tolerance_m = 0.5;
+  local::EndCause end_cause = local::EndCause::kNone;  ///< timeout and stuck: why (local::EndCause)
   // The scenario's features (for outcome rates by feature; not in the CSV): 0 for an "error"
   // row whose scenario could not be drawn.
   int vehicles = 0;
@@ -153,15 +154,17 @@ BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::En
 
 /// `index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us,`
 /// `collisions,final_goal_distance,arrival_tolerance,vehicles,roof_fall,separation,robot_radius,`
-/// `robot_speed,roadway_width`: the first nine as before, then what a campaign's statistics are
-/// computed from (so that they can be recomputed from the rows alone).
+/// `robot_speed,roadway_width,end_cause`: the first nine as before, then what a campaign's
+/// statistics are computed from (so that they can be recomputed from the rows alone); end_cause is
+/// local::endCauseName() (empty unless the outcome is timeout or stuck).
 const char* batchCsvHeader();
 /// One CSV line (no newline); numbers with 3 decimals, empty fields for NaN / infinite values.
 /// Timing columns vary between runs of the same seed; the others do not. The message is not a
 /// column (free text).
 std::string batchCsvRow(const BatchRunResult& r);
 /// The inverse of batchCsvRow() for untrusted text: exactly the header's columns; integers in
-/// range (seed: any uint64); outcome a local::outcomeName() or "error"; numbers finite and within
+/// range (seed: any uint64); outcome a local::outcomeName() or "error"; end_cause a
+/// local::endCauseName(), given exactly for timeout and stuck rows; numbers finite and within
 /// bounds no run reaches (lengths and times below 1e9, step times below 1e12 us), empty only
 /// where batchCsvRow() writes an empty field (arrival_time, min_clearance, final_goal_distance).
 /// Errors name the column and the text. Allocation-bounded: fields are views.

@@ -18,6 +18,7 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <string_view>
 #include <utility>
 #include <string>
 #include <vector>
@@ -68,6 +69,24 @@ class Environment {
 /// was not closing on it (stopped, or backing off: the mover was faster than braking allows).
 enum class Outcome { kArrived, kCollision, kStuck, kTimeout, kNoRoute, kHitByFall, kHitByMover };
 const char* outcomeName(Outcome o);
+
+/// Why a run that ran out of time or got stuck ended where it did, judged at its end: what a
+/// campaign's non-arrivals would need fixed. kRouteOutlastsTime (a timeout only): at the time the
+/// robot's last expected path was made, that time plus the path's length at v_max already passed
+/// t_max (after a roof fall the only way round can be longer than the time the generator gave
+/// for the straight distance): the time budget, not the planner. kShortOfGoal: the robot ended
+/// within the terminal phase's range of the goal (TerminalParams::range_m): the field's shape
+/// near the goal, the failure the terminal phase is for. kEnRoute: the rest, the route fit in the
+/// time and the robot stalled, yielded or wandered on it. kNone for the other outcomes.
+enum class EndCause { kNone, kRouteOutlastsTime, kShortOfGoal, kEnRoute };
+/// "" for kNone, then "route_outlasts_t_max", "short_of_goal", "en_route".
+const char* endCauseName(EndCause c);
+/// The inverse of endCauseName(); none for a name it does not write.
+std::optional<EndCause> endCauseFromName(std::string_view name);
+/// The cause for a run of `sc` that ended with `outcome` at `goal_distance_m` from its goal, its
+/// last expected path (of `path_length_m`) made at `path_made_at_s`.
+EndCause endCause(const Scenario& sc, Outcome outcome, double goal_distance_m, double path_made_at_s,
+                  double path_length_m);
 
 struct TrajectorySample {
   double t_s = 0.0;
@@ -138,6 +157,7 @@ struct SimulationResult {
   double step_time_p50_us = 0.0;
   double step_time_p99_us = 0.0;
   double final_goal_distance_m = 0.0;
+  EndCause end_cause = EndCause::kNone;      ///< timeout and stuck: why (see EndCause)
   std::vector<TrajectorySample> trajectory;  ///< one per period, from t = 0
   std::vector<ClosestApproach> closest;      ///< one per moving obstacle
   SubgoalStats subgoals;                     ///< empty unless the scenario selects sub-goals
