@@ -628,7 +628,8 @@ bool LocalPlanner::pursuitPoint(const Vec3& q, const map::Polyline& path, const 
   // A shorter lookahead would let the robot creep up to what only the whole line shows (the foot
   // of a ramp too steep for it). At a bend the line to the lookahead point cuts the corner: then
   // the break point itself, the path's own corner. Where neither line is clear, the field decides.
-  auto lineClear = [&](const Vec3& to) { return goalInSight(q, to) && bandClear(to) && floorClear(to); };
+  // A flying robot has neither a band nor a floor to climb: the sphere's line is the test.
+  auto lineClear = [&](const Vec3& to) { return goalInSight(q, to) && (!ground_ || (bandClear(to) && floorClear(to))); };
   const Vec3& corner = path.points[std::min(segment_ + 1, n - 1)];
   if (lineClear(at)) *point = at;
   else if ((corner - q).norm() > 1e-3 && lineClear(corner)) *point = corner;
@@ -740,8 +741,12 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     best_progress_ = progress;
     last_improvement_s_ = clock_s_;
     wait_credit_s_ = 0.0;
-    escapes_ = 0;
-    escaping_ = false;
+    // A pursuit escape runs on past the stall: ended at the first gain, it handed the robot back
+    // to the field inside the gap that had stalled it.
+    if (!(escaping_ && pursuit_escape_ && progress > escape_from_progress_ - P.pursuit.escape_run_m)) {
+      escapes_ = 0;
+      escaping_ = false;
+    }
   }
 
   gatherObstacles(q, v, a, moving, moving_count);
@@ -784,6 +789,8 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
       escaping_ = true;
       escape_until_s_ = clock_s_ + P.monitor.escape_time_s;
       escape_axis_ = freeSideAxis(to_goal, nearest ? Vec3(nearest->point - q) : to_goal);
+      pursuit_escape_ = !ground_ && escapes_ == 1 && P.pursuit.enabled && P.pursuit.escape_run_m > 0.0 && !has_subgoal_ && n >= 2;
+      escape_from_progress_ = best_progress_;
       if (escapes_ % 2 == 0) escape_axis_ = -escape_axis_;  // every other attempt: the other side
     } else {
       stuck_ = true;
@@ -908,6 +915,12 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     // Straight at the goal, bent by the (scaled) repulsion; an escape in progress rests, since its
     // virtual goal would lead away from a goal in sight.
     v_des = v_max * unitOr(goal - q, Vec3::Zero()) + v_max * repulsion_force / P.monitor.full_speed_force;
+  } else if (Vec3 escape_carrot = Vec3::Zero();
+             escaping_ && pursuit_escape_ && !terminal && pursuitPoint(q, path, proj, &escape_carrot)) {
+    // Along the path the global layer proved clear, at the circulating escape's speed, giving way
+    // to movers; the envelope below still keeps the stopping run off rock.
+    v_des = 0.6 * v_max * unitOr(Vec3(escape_carrot - q), Vec3::Zero()) + v_max * moving_force / P.monitor.full_speed_force;
+    steer_to = escape_carrot;
   } else if (escaping_ && !terminal) {
     // Virtual sub-goal on the chosen side: circulate about the escape axis round the nearest
     // obstacle, holding about half a metre from its surface.

@@ -200,6 +200,7 @@ Status EnvelopeParams::validate() const {
 Status PursuitParams::validate() const {
   return Checker("PursuitParams")
       .rule("lookahead_m", lookahead_m, lookahead_m >= 0.1 && lookahead_m <= 10, "in [0.1, 10]")
+      .rule("escape_run_m", escape_run_m, escape_run_m >= 0 && escape_run_m <= 100, "in [0, 100]")
       .status();
 }
 

@@ -183,6 +183,29 @@ TEST_F(BatchTest, RunsAreHonestAndIndependentOfOrder) {
   }
 }
 
+// The two stuck ends of the 2,000-scenario district campaign (seed 1, the default generator):
+// a roof fall beside a junction leaves a gap between the fall and the rib's corner that the global
+// layer proves passable; the field, pulled back by rock on both sides, stalled in it through 3
+// escapes x 3 replans. The first escape now pursues the path (PursuitParams::escape_run_m): both
+// arrive, without contact; without it both are stuck again.
+TEST_F(BatchTest, AFirstEscapePursuesThePathThroughAGapBesideARoofFall) {
+  BatchParams p;
+  p.seed = 1;
+  for (const int index : {1823, 1911}) {
+    StatusOr<local::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, index);
+    ASSERT_TRUE(sc.ok()) << sc.status().message();
+    ASSERT_FALSE(sc->events.empty()) << "scenario " << index << " has its roof fall";
+    const BatchRunResult with = runBatchScenario(*sc, *truth_, index);
+    EXPECT_EQ(with.outcome, "arrived") << index << ": " << with.message;
+    EXPECT_EQ(with.collisions, 0) << index;
+    local::Scenario field_only = *sc;
+    field_only.params.pursuit.escape_run_m = 0.0;
+    const BatchRunResult without = runBatchScenario(field_only, *truth_, index);
+    EXPECT_EQ(without.outcome, "stuck") << index << ": " << without.message;
+    EXPECT_EQ(without.end_cause, local::EndCause::kEnRoute) << index;
+  }
+}
+
 // The CSV reader for untrusted rows (campaign merge): every column checked, named on refusal.
 TEST(BatchCsvRow, RefusesWhatARunCannotHaveWritten) {
   const std::string good = "3,42,arrived,12.500,30.250,0.800,1,1.200,15.000,0,0.100,0.500,2,1,25.000,0.400,1.000,4.000,";

@@ -205,6 +205,8 @@ class LocalPlanner {
   bool escaping_ = false;
   double escape_until_s_ = 0.0;
   Vec3 escape_axis_ = Vec3::UnitZ();
+  bool pursuit_escape_ = false;     // the escape under way pursues the path (PursuitParams)
+  double escape_from_progress_ = 0.0;  // the best progress when it began
   bool stuck_ = false;
   std::size_t segment_ = 0;
   std::size_t path_size_ = 0;

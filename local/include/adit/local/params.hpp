@@ -317,14 +317,19 @@ struct EnvelopeParams {
 /// repulsion rests. Among pillars a repulsion on both sides pushes the robot off a passage the
 /// global layer proved clear, and it stalls there. Where the line is blocked (rock the map did not
 /// show, the robot pushed off the path) the field drives as before; movers keep their repulsion,
-/// the safety check and the envelope throughout. Fly mode keeps the papers' fields.
+/// the safety check and the envelope throughout. Fly mode keeps the papers' fields, except in an
+/// escape: the first escape from a stall pursues the path (the line to the pursued point clear of
+/// rock for the robot's sphere) until the robot has made `escape_run_m` of progress past the
+/// stall, since the usual stall is a gap the global layer proved passable where rock on both sides
+/// (a roof fall beside a rib corner) cancels the field's pull; the later escapes circulate.
 struct PursuitParams {
   bool enabled = true;
-  double lookahead_m = 1.0;  ///< distance of the pursued point along the path [m]
+  double lookahead_m = 1.0;   ///< distance of the pursued point along the path [m]
+  double escape_run_m = 5.0;  ///< a pursuit escape lasts this much progress past the stall (0: none) [m]
   Status validate() const;
   template <class V>
   void visit(V& v) {
-    v("pursuit", enabled); v("pursuit_lookahead_m", lookahead_m);
+    v("pursuit", enabled); v("pursuit_lookahead_m", lookahead_m); v("pursuit_escape_run_m", escape_run_m);
   }
 };
 
