@@ -621,6 +621,8 @@ int run(const SimulateArgs& a) {
     return report(invalidArgument("--replay CAMPAIGN:INDEX takes no SCENARIO file (got " + a.scenario + ")"));
   if (a.scenario.empty() && a.replay.empty())
     return report(invalidArgument("a SCENARIO file is required (or --batch N --map M, or --replay CAMPAIGN:INDEX)"));
+  if (!a.map.empty() && a.replay.empty())
+    return report(invalidArgument("--map goes with --batch or --replay (a scenario names its own map)"));
   // Check the output names before the (possibly long) run.
   for (const std::string* p : {&a.picture}) {
     if (p->empty()) continue;
@@ -644,7 +646,7 @@ int run(const SimulateArgs& a) {
   if ((a.live_hold || a.live_lockstep) && a.live.empty())
     return report(invalidArgument(std::string(a.live_hold ? "--live-hold" : "--live-lockstep") + " needs --live URL"));
   if (Status s = refuseMapAsScenario(a.scenario); !s.ok()) return report(s);
-  StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay);
+  StatusOr<Scenario> sc = a.replay.empty() ? loadScenario(a.scenario) : replayScenario(a.replay, a.map);
   if (!sc.ok()) return report(sc.status());
   // The run keeps a record of every period (trajectory, then its JSON): refused up front when
   // that cannot fit, instead of growing until the kernel kills the process (t_max 10^6 s at
@@ -880,7 +882,7 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
   cmd->add_option("--batch", args->batch,
                   "Run N randomized navigated scenarios on --map (start/goal on the roadways, vehicles, roof "
                   "falls); JSON summary; exit 1 if a run errored or an arrival collided");
-  cmd->add_option("--map", args->map, "With --batch: the map (a survey .yaml, or a .bt/.ot: roadways from its free space)");
+  cmd->add_option("--map", args->map, "With --batch: the map (a survey .yaml, or a .bt/.ot: roadways from its free space); with --replay: the campaign's map, found elsewhere");
   cmd->add_option("--seed", args->seed, "With --batch: the batch seed (each run's seed derives from it and its index)");
   cmd->add_option("--first", args->first,
                   "With --batch: index of the first run (runs --first .. --first + N - 1; re-runs rows of a table)");

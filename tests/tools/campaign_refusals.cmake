@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: BSD-3-Clause
 # `adit campaign merge` refuses (exit 2, naming the files) missing, duplicate and foreign shards,
 # and writes no report then; `adit simulate --replay` refuses a map changed since the campaign
-# and an index outside it. Uses the shards of campaign_shards.cmake (fixture campaign_shards).
+# and an index outside it, and names a relative map path it cannot find from here (the map then
+# comes with --map). Uses the shards of campaign_shards.cmake (fixture campaign_shards).
 # Args: ADIT, OUT, SEED.
 set(C ${OUT}/campaign)
 set(F ${C}/refusals)
@@ -52,3 +53,22 @@ function(replay_refused spec expect)
 endfunction()
 replay_refused(${F}/map/shard-1-of-2.json:1 "campaign_loop.yaml: the map changed since the campaign \\(fnv1a64:[0-9a-f]+, recorded fnv1a64:0123456789abcdef in [^)]*map/shard-1-of-2.json\\)")
 replay_refused(${C}/m2:8 "--replay [^ ]*m2:8: the campaign has scenarios 0..7")
+
+# A campaign run elsewhere with a relative map path: refused with where it looked, then replayed
+# with --map (the same content: the hash still matches).
+file(MAKE_DIRECTORY ${F}/relative)
+string(REGEX REPLACE "\"map\": \"[^\"]*campaign_loop.yaml\"" "\"map\": \"maps/campaign_loop.yaml\"" relative_map "${shard}")
+string(REGEX MATCH "\"map\": \"[^\"]*campaign_loop.yaml\"" recorded_map "${shard}")
+string(REGEX REPLACE "\"map\": \"([^\"]*)\"" "\\1" recorded_map "${recorded_map}")
+file(WRITE ${F}/relative/shard-1-of-2.json "${relative_map}")
+execute_process(COMMAND ${ADIT} simulate -q --replay ${F}/relative:1 WORKING_DIRECTORY ${F}
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "maps/campaign_loop.yaml: the campaign's map \\(recorded in [^)]*relative/shard-1-of-2.json relative to where `adit campaign run` ran\\) is not found from [^:]*: replay from that directory, or give the map with --map FILE")
+  message(FATAL_ERROR "--replay with a relative map from elsewhere: expected exit 2 and the map's message, got ${rc}:\n${err}")
+endif()
+execute_process(COMMAND ${ADIT} simulate -q --replay ${F}/relative:1 --map ${recorded_map} --out ${F}/relative/run.json
+                WORKING_DIRECTORY ${F} RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT EXISTS ${F}/relative/run.json OR rc GREATER 1)
+  message(FATAL_ERROR "--replay --map ${recorded_map}: expected the run, got ${rc}:\n${err}")
+endif()
+message(STATUS "replay of a relative map: refused from elsewhere, run with --map")

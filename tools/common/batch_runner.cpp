@@ -240,7 +240,7 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
   return runs;
 }
 
-StatusOr<local::Scenario> replayScenario(const std::string& spec) {
+StatusOr<local::Scenario> replayScenario(const std::string& spec, const std::string& map_override) {
   const std::size_t colon = spec.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == spec.size())
     return invalidArgument("--replay " + spec + ": expected CAMPAIGN:INDEX (a campaign directory or shard JSON)");
@@ -268,11 +268,19 @@ StatusOr<local::Scenario> replayScenario(const std::string& spec) {
   ADIT_ASSIGN_OR_RETURN(const CampaignIdentity id, campaignIdentityFromJson(j, shard));
   if (index >= id.scenarios)
     return invalidArgument("--replay " + spec + ": the campaign has scenarios 0.." + std::to_string(id.scenarios - 1));
-  ADIT_ASSIGN_OR_RETURN(const std::string hash, map::fileContentHash(id.map));
+  // The identity keeps the map as `campaign run` was given it (shards on other machines agree on
+  // a relative path where absolute ones differ), so a relative one means: from where that ran.
+  const std::string& map_path = map_override.empty() ? id.map : map_override;
+  if (map_override.empty() && !std::filesystem::path(id.map).is_absolute() && !std::filesystem::exists(id.map, ec))
+    return invalidArgument(id.map + ": the campaign's map (recorded in " + shard +
+                           " relative to where `adit campaign run` ran) is not found from " +
+                           std::filesystem::current_path(ec).string() +
+                           ": replay from that directory, or give the map with --map FILE (its content must not have changed)");
+  ADIT_ASSIGN_OR_RETURN(const std::string hash, map::fileContentHash(map_path));
   if (hash != id.map_hash)
-    return invalidArgument(id.map + ": the map changed since the campaign (" + hash + ", recorded " + id.map_hash +
+    return invalidArgument(map_path + ": the map changed since the campaign (" + hash + ", recorded " + id.map_hash +
                            " in " + shard + ")");
-  ADIT_ASSIGN_OR_RETURN(const BatchSetup setup, loadBatchSetup("", id.map));
+  ADIT_ASSIGN_OR_RETURN(const BatchSetup setup, loadBatchSetup("", map_path));
   return fusion::makeBatchScenario(setup.base, setup.roadways, setup.truth, id.generator, int(index));
 }
 

@@ -62,7 +62,9 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
 
 /// Scenario INDEX of a recorded campaign, from "CAMPAIGN:INDEX" where CAMPAIGN is a campaign
 /// directory (any shard-K-of-M.json in it) or a shard JSON. Checks that the map has not changed
-/// since (content hash). Errors: bad spec, no shard JSON, index outside 0..N-1, changed map.
-StatusOr<local::Scenario> replayScenario(const std::string& spec);
+/// since (content hash). `map_override`, if given, is the map's file instead of the recorded path
+/// (a campaign run elsewhere; its content hash must still match). Errors: bad spec, no shard JSON,
+/// index outside 0..N-1, a relative map path not found from here, changed map.
+StatusOr<local::Scenario> replayScenario(const std::string& spec, const std::string& map_override = "");
 
 }  // namespace adit::tools
