@@ -253,6 +253,9 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
     if (observer) observer->beforeCycle(t, nav, state);
     const NavigatorCycle c = nav.cycleWithScan(t, state, scan, tracks, sc.dt_s);
     ++res.steps;
+    // Kept for a replay of the run (sense() returns each voxel once: these are all new).
+    for (const Vec3& p : scan.returns) out.sensed.push_back({t, p});
+    if (c.replanned || c.operator_replanned) out.path_changes.push_back({t, nav.expectedPath()});
     if (c.replanned) out.max_replan_time_s = std::max(out.max_replan_time_s, c.replan_time_s);
     else {
       cycle_us.push_back(c.cycle_time_s * 1e6);
