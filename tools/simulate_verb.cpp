@@ -484,7 +484,8 @@ void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const fusio
 Figure runFigure(const Scenario& sc, const Environment& env, const SimulationResult& r, bool page,
                  const map::Polyline* replanned = nullptr) {
   TopViewOptions opt;
-  opt.title = sc.name + " (" + methodName(sc.params.method) + "): " + outcomeName(r.outcome);
+  // The page's picture is there from t = 0: its title does not give the end away.
+  opt.title = sc.name + " (" + methodName(sc.params.method) + ")" + (page ? "" : std::string(": ") + outcomeName(r.outcome));
   map::Aabb box;
   for (const TrajectorySample& s : r.trajectory) box.extend(s.position);
   for (const Vec3& p : sc.expected_path.points) box.extend(p);

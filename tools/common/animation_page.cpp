@@ -508,7 +508,7 @@ const char* kMainScript = R"JS(
       var line = PATHS[p].line;
       if (line.c.length < 2) continue;
       live.lineWidth = (p === cur ? 2.5 : 1.5) * K;
-      live.strokeStyle = p === cur ? '#E4572E' : 'rgba(228,87,46,0.3)';
+      live.strokeStyle = p === cur ? '#E4572E' : 'rgba(228,87,46,0.45)';
       live.beginPath(); live.moveTo(line.c[0], line.r[0]);
       for (var j = 1; j < line.c.length; ++j) live.lineTo(line.c[j], line.r[j]);
       live.stroke();
@@ -833,7 +833,7 @@ void appendLegend(std::string& html, const AnimationPageInput& in,
   }
   if (replans) {
     html += "<li><span class=\"sw line\" style=\"border-top-style:dashed;border-color:" + cssColour(kFigurePath) +
-            "55\"></span>expected path replaced by a replan</li>\n";
+            "73\"></span>expected path replaced by a replan</li>\n";
   }
   if (falls) {
     html += "<li><span class=\"sw\" style=\"background:" + cssColour(kFigureBlocked) + "66;border-color:" +
