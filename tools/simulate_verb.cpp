@@ -573,8 +573,8 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
 }
 
 // The run's events for the page's timeline, in time order: roof falls (with their balls),
-// replans (with the path each made), the navigator's other decisions, the robot getting stuck,
-// the first collision, and the end (arrival or the outcome).
+// replans (with the path each made), the navigator's other decisions, escapes, the robot getting
+// stuck, the first collision, and the end (arrival or the outcome).
 std::vector<PageEvent> pageEvents(const Scenario& sc, const SimulationResult& r, const fusion::NavigatedRun* nav) {
   std::vector<PageEvent> events;
   const double t_end = r.trajectory.empty() ? 0.0 : r.trajectory.back().t_s;
@@ -614,6 +614,8 @@ std::vector<PageEvent> pageEvents(const Scenario& sc, const SimulationResult& r,
         events.push_back({nav->path_changes[k].t_s, "replan", "expected path changed", "replanning", Vec3::Zero(), 0.0,
                           nav->path_changes[k].path.points});
   }
+  for (double t : r.escape_times_s)
+    events.push_back({t, "escape", "no progress: an escape manoeuvre begins", "", Vec3::Zero(), 0.0, {}});
   for (std::size_t i = 1; i < r.trajectory.size(); ++i)
     if (r.trajectory[i].status == StepStatus::kStuck && r.trajectory[i - 1].status != StepStatus::kStuck)
       events.push_back({r.trajectory[i].t_s, "stuck", "no progress after the bounded escapes", "", Vec3::Zero(), 0.0, {}});
