@@ -27,7 +27,7 @@
 /// chosen so far (the one in force larger). Beside it a clock, the status (on an event's frame the
 /// event's, e.g. "replanning"), the robot's x/y/z and speed, a legend, the events and the summary.
 /// Under the slider a strip of the status over the run and one mark per event (replan, roof fall,
-/// stuck, collision, arrival or end, ...) at its time: clicking a mark, or the event in the list,
+/// escape, stuck, collision, arrival or end, ...) at its time: clicking a mark, or the event in the list,
 /// pauses on the event's frame. It plays on opening at a speed that shows the run in about half a
 /// minute; `run.html#t=42.5` opens it paused at 42.5 s (for stills). Keys: space, arrows, Home/End.
 /// What a test can read in the DOM (attributes of <html>): data-ready="1" once started,
