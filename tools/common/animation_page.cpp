@@ -671,6 +671,7 @@ const char* kMainScript = R"JS(
       var e = EV[Number(el.getAttribute('data-event'))];
       if (!e) return;
       setPlaying(false); simT = T[e.f]; show(e.f);
+      el.blur();  // space and the arrows go on working the player, not this mark
     });
   });
   slider.addEventListener('input', function () {
