@@ -476,13 +476,16 @@ void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const fusio
 
 // The run drawn on the map (or open space): static obstacles, moving-obstacle tracks, the
 // expected path and the trajectory coloured by time.
-// `mover_ends` marks where each mover was last seen near the run (the still picture); the page
-// animates the movers itself and leaves them out.
+// `page`: the animated page's background, which holds only what stands the whole run (map,
+// static obstacles, start, goal): the page draws the rest at its time (the trajectory, the paths,
+// the falls, the sub-goals, the movers), so that at t it shows only what happened by t. The view
+// is the still picture's either way.
 // `replanned`: the navigator's last expected path when it differs from the first (drawn dashed).
-Figure runFigure(const Scenario& sc, const Environment& env, const SimulationResult& r, bool mover_ends,
+Figure runFigure(const Scenario& sc, const Environment& env, const SimulationResult& r, bool page,
                  const map::Polyline* replanned = nullptr) {
   TopViewOptions opt;
-  opt.title = sc.name + " (" + methodName(sc.params.method) + "): " + outcomeName(r.outcome);
+  // The page's picture is there from t = 0: its title does not give the end away.
+  opt.title = sc.name + " (" + methodName(sc.params.method) + ")" + (page ? "" : std::string(": ") + outcomeName(r.outcome));
   map::Aabb box;
   for (const TrajectorySample& s : r.trajectory) box.extend(s.position);
   for (const Vec3& p : sc.expected_path.points) box.extend(p);
@@ -506,8 +509,9 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
     end.radius_m = m.obstacle.shape.boundingRadius();
     end.fill = end.stroke = kFigureMoving;
     end.label = m.name;
+    if (page) continue;
     tracks.push_back(std::move(track));
-    if (mover_ends) ends.push_back(std::move(end));
+    ends.push_back(std::move(end));
   }
   if (env.map()) {
     // A run crosses a small part of a district: draw that part (with a margin for context) so
@@ -531,6 +535,11 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
     d.center = s.center;
     d.radius_m = s.radius;
     fig.addDisc(d);
+  }
+  if (page) {
+    fig.addMarker({sc.start, MarkerShape::kCircle, kFigureStart, 9, "start", "", 0});
+    fig.addMarker({sc.goal, MarkerShape::kSquare, kFigureGoal, 9, "goal", "", 0});
+    return fig;
   }
   for (const ScenarioEvent& e : sc.events) {
     FigureDisc d;
@@ -563,8 +572,69 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
   return fig;
 }
 
-// The animated page: the same figure as background, the robot and the movers per period.
-Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& r, const std::string& path) {
+// The run's events for the page's timeline, in time order: roof falls (with their balls),
+// replans (with the path each made), the navigator's other decisions, escapes, the robot getting
+// stuck, the first collision, and the end (arrival or the outcome).
+std::vector<PageEvent> pageEvents(const Scenario& sc, const SimulationResult& r, const fusion::NavigatedRun* nav) {
+  std::vector<PageEvent> events;
+  const double t_end = r.trajectory.empty() ? 0.0 : r.trajectory.back().t_s;
+  char buf[160];
+  for (const ScenarioEvent& e : sc.events) {
+    if (e.t_s > t_end + 1e-9) continue;
+    std::snprintf(buf, sizeof buf, "ball of r = %.1f m at (%.1f, %.1f, %.1f)", e.radius_m, e.center.x(),
+                  e.center.y(), e.center.z());
+    PageEvent ev{e.t_s, e.type, buf, "", e.center, e.radius_m, {}};
+    events.push_back(std::move(ev));
+  }
+  if (nav) {
+    std::vector<bool> used(nav->path_changes.size(), false);
+    for (const fusion::NavigatorEvent& e : nav->events) {
+      PageEvent ev;
+      ev.t_s = e.t_s;
+      ev.kind = e.type;
+      ev.label = e.reason;
+      if (!e.route.empty()) {
+        ev.label += ev.label.empty() ? "via " : "; via ";
+        for (std::size_t k = 0; k < e.route.size(); ++k) ev.label += (k ? ", " : "") + e.route[k];
+      }
+      if (!e.message.empty()) ev.label += (ev.label.empty() ? "" : " (") + e.message + (ev.label.empty() ? "" : ")");
+      if (e.type == "replan") ev.status = "replanning";
+      // The path the cycle made belongs to its event; a no_route's (what is left) is not drawn.
+      for (std::size_t k = 0; k < nav->path_changes.size(); ++k)
+        if (!used[k] && std::abs(nav->path_changes[k].t_s - e.t_s) < 1e-6) {
+          if (e.type == "replan") ev.path = nav->path_changes[k].path.points;
+          used[k] = true;
+          break;
+        }
+      events.push_back(std::move(ev));
+    }
+    // A path change no navigator event names (an operator's): still a new path at its time.
+    for (std::size_t k = 0; k < nav->path_changes.size(); ++k)
+      if (!used[k])
+        events.push_back({nav->path_changes[k].t_s, "replan", "expected path changed", "replanning", Vec3::Zero(), 0.0,
+                          nav->path_changes[k].path.points});
+  }
+  for (double t : r.escape_times_s)
+    events.push_back({t, "escape", "no progress: an escape manoeuvre begins", "", Vec3::Zero(), 0.0, {}});
+  for (std::size_t i = 1; i < r.trajectory.size(); ++i)
+    if (r.trajectory[i].status == StepStatus::kStuck && r.trajectory[i - 1].status != StepStatus::kStuck)
+      events.push_back({r.trajectory[i].t_s, "stuck", "no progress after the bounded escapes", "", Vec3::Zero(), 0.0, {}});
+  if (r.collisions > 0)
+    events.push_back({r.first_collision_t_s, "collision", "with " + r.first_collision_with, "", Vec3::Zero(), 0.0, {}});
+  if (!r.trajectory.empty()) {
+    const std::string outcome = outcomeName(r.outcome);
+    events.push_back({r.arrived() ? r.arrival_time_s : t_end, r.arrived() ? "arrived" : "end",
+                      r.arrived() ? "at the goal" : outcome + (r.message.empty() ? "" : ": " + r.message), "",
+                      Vec3::Zero(), 0.0, {}});
+  }
+  std::stable_sort(events.begin(), events.end(), [](const PageEvent& a, const PageEvent& b) { return a.t_s < b.t_s; });
+  return events;
+}
+
+// The animated page: the figure's standing part as background; the robot, the movers, the paths,
+// the falls, the sensed rock and the sub-goals drawn by the page at their times.
+Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& r, const fusion::NavigatedRun* nav,
+                 const std::string& path) {
   AnimationPageInput in;
   in.title = sc.name + " (" + methodName(sc.params.method) + ")";
   in.robot_radius_m = sc.params.robot.radius_m;
@@ -574,6 +644,17 @@ Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& 
     PageFrame f{s.t_s, s.position, stepStatusName(s.status), {}};
     for (const NamedObstacle& m : sc.moving_obstacles) f.movers.push_back(m.obstacle.positionAt(s.t_s));
     in.frames.push_back(std::move(f));
+  }
+  in.initial_path = sc.expected_path.points;  // the navigator's initial path for a navigated run
+  in.events = pageEvents(sc, r, nav);
+  if (nav)
+    for (const fusion::NavigatedRun::SensedRock& p : nav->sensed) in.sensed.push_back({p.t_s, p.point});
+  if (sc.subgoal_mode != SubgoalMode::kNone) {
+    // The samples hold the sub-goal in force: a new value is a new selection, made in the period
+    // that ended at the sample before.
+    for (std::size_t i = 1; i < r.trajectory.size(); ++i)
+      if (r.trajectory[i].sub_goal != r.trajectory[i - 1].sub_goal)
+        in.subgoals.push_back({r.trajectory[i - 1].t_s, r.trajectory[i].sub_goal});
   }
   char buf[64];
   auto fmt = [&buf](const char* f, double v) {
@@ -742,9 +823,11 @@ int run(const SimulateArgs& a) {
   if (nav) addNavigatorJson(j, *sc, *nav);
   if (Status s = writeJson(stamped("adit.simulate", std::move(j)), a.out); !s.ok()) return report(s);
   if (!a.picture.empty())
-    if (Status s = runFigure(*sc, *env, *r, true, replanned).render(a.picture); !s.ok()) return report(s);
+    if (Status s = runFigure(*sc, *env, *r, false, replanned).render(a.picture); !s.ok()) return report(s);
   if (!a.html.empty())
-    if (Status s = writePage(*sc, runFigure(*sc, *env, *r, false, replanned), *r, a.html); !s.ok()) return report(s);
+    if (Status s = writePage(*sc, runFigure(*sc, *env, *r, true, replanned), *r, nav ? &*nav : nullptr, a.html);
+        !s.ok())
+      return report(s);
   phases.mark("output");
   if (!a.quiet) {
     if (nav && nav->refinement) {

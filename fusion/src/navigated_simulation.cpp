@@ -228,6 +228,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
   double t = 0.0;
   res.trajectory.push_back({0.0, state.position, state.velocity, local::StepStatus::kFollowing, state.position, state.yaw});
   NavigatorStatus last = NavigatorStatus::kDriving;
+  int escapes_before = 0;  // the previous cycle's StepCommand::escapes
   for (std::size_t k = 0; k < max_steps; ++k) {
     // The true world changes; the robot senses what of it is in range.
     while (next_event < sc.events.size() && sc.events[next_event].t_s <= t + 1e-9) {
@@ -253,11 +254,16 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
     if (observer) observer->beforeCycle(t, nav, state);
     const NavigatorCycle c = nav.cycleWithScan(t, state, scan, tracks, sc.dt_s);
     ++res.steps;
+    // Kept for a replay of the run (sense() returns each voxel once: these are all new).
+    for (const Vec3& p : scan.returns) out.sensed.push_back({t, p});
+    if (c.replanned || c.operator_replanned) out.path_changes.push_back({t, nav.expectedPath()});
     if (c.replanned) out.max_replan_time_s = std::max(out.max_replan_time_s, c.replan_time_s);
     else {
       cycle_us.push_back(c.cycle_time_s * 1e6);
       out.max_cycle_time_s = std::max(out.max_cycle_time_s, c.cycle_time_s);
     }
+    if (c.command.escapes > escapes_before) res.escape_times_s.push_back(t);
+    escapes_before = c.command.escapes;
     res.escapes = std::max(res.escapes, c.command.escapes);
     last = c.status;
     // The operator holding or driving the robot is not an end.

@@ -101,6 +101,24 @@ TEST(NavigatedScenario, SealedRoadwayEndsInNoRouteWithinSeconds) {
   EXPECT_LT(r.wall_time_s, 10.0); // wall clock: a bound against a hang, not a speed measurement
   ASSERT_FALSE(r.events.empty());
   EXPECT_EQ(r.events.back().type, "no_route");
+  // What a replay needs: each replan's path at its time, and the fall's rock when it was seen.
+  std::size_t replans = 0;
+  for (const NavigatorEvent& e : r.events)
+    if (e.type == "replan") {
+      ++replans;
+      bool found = false;
+      for (const NavigatedRun::PathChange& c : r.path_changes)
+        found = found || (c.t_s == e.t_s && !c.path.points.empty());
+      EXPECT_TRUE(found) << "no path recorded for the replan at t = " << e.t_s;
+    }
+  EXPECT_GE(r.path_changes.size(), replans);
+  ASSERT_FALSE(r.sensed.empty());
+  const Vec3 fall(20.0, 0.0, 1.6);  // the scenario's ball
+  for (std::size_t k = 0; k < r.sensed.size(); ++k) {
+    EXPECT_LE(r.sensed[k].t_s, r.end_time_s);
+    if (k > 0) EXPECT_GE(r.sensed[k].t_s, r.sensed[k - 1].t_s);
+    EXPECT_NEAR((r.sensed[k].point - fall).norm(), 3.0, 0.5) << "sensed point " << k << " is not on the fall";
+  }
 }
 
 // The inspection run: most of the main haulage roadway (x = 25 -> 580 m) on the refined expected

@@ -108,7 +108,15 @@ TEST(Scenarios, Wang2014UTrapClassicStuckImprovedPasses) {
   EXPECT_EQ(classic.outcome, Outcome::kStuck);
   EXPECT_EQ(classic.collisions, 0);
   EXPECT_GT(classic.final_goal_distance_m, 1.0);
-  expectCleanArrival(run(load("wang2014_u_trap_wang2014.yaml")));
+  EXPECT_TRUE(classic.escape_times_s.empty());  // the classic preset has no escapes
+  const SimulationResult improved = run(load("wang2014_u_trap_wang2014.yaml"));
+  expectCleanArrival(improved);
+  // Each escape's start is kept (for the replay's timeline), inside the run.
+  EXPECT_GE(improved.escape_times_s.size(), std::size_t(improved.escapes));
+  for (double t : improved.escape_times_s) {
+    EXPECT_GT(t, 0.0);
+    EXPECT_LT(t, improved.arrival_time_s);
+  }
 }
 
 // Guo 2022 static: CVFF needs fewer iterations (steps) than VFF, as in the paper's Tables 2-3

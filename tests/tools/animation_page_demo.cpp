@@ -85,9 +85,27 @@ int writeDemo(const std::string& out, std::size_t frames, std::size_t movers) {
     }
   }
 
+  // A replay's layers (scripted, as the run is): a roof fall beside the path at 8 s, the rock of
+  // it "sensed" from 9 s on, a replan at 12 s to a second path, a sub-goal every 2 s, the end.
+  in.initial_path = path;
+  const Vec3 fall(12.2, 9.0, 0);
+  const double t_last = in.frames.back().t_s;
+  if (t_last >= 8.0) in.events.push_back({8.0, "roof_fall", "ball of r = 1.5 m (scripted)", "", fall, 1.5, {}});
+  if (t_last >= 12.0)
+    in.events.push_back({12.0, "replan", "expected path blocked (scripted)", "replanning", Vec3::Zero(), 0.0,
+                         {in.frames[120].robot, Vec3(10.0, 9.5, 0), path.back()}});
+  in.events.push_back({t_last, "end", "last frame", "", Vec3::Zero(), 0.0, {}});
+  for (int k = 0; k < 24; ++k) {
+    const double a = 2.0 * M_PI * k / 24.0;
+    if (9.0 + 0.1 * k <= t_last) in.sensed.push_back({9.0 + 0.1 * k, fall + 1.5 * Vec3(std::cos(a), std::sin(a), 0)});
+  }
+  for (std::size_t i = 0; i < in.frames.size(); i += 20) {
+    const std::size_t ahead = std::min(i + 15, in.frames.size() - 1);
+    in.subgoals.push_back({in.frames[i].t_s, in.frames[ahead].robot});
+  }
+
   Figure fig;
   fig.setWorldBounds({Vec3(-2, -2, 0), Vec3(17, 16, 1)});
-  fig.addLine({path, kFigurePath, 2.5, true, {}, "expected path", ""});
   fig.addDisc({Vec3(9, 11.5, 0), 0.5, kFigureObstacle, 0.55, kFigureObstacle, "", "static obstacle"});
   fig.addMarker({path.front(), MarkerShape::kCircle, kFigureStart, 10, "start", "start"});
   fig.addMarker({path.back(), MarkerShape::kSquare, kFigureGoal, 10, "goal", "goal"});

@@ -278,6 +278,7 @@ TEST_F(AnimationPageTest, HostileTextIsEscapedEverywhere) {
   in.movers[0].name = evil;
   in.summary = {{evil, evil}};
   in.frames[2].status = evil;
+  in.events = {{0.2, evil, evil, evil, Vec3::Zero(), 0.0, {}}};
   const auto html = animationPageHtml(png_, view_, in);
   ASSERT_TRUE(html.ok()) << html.status().toString();
   EXPECT_EQ(html->find("alert(1)</script>"), std::string::npos);
@@ -289,6 +290,130 @@ TEST_F(AnimationPageTest, HostileTextIsEscapedEverywhere) {
             std::string::npos);
   // The status travels in the JSON block, escaped for a script element, and decodes unchanged.
   EXPECT_EQ(frameData(*html)["status"]["names"][1], evil);
+  EXPECT_EQ(frameData(*html)["events"][0]["kind"], evil);
+}
+
+/// sampleRun with a replay's layers: a roof fall at 2 s, a replan between two frames (3.05 s,
+/// so its frame is the one at 3.1 s) with its path, sensed rock and sub-goals, the arrival.
+AnimationPageInput replayRun() {
+  AnimationPageInput in = sampleRun(100, 2);
+  in.initial_path = {Vec3(-1, 7, 0), Vec3(17, -1, 0)};
+  in.events.push_back({2.0, "roof_fall", "ball of r = 1.5 m", "", Vec3(8.25, 3.5, 0), 1.5, {}});
+  in.events.push_back({3.05, "replan", "expected path blocked", "replanning", Vec3::Zero(), 0.0,
+                       {Vec3(4, 4, 0), Vec3(8, 6.5, 0), Vec3(17, -1, 0)}});
+  in.events.push_back({9.9, "arrived", "at the goal", "", Vec3::Zero(), 0.0, {}});
+  for (int k = 0; k < 5; ++k) in.sensed.push_back({2.5 + 0.1 * k, Vec3(7.0 + 0.3 * k, 4.9, 0)});
+  in.subgoals = {{0.0, Vec3(1, 5, 0)}, {1.0, Vec3(3, 4, 0)}, {4.0, Vec3(9, 5.5, 0)}};
+  return in;
+}
+
+TEST_F(AnimationPageTest, EventsTravelWithTheirTimesFramesAndMarks) {
+  const AnimationPageInput in = replayRun();
+  AnimationPageInfo info;
+  const auto html = animationPageHtml(png_, view_, in, &info);
+  ASSERT_TRUE(html.ok()) << html.status().toString();
+  EXPECT_EQ(info.events, 3u);
+  const json d = frameData(*html);
+  ASSERT_EQ(d["events"].size(), 3u);
+  EXPECT_EQ(d["events"][0]["kind"], "roof_fall");
+  EXPECT_EQ(d["events"][0]["t"], 2000);
+  EXPECT_EQ(d["events"][0]["f"], 20);
+  EXPECT_EQ(d["events"][0]["disc"], json({{"x", 8250}, {"y", 3500}, {"r", 1500}}));
+  EXPECT_EQ(d["events"][1]["kind"], "replan");
+  EXPECT_EQ(d["events"][1]["t"], 3050);
+  EXPECT_EQ(d["events"][1]["f"], 31);  // the first frame at or after the event
+  EXPECT_EQ(undelta(d["events"][1]["path"]["x"], 1000), std::vector<double>({4, 8, 17}));
+  EXPECT_EQ(undelta(d["events"][1]["path"]["y"], 1000), std::vector<double>({4, 6.5, -1}));
+  EXPECT_FALSE(d["events"][1].contains("disc"));
+  EXPECT_EQ(d["events"][2]["f"], 99);
+  EXPECT_EQ(undelta(d["initial_path"]["x"], 1000), std::vector<double>({-1, 17}));
+  EXPECT_EQ(undelta(d["sensed"]["t"], 1), std::vector<double>({2500, 2600, 2700, 2800, 2900}));
+  EXPECT_EQ(undelta(d["subgoals"]["t"], 1), std::vector<double>({0, 1000, 4000}));
+  EXPECT_EQ(undelta(d["subgoals"]["x"], 1000), std::vector<double>({1, 3, 9}));
+
+  // One clickable mark per event, with its time and frame, and the same in the event list.
+  EXPECT_NE(html->find("data-events=\"3\">\n<head>"), std::string::npos);
+  EXPECT_NE(html->find("<div id=\"marks\" class=\"marks\" data-events=\"3\">"), std::string::npos);
+  EXPECT_EQ(count(*html, "class=\"mark\""), 3u);
+  EXPECT_NE(html->find("data-event=\"1\" data-kind=\"replan\" data-t=\"3.050\" data-frame=\"31\" style=\"left:30.808%"),
+            std::string::npos);
+  EXPECT_EQ(count(*html, "class=\"ev\""), 3u);
+  EXPECT_NE(html->find("t = 3.0 s \xC2\xB7 replan: expected path blocked"), std::string::npos);
+  EXPECT_NE(html->find("2 moving obstacles \xC2\xB7 3 events</span>"), std::string::npos);
+  for (const char* legend : {"expected path in force", "expected path replaced by a replan", "roof fall (from its time)",
+                             "rock the sensor saw", "sub-goals chosen so far"})
+    EXPECT_NE(html->find(legend), std::string::npos) << legend;
+}
+
+TEST_F(AnimationPageTest, TheReplansFrameSaysReplanning) {
+  const auto html = animationPageHtml(png_, view_, replayRun());
+  ASSERT_TRUE(html.ok());
+  const json d = frameData(*html);
+  const json& names = d["status"]["names"];
+  const json& runs = d["status"]["runs"];
+  auto statusOf = [&](std::size_t frame) {
+    std::string name;
+    for (std::size_t k = 0; k < runs.size(); k += 2)
+      if (runs[k].get<std::size_t>() <= frame) name = names[runs[k + 1].get<std::size_t>()];
+    return name;
+  };
+  EXPECT_EQ(statusOf(30), "following");
+  EXPECT_EQ(statusOf(31), "replanning");
+  EXPECT_EQ(statusOf(32), "following");
+  EXPECT_NE(html->find(">replanning</span>"), std::string::npos);  // its badge in the legend
+}
+
+TEST_F(AnimationPageTest, MoversAreTaggedByTheirNames) {
+  AnimationPageInput in = sampleRun(10, 3);
+  in.movers[0].name = "obstacle 1";
+  in.movers[1].name = "obstacle 4";
+  in.movers[2].name = "obstacle 5";
+  auto tags = [this](const AnimationPageInput& run) {
+    std::vector<std::string> out;
+    const auto html = animationPageHtml(png_, view_, run);
+    EXPECT_TRUE(html.ok());
+    const json d = frameData(*html);
+    for (const auto& m : d["movers"]) out.push_back(m["tag"]);
+    return out;
+  };
+  EXPECT_EQ(tags(in), std::vector<std::string>({"1", "4", "5"}));
+  const auto html = animationPageHtml(png_, view_, in);
+  EXPECT_NE(html->find(">4</span>obstacle 4, r = "), std::string::npos);  // the legend agrees
+  EXPECT_NE(html->find("3 moving obstacles"), std::string::npos);
+  in.movers[0].name = "a";
+  in.movers[1].name = "b";
+  in.movers[2].name = "machine";
+  EXPECT_EQ(tags(in), std::vector<std::string>({"a", "b", "3"}));
+  in.movers[0].name = "cart 2";  // two would read "2": all by their places instead
+  in.movers[1].name = "truck 2";
+  EXPECT_EQ(tags(in), std::vector<std::string>({"1", "2", "3"}));
+}
+
+TEST_F(AnimationPageTest, BadEventsAndTimedPointsAreRefused) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  struct Case {
+    const char* what;
+    std::function<void(AnimationPageInput&)> spoil;
+    const char* message;
+  };
+  const std::vector<Case> cases = {
+      {"event time", [nan](AnimationPageInput& in) { in.events[1].t_s = nan; }, "event 1 (replan) time nan s"},
+      {"event order", [](AnimationPageInput& in) { in.events[2].t_s = 1.0; },
+       "event 2 (arrived) at t = 1 s comes after one at 3.05 s"},
+      {"event radius", [](AnimationPageInput& in) { in.events[0].radius_m = -1; }, "event 0 (roof_fall) radius -1 m"},
+      {"event path", [nan](AnimationPageInput& in) { in.events[1].path[1].y() = nan; },
+       "event 1 (replan): path point 1 y is nan"},
+      {"sensed order", [](AnimationPageInput& in) { in.sensed[3].t_s = 0.5; }, "sensed point 3 at t = 0.5 s"},
+      {"sub-goal", [](AnimationPageInput& in) { in.subgoals[1].p.x() = INFINITY; }, "sub-goal 1 x is inf"},
+      {"initial path", [nan](AnimationPageInput& in) { in.initial_path[0].x() = nan; }, "initial path point 0 x"},
+  };
+  for (const Case& c : cases) {
+    AnimationPageInput in = replayRun();
+    c.spoil(in);
+    const Status s = writeExpectingNothingOnError(in);
+    EXPECT_FALSE(s.ok()) << c.what;
+    EXPECT_NE(s.message().find(c.message), std::string::npos) << c.what << ": " << s.message();
+  }
 }
 
 // Text from a scenario file may be any bytes; a broken UTF-8 sequence must not fail the page.

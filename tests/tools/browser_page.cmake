@@ -17,6 +17,8 @@
 # -DWINDOW=<w,h>           browser window size (default 1280,900)
 # -DMIN_FRAME=<n>          the frame shown after BUDGET_MS must be at least this (default 1)
 # -DEXPECT_ROOT=<regex>    the <html> element after BUDGET_MS must match this
+# -DEXPECT_AT=<re>[@<re>]  with AT: the <html> element opened at AT must match each of these
+#                          (separated by @, which a regex of attributes does not need)
 # -DWORK=<dir>             scratch folder for the browser profiles (default: beside the page)
 if(NOT DEFINED PAGE)
   message(FATAL_ERROR "usage: cmake -DPAGE=run.html [-DSCREENSHOT=out.png] -P browser_page.cmake")
@@ -100,6 +102,12 @@ if(DEFINED AT)
      OR time GREATER AT)
     message(FATAL_ERROR "opened at ${AT} s, the page should show the last frame at or before it, paused")
   endif()
+  string(REPLACE "@" ";" expect_at "${EXPECT_AT}")
+  foreach(expected IN LISTS expect_at)
+    if(NOT root MATCHES "${expected}")
+      message(FATAL_ERROR "opened at ${AT} s, the root element does not match ${expected}")
+    endif()
+  endforeach()
 endif()
 
 # 3. The screenshot.

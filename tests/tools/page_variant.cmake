@@ -7,6 +7,8 @@
 # -DIN=<page> -DOUT=<page> -DKIND=drive   a script that works the controls like a user (pause,
 #                                         slider, arrow key, End, play again from the start, speed
 #                                         10x) and writes "ok" or what failed into data-drive
+# -DIN=<page> -DOUT=<page> -DKIND=click   a script that clicks every timeline mark and writes "ok"
+#                                         or what failed into data-click
 file(READ "${IN}" html)
 if(KIND STREQUAL "throw")
   set(extra "<script>null.boom();</script>")
@@ -15,8 +17,11 @@ elseif(KIND STREQUAL "fetch")
 elseif(KIND STREQUAL "drive")
   file(READ "${CMAKE_CURRENT_LIST_DIR}/page_drive.js" script)
   set(extra "<script>${script}</script>")
+elseif(KIND STREQUAL "click")
+  file(READ "${CMAKE_CURRENT_LIST_DIR}/page_click.js" script)
+  set(extra "<script>${script}</script>")
 else()
-  message(FATAL_ERROR "KIND must be throw, fetch or drive")
+  message(FATAL_ERROR "KIND must be throw, fetch, drive or click")
 endif()
 string(REPLACE "</body>" "${extra}</body>" html "${html}")
 file(WRITE "${OUT}" "${html}")

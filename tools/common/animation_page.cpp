@@ -8,6 +8,7 @@
 #include "common/animation_page.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -100,7 +101,8 @@ std::uint32_t knownStatusColour(const std::string& status, bool* known) {
   static const std::map<std::string, std::uint32_t> kColours = {
       {"following", 0x27AE60}, {"yielding", 0xF39C12}, {"detouring", 0x00A3C4},
       {"stuck", 0xE74C3C},     {"arrived", 0x1B5E20},  {"collision", 0x8B0000},
-      {"timeout", 0x7F8C8D},   {"refused", 0x5D6D7E},  {"", 0x95A5A6}};
+      {"timeout", 0x7F8C8D},   {"refused", 0x5D6D7E},  {"replanning", 0xC2185B},
+      {"", 0x95A5A6}};
   const auto it = kColours.find(status);
   *known = it != kColours.end();
   return *known ? it->second : 0;
@@ -159,6 +161,53 @@ class DeltaSeries {
   std::vector<long long> values_;
 };
 
+/// The frame an event belongs to: the first at or after its time (the last one for an event after
+/// the run's last frame). Times are compared at the page's millisecond.
+std::size_t eventFrame(const AnimationPageInput& in, double t_s) {
+  const auto it = std::lower_bound(in.frames.begin(), in.frames.end(), t_s - 5e-4,
+                                   [](const PageFrame& f, double t) { return f.t_s < t; });
+  return it == in.frames.end() ? in.frames.size() - 1 : static_cast<std::size_t>(it - in.frames.begin());
+}
+
+/// The short tag drawn on a mover and beside its legend entry: the number its name ends in
+/// ("obstacle 4" is 4, as the paper numbers them), a short name as it is ("a"), otherwise its
+/// place in the list. All tags come from one rule, and from the list places when two would clash.
+std::vector<std::string> moverTags(const std::vector<PageMover>& movers) {
+  std::vector<std::string> tags;
+  for (std::size_t k = 0; k < movers.size(); ++k) {
+    const std::string& name = movers[k].name;
+    std::size_t digits = name.size();
+    while (digits > 0 && std::isdigit(static_cast<unsigned char>(name[digits - 1]))) --digits;
+    if (digits < name.size() && name.size() - digits <= 4) tags.push_back(name.substr(digits));
+    else if (!name.empty() && name.size() <= 3) tags.push_back(name);
+    else tags.push_back(std::to_string(k + 1));
+  }
+  std::vector<std::string> sorted = tags;
+  std::sort(sorted.begin(), sorted.end());
+  if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+    for (std::size_t k = 0; k < tags.size(); ++k) tags[k] = std::to_string(k + 1);
+  return tags;
+}
+
+/// A time-stamped point list (and a path) as per-series differences, like the frames.
+json pointSeries(const std::vector<PagePoint>& points) {
+  DeltaSeries t(1000), x(1000), y(1000);
+  for (const PagePoint& p : points) {
+    t.push(p.t_s);
+    x.push(p.p.x());
+    y.push(p.p.y());
+  }
+  return {{"t", t.toJson()}, {"x", x.toJson()}, {"y", y.toJson()}};
+}
+json pathSeries(const std::vector<Vec3>& path) {
+  DeltaSeries x(1000), y(1000);
+  for (const Vec3& p : path) {
+    x.push(p.x());
+    y.push(p.y());
+  }
+  return {{"x", x.toJson()}, {"y", y.toJson()}};
+}
+
 json frameData(const TopViewInfo& view, const AnimationPageInput& in,
                std::vector<std::pair<std::string, std::uint32_t>>* statuses) {
   DeltaSeries t(1000), rx(1000), ry(1000), rz(1000);
@@ -166,8 +215,14 @@ json frameData(const TopViewInfo& view, const AnimationPageInput& in,
   std::vector<long long> status_runs;  // frame index, status index, ...
   std::map<std::string, std::size_t> status_index;
   std::size_t spare = 0;
+  // An event's moment shows its status (a replan's "replanning") on its frame.
+  std::map<std::size_t, std::string> event_status;
+  for (const PageEvent& e : in.events)
+    if (!e.status.empty()) event_status[eventFrame(in, e.t_s)] = e.status;
   for (std::size_t i = 0; i < in.frames.size(); ++i) {
     const PageFrame& f = in.frames[i];
+    const auto over = event_status.find(i);
+    const std::string& status = over == event_status.end() ? f.status : over->second;
     t.push(f.t_s);
     rx.push(f.robot.x());
     ry.push(f.robot.y());
@@ -176,13 +231,13 @@ json frameData(const TopViewInfo& view, const AnimationPageInput& in,
       mx[m].push(f.movers[m].x());
       my[m].push(f.movers[m].y());
     }
-    auto it = status_index.find(f.status);
+    auto it = status_index.find(status);
     if (it == status_index.end()) {
       bool known = false;
-      std::uint32_t colour = knownStatusColour(f.status, &known);
+      std::uint32_t colour = knownStatusColour(status, &known);
       if (!known) colour = kSpareStatusColours[spare++ % std::size(kSpareStatusColours)];
-      it = status_index.emplace(f.status, statuses->size()).first;
-      statuses->emplace_back(f.status, colour);
+      it = status_index.emplace(status, statuses->size()).first;
+      statuses->emplace_back(status, colour);
     }
     const long long s = static_cast<long long>(it->second);
     if (status_runs.empty() || status_runs.back() != s) {
@@ -205,13 +260,30 @@ json frameData(const TopViewInfo& view, const AnimationPageInput& in,
   }
   d["status"] = {{"names", names}, {"colours", colours}, {"runs", status_runs}};
   json movers = json::array();
+  const std::vector<std::string> tags = moverTags(in.movers);
   for (std::size_t m = 0; m < in.movers.size(); ++m) {
     movers.push_back({{"r", in.movers[m].radius_m},
                       {"c", cssColour(in.movers[m].colour)},
+                      {"tag", tags[m]},
                       {"x", mx[m].toJson()},
                       {"y", my[m].toJson()}});
   }
   d["movers"] = std::move(movers);
+  // What appears during the run, each from its time: events (marks, falls, paths), sensed rock,
+  // sub-goals. The picture holds none of it, so the page at t shows only what happened by t.
+  d["initial_path"] = pathSeries(in.initial_path);
+  json events = json::array();
+  for (const PageEvent& e : in.events) {
+    json ev{{"t", std::llround(e.t_s * 1000)}, {"f", eventFrame(in, e.t_s)}, {"kind", e.kind}};
+    if (e.radius_m > 0) ev["disc"] = {{"x", std::llround(e.center.x() * 1000)},
+                                      {"y", std::llround(e.center.y() * 1000)},
+                                      {"r", std::llround(e.radius_m * 1000)}};
+    if (!e.path.empty()) ev["path"] = pathSeries(e.path);
+    events.push_back(std::move(ev));
+  }
+  d["events"] = std::move(events);
+  d["sensed"] = pointSeries(in.sensed);
+  d["subgoals"] = pointSeries(in.subgoals);
   return d;
 }
 
@@ -241,6 +313,17 @@ main { display:flex; gap:16px; padding:16px 20px; align-items:flex-start; flex-w
 .controls { display:flex; align-items:center; gap:12px; padding:10px 2px 2px; text-align:left; }
 .controls .track { flex:1; display:flex; flex-direction:column; gap:2px; }
 .controls input[type=range] { width:100%; margin:0; accent-color:var(--accent); }
+.marks { position:relative; height:14px; margin:2px 8px 0; }
+.marks .mark { position:absolute; top:0; min-width:0; width:9px; height:14px; margin-left:-4px; padding:0; border:1px solid rgba(0,0,0,.45); border-radius:2px; cursor:pointer; opacity:.45; }
+.marks .mark.past { opacity:1; }
+.marks .mark.now { outline:2px solid #1d2430; outline-offset:1px; opacity:1; }
+#event-list { margin:0; padding:0; list-style:none; max-height:220px; overflow:auto; }
+#event-list li { margin:2px 0; }
+#event-list .ev { min-width:0; width:100%; text-align:left; padding:2px 6px; border:1px solid var(--line); border-radius:5px; background:#fff; color:var(--ink); font-size:12px; }
+#event-list .ev:hover { background:var(--bg); }
+#event-list .ev.now { border-color:#1d2430; font-weight:600; }
+#event-list .ev.future { color:var(--muted); }
+#event-list .dot { display:inline-block; width:8px; height:8px; border-radius:2px; margin-right:6px; }
 #timeline { height:6px; width:calc(100% - 16px); margin:0 8px; border-radius:3px; image-rendering:pixelated; }
 button { font:inherit; min-width:88px; padding:5px 12px; border:1px solid #1f6fb8; border-radius:6px; background:var(--accent); color:#fff; cursor:pointer; }
 button:hover { background:#1f6fb8; }
@@ -315,8 +398,28 @@ const char* kMainScript = R"JS(
   var movers = D.movers.map(function (m) {
     var x = undelta(m.x, 1000), y = undelta(m.y, 1000);
     var c = cols(x), r = rows(y);
-    return { c: c, r: r, keep: decimate(c, r), radius: m.r * V.ppm, colour: m.c };
+    return { c: c, r: r, keep: decimate(c, r), radius: m.r * V.ppm, colour: m.c, tag: String(m.tag) };
   });
+  // What appears during the run, each from its frame or time: events (their discs and paths),
+  // the rock the sensor saw, the sub-goals. The picture under the canvases has none of it.
+  function polyline(p) { return { c: cols(undelta(p.x, 1000)), r: rows(undelta(p.y, 1000)) }; }
+  function timedPoints(s) { return { t: undelta(s.t, 1), c: cols(undelta(s.x, 1000)), r: rows(undelta(s.y, 1000)) }; }
+  var EV = D.events.map(function (e) {
+    var d = e.disc ? { c: cols([e.disc.x / 1000])[0], r: rows([e.disc.y / 1000])[0], radius: e.disc.r / 1000 * V.ppm } : null;
+    return { t: e.t, f: e.f, kind: e.kind, disc: d, path: e.path ? polyline(e.path) : null };
+  });
+  // The expected paths in force one after the other: the initial one, then each replan's.
+  var PATHS = [{ f: -1, line: polyline(D.initial_path) }];
+  EV.forEach(function (e) { if (e.path) PATHS.push({ f: e.f, line: e.path }); });
+  var SENSED = timedPoints(D.sensed), SUBGOALS = timedPoints(D.subgoals);
+  function countUpTo(ts, t) {  // entries of the sorted ts at or before t
+    var lo = 0, hi = ts.length;
+    while (lo < hi) { var mid = (lo + hi) >> 1; if (ts[mid] <= t) lo = mid + 1; else hi = mid; }
+    return lo;
+  }
+  function msOf(f) { return Math.round(T[f] * 1000) + 0.5; }
+  function pathInForce(f) { var p = 0; while (p + 1 < PATHS.length && PATHS[p + 1].f <= f) ++p; return p; }
+
   var S = new Uint16Array(n), runs = D.status.runs;
   for (var k = 0; k < runs.length; k += 2) {
     var end = k + 2 < runs.length ? runs[k + 2] : n;
@@ -393,6 +496,32 @@ const char* kMainScript = R"JS(
     live.save();
     clipToMap(live);
     live.lineCap = 'round'; live.lineJoin = 'round';
+    EV.forEach(function (e) {  // roof falls from their time on
+      if (e.disc && e.f <= f) disc(live, e.disc.c, e.disc.r, Math.max(e.disc.radius, 3 * K), 'rgba(255,59,59,0.3)', '#FF3B3B', 1.5 * K);
+    });
+    var ns = countUpTo(SENSED.t, msOf(f)), side = Math.max(2.5 * K, 0.15 * V.ppm);
+    live.fillStyle = 'rgba(93,64,55,0.85)';
+    for (var q = 0; q < ns; ++q) live.fillRect(SENSED.c[q] - side / 2, SENSED.r[q] - side / 2, side, side);
+    var cur = pathInForce(f);
+    live.setLineDash([7 * K, 5 * K]);
+    for (var p = 0; p <= cur; ++p) {
+      var line = PATHS[p].line;
+      if (line.c.length < 2) continue;
+      live.lineWidth = (p === cur ? 2.5 : 1.5) * K;
+      live.strokeStyle = p === cur ? '#E4572E' : 'rgba(228,87,46,0.45)';
+      live.beginPath(); live.moveTo(line.c[0], line.r[0]);
+      for (var j = 1; j < line.c.length; ++j) live.lineTo(line.c[j], line.r[j]);
+      live.stroke();
+    }
+    live.setLineDash([]);
+    var ng = countUpTo(SUBGOALS.t, msOf(f));
+    for (var g = 0; g < ng; ++g) {  // crosses; the sub-goal in force larger
+      var h = (g === ng - 1 ? 6 : 3) * K, gx = SUBGOALS.c[g], gy = SUBGOALS.r[g];
+      live.lineWidth = (g === ng - 1 ? 2.5 : 1.5) * K;
+      live.strokeStyle = g === ng - 1 ? '#2E86DE' : 'rgba(46,134,222,0.5)';
+      live.beginPath(); live.moveTo(gx - h, gy - h); live.lineTo(gx + h, gy + h);
+      live.moveTo(gx - h, gy + h); live.lineTo(gx + h, gy - h); live.stroke();
+    }
     movers.forEach(function (m, k) {
       var x = lerp(m.c, f, u), y = lerp(m.r, f, u), r = Math.max(m.radius, 3 * K);
       live.lineWidth = 2 * K; live.strokeStyle = rgba(m.colour, 0.95);
@@ -402,7 +531,7 @@ const char* kMainScript = R"JS(
       live.font = '700 ' + (12 * K) + 'px system-ui, sans-serif';
       live.textBaseline = 'middle'; live.lineWidth = 3 * K; live.strokeStyle = 'rgba(255,255,255,0.9)';
       var lx = x + 0.75 * r + 3 * K, ly = y - 0.75 * r - 4 * K;
-      live.strokeText(String(k + 1), lx, ly); live.fillStyle = '#3d2352'; live.fillText(String(k + 1), lx, ly);
+      live.strokeText(m.tag, lx, ly); live.fillStyle = '#3d2352'; live.fillText(m.tag, lx, ly);
     });
     var cx = lerp(RC, f, u), cy = lerp(RR, f, u), now = lerp(T, f, u);
     // The driven path so far, faint; the last TRAIL seconds on top, fading with age in steps
@@ -445,6 +574,9 @@ const char* kMainScript = R"JS(
     return Math.hypot(RX[b] - RX[a], RY[b] - RY[a], RZ[b] - RZ[a]) / dt;
   }
   var frame = -1, simT = T[0];
+  // The timeline's marks and the event list: each seeks to its event's frame, paused.
+  var marks = Array.prototype.slice.call(document.querySelectorAll('#marks .mark, #event-list .ev'));
+  var shownPast = -1, shownHere = false;
   function show(f) {  // frame f exactly: picture and panel
     showPanel(f);
     draw(f, 0);
@@ -465,13 +597,36 @@ const char* kMainScript = R"JS(
         var g = Math.hypot(RC[f] - m.c[f], RR[f] - m.r[f]) / V.ppm - D.robot.r - D.movers[k].r;
         if (g < gap) { gap = g; best = k; }
       });
-      $('near').textContent = fmt(gap, 2) + ' (' + (best + 1) + ')';
+      $('near').textContent = fmt(gap, 2) + ' (' + movers[best].tag + ')';
       $('near').style.color = gap < 0 ? '#C0392B' : '';
     }
     slider.value = String(f);
     root.setAttribute('data-frame', String(f));
     root.setAttribute('data-time', T[f].toFixed(3));
     root.setAttribute('data-status', name);
+    // What the picture shows at this frame, for tests and readers of the DOM.
+    var here = [], past = 0, falls = 0;
+    EV.forEach(function (e) {
+      if (e.f > f) return;
+      ++past;
+      if (e.disc) ++falls;
+      if (e.f === f) here.push(e.kind);
+    });
+    root.setAttribute('data-event', here.join(' '));
+    root.setAttribute('data-events-past', String(past));
+    root.setAttribute('data-paths', String(pathInForce(f)));
+    root.setAttribute('data-falls', String(falls));
+    root.setAttribute('data-sensed', String(countUpTo(SENSED.t, msOf(f))));
+    root.setAttribute('data-subgoals', String(countUpTo(SUBGOALS.t, msOf(f))));
+    if (past !== shownPast || here.length > 0 || shownHere) {
+      marks.forEach(function (el) {
+        var e = EV[Number(el.getAttribute('data-event'))];
+        el.classList.toggle('past', e.f <= f);
+        el.classList.toggle('future', e.f > f);
+        el.classList.toggle('now', e.f === f);
+      });
+      shownPast = past; shownHere = here.length > 0;
+    }
   }
   function frameAt(t) {  // last frame at or before t
     var lo = 0, hi = n - 1;
@@ -510,6 +665,14 @@ const char* kMainScript = R"JS(
   playBtn.addEventListener('click', function () {
     if (!playing && frame >= n - 1) { simT = T[0]; show(0); }
     setPlaying(!playing);
+  });
+  marks.forEach(function (el) {
+    el.addEventListener('click', function () {
+      var e = EV[Number(el.getAttribute('data-event'))];
+      if (!e) return;
+      setPlaying(false); simT = T[e.f]; show(e.f);
+      el.blur();  // space and the arrows go on working the player, not this mark
+    });
   });
   slider.addEventListener('input', function () {
     var f = Number(slider.value); simT = T[f]; lastWall = null; show(f);
@@ -561,8 +724,39 @@ const char* kMainScript = R"JS(
 })();
 )JS";
 
+/// Mark colours by event kind; kinds the page does not know are drawn slate.
+std::string eventColour(const std::string& kind) {
+  static const std::map<std::string, std::uint32_t> kColours = {
+      {"replan", 0xC2185B},    {"roof_fall", kFigureBlocked}, {"stuck", 0xE74C3C},   {"escape", 0xF39C12},
+      {"arrived", 0x1B5E20},   {"no_route", 0x5D6D7E},        {"collision", 0x8B0000}, {"end", 0x1D2430},
+      {"timeout", 0x7F8C8D}};
+  const auto it = kColours.find(kind);
+  return cssColour(it == kColours.end() ? 0x34495E : it->second);
+}
+
+std::string eventText(const PageEvent& e) {
+  return "t = " + fixed(e.t_s, 1) + " s \xC2\xB7 " + e.kind + (e.label.empty() ? "" : ": " + e.label);
+}
+
+/// One clickable mark per event under the status strip, at its time along the run.
+void appendMarks(std::string& html, const AnimationPageInput& in) {
+  const double t0 = in.frames.front().t_s, span = in.frames.back().t_s - t0;
+  html += "<div id=\"marks\" class=\"marks\" data-events=\"" + std::to_string(in.events.size()) + "\">";
+  for (std::size_t k = 0; k < in.events.size(); ++k) {
+    const PageEvent& e = in.events[k];
+    const double at = span > 0 ? std::clamp((e.t_s - t0) / span, 0.0, 1.0) * 100.0 : 0.0;
+    const std::string text = htmlEscape(eventText(e));
+    html += "<button type=\"button\" class=\"mark\" data-event=\"" + std::to_string(k) + "\" data-kind=\"" +
+            htmlEscape(e.kind) + "\" data-t=\"" + fixed(e.t_s, 3) + "\" data-frame=\"" +
+            std::to_string(eventFrame(in, e.t_s)) + "\" style=\"left:" + fixed(at, 3) + "%;background:" +
+            eventColour(e.kind) + "\" title=\"" + text + "\" aria-label=\"" + text + "\"></button>";
+  }
+  html += "</div>\n";
+}
+
 void appendStage(std::string& html, const std::vector<unsigned char>& png, const TopViewInfo& view,
-                 std::size_t frames) {
+                 const AnimationPageInput& in) {
+  const std::size_t frames = in.frames.size();
   const std::string w = std::to_string(view.width_px), h = std::to_string(view.height_px);
   html += "<section class=\"stage\">\n<div class=\"figure\" style=\"max-width:" + w + "px\">\n"
           "<img id=\"bg\" alt=\"top view of the run\" width=\"" + w + "\" height=\"" + h +
@@ -573,8 +767,9 @@ void appendStage(std::string& html, const std::vector<unsigned char>& png, const
           "<div class=\"controls\">\n<button id=\"play\" type=\"button\">\xE2\x96\xB6 Play</button>\n"
           "<div class=\"track\"><input id=\"slider\" type=\"range\" min=\"0\" max=\"" +
           std::to_string(frames - 1) + "\" step=\"1\" value=\"0\" aria-label=\"frame\">\n"
-          "<canvas id=\"timeline\" width=\"1000\" height=\"1\" title=\"status over time\"></canvas></div>\n"
-          "<label>speed <select id=\"speed\">";
+          "<canvas id=\"timeline\" width=\"1000\" height=\"1\" title=\"status over time\"></canvas>\n";
+  appendMarks(html, in);
+  html += "</div>\n<label>speed <select id=\"speed\">";
   for (const char* s : {"0.25", "0.5", "1", "2", "5", "10", "20", "50", "100"}) {
     html += std::string("<option value=\"") + s + "\">" + s + "\xC3\x97</option>";
   }
@@ -599,6 +794,21 @@ void appendClockAndRobot(std::string& html, const AnimationPageInput& in) {
   html += "</div>\n";
 }
 
+/// The events as a list beside the picture (their reasons are too long for the marks' tooltips
+/// alone); each entry seeks like its mark.
+void appendEventList(std::string& html, const AnimationPageInput& in) {
+  if (in.events.empty()) return;
+  html += "<div class=\"panel\"><h2>Events</h2><ol id=\"event-list\">\n";
+  for (std::size_t k = 0; k < in.events.size(); ++k) {
+    const PageEvent& e = in.events[k];
+    html += "<li><button type=\"button\" class=\"ev\" data-event=\"" + std::to_string(k) + "\" data-kind=\"" +
+            htmlEscape(e.kind) + "\" data-frame=\"" + std::to_string(eventFrame(in, e.t_s)) +
+            "\"><span class=\"dot\" style=\"background:" + eventColour(e.kind) + "\"></span>" +
+            htmlEscape(eventText(e)) + "</button></li>\n";
+  }
+  html += "</ol></div>\n";
+}
+
 void appendSummaryRows(std::string& html, const AnimationPageInput& in) {
   for (const auto& [key, value] : in.summary) {
     html += "<tr><td>" + htmlEscape(key) + "</td><td>" + htmlEscape(value) + "</td></tr>\n";
@@ -613,11 +823,38 @@ void appendLegend(std::string& html, const AnimationPageInput& in,
   html += "<li><span class=\"sw fade\" style=\"background:linear-gradient(90deg,rgba(46,134,222,0),#2E86DE)\"></span>"
           "trail, last " + fixed(kTrailSeconds, 0) + " s</li>\n";
   html += "<li><span class=\"sw line\" style=\"border-color:rgba(46,134,222,.4)\"></span>driven path</li>\n";
+  bool replans = false, falls = false;
+  for (const PageEvent& e : in.events) {
+    replans = replans || !e.path.empty();
+    falls = falls || e.radius_m > 0;
+  }
+  if (!in.initial_path.empty() || replans) {
+    html += "<li><span class=\"sw line\" style=\"border-top-style:dashed;border-color:" + cssColour(kFigurePath) +
+            "\"></span>expected path in force</li>\n";
+  }
+  if (replans) {
+    html += "<li><span class=\"sw line\" style=\"border-top-style:dashed;border-color:" + cssColour(kFigurePath) +
+            "73\"></span>expected path replaced by a replan</li>\n";
+  }
+  if (falls) {
+    html += "<li><span class=\"sw\" style=\"background:" + cssColour(kFigureBlocked) + "66;border-color:" +
+            cssColour(kFigureBlocked) + "\"></span>roof fall (from its time)</li>\n";
+  }
+  if (!in.sensed.empty()) {
+    html += "<li><span class=\"sw\" style=\"border-radius:0;width:8px;height:8px;border:0;background:#5D4037\"></span>"
+            "rock the sensor saw (from then on)</li>\n";
+  }
+  if (!in.subgoals.empty()) {
+    html += "<li><span class=\"sw\" style=\"border-radius:0;border:0;background:none;color:" +
+            cssColour(kFigureTrajectory) + ";font:700 14px/14px sans-serif\">\xC3\x97</span>"
+            "sub-goals chosen so far (the one in force larger)</li>\n";
+  }
+  const std::vector<std::string> tags = moverTags(in.movers);
   for (std::size_t k = 0; k < in.movers.size(); ++k) {
     const PageMover& m = in.movers[k];
     const std::string c = cssColour(m.colour);
     html += "<li><span class=\"sw num\" style=\"background:" + c + "99;border-color:" + c + "\">" +
-            std::to_string(k + 1) + "</span>" +
+            htmlEscape(tags[k]) + "</span>" +
             htmlEscape(m.name.empty() ? std::string("moving obstacle") : m.name) + ", r = " +
             fixed(m.radius_m, 2) + " m</li>\n";
   }
@@ -630,7 +867,8 @@ void appendLegend(std::string& html, const AnimationPageInput& in,
     html += "<span class=\"badge\" style=\"background:" + cssColour(colour) + "\">" +
             htmlEscape(name.empty() ? std::string("(no status)") : name) + "</span>";
   }
-  html += "</div><div class=\"note\">Map, expected path and static obstacles: the picture's own legend.</div></div>\n";
+  html += "</div><div class=\"note\">Map, static obstacles, start and goal: the picture's own legend. The page "
+          "draws what happens during the run at its time.</div></div>\n";
 }
 
 }  // namespace
@@ -671,6 +909,36 @@ Status validateAnimationPageInput(const AnimationPageInput& in) {
       ADIT_RETURN_IF_ERROR(checkPoint(f.movers[m], frameName(in, i) + ": mover " + std::to_string(m)));
     }
   }
+  for (std::size_t k = 0; k < in.initial_path.size(); ++k)
+    ADIT_RETURN_IF_ERROR(checkPoint(in.initial_path[k], "animation page: initial path point " + std::to_string(k)));
+  auto checkTime = [](double t, double before, const std::string& what) -> Status {
+    if (!std::isfinite(t) || std::abs(t) > kMaxTime_s)
+      return invalidArgument(what + " time " + num(t) + " s is not a finite time");
+    if (t < before) return invalidArgument(what + " at t = " + num(t) + " s comes after one at " + num(before) +
+                                           " s: they must be in time order");
+    return {};
+  };
+  double before = -kMaxTime_s;
+  for (std::size_t k = 0; k < in.events.size(); ++k) {
+    const PageEvent& e = in.events[k];
+    const std::string what = "animation page: event " + std::to_string(k) + " (" + e.kind + ")";
+    ADIT_RETURN_IF_ERROR(checkTime(e.t_s, before, what));
+    before = e.t_s;
+    if (!(std::isfinite(e.radius_m) && e.radius_m >= 0))
+      return invalidArgument(what + " radius " + num(e.radius_m) + " m is not a number >= 0");
+    if (e.radius_m > 0) ADIT_RETURN_IF_ERROR(checkPoint(e.center, what + ": centre"));
+    for (std::size_t j = 0; j < e.path.size(); ++j)
+      ADIT_RETURN_IF_ERROR(checkPoint(e.path[j], what + ": path point " + std::to_string(j)));
+  }
+  for (const auto* list : {&in.sensed, &in.subgoals}) {
+    const std::string what = list == &in.sensed ? "animation page: sensed point " : "animation page: sub-goal ";
+    before = -kMaxTime_s;
+    for (std::size_t k = 0; k < list->size(); ++k) {
+      ADIT_RETURN_IF_ERROR(checkTime((*list)[k].t_s, before, what + std::to_string(k)));
+      before = (*list)[k].t_s;
+      ADIT_RETURN_IF_ERROR(checkPoint((*list)[k].p, what + std::to_string(k)));
+    }
+  }
   return {};
 }
 
@@ -686,7 +954,7 @@ StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& png, c
     const double duration_s = in.frames.back().t_s - in.frames.front().t_s;
     std::string html;
     html.reserve(data.size() + png.size() * 4 / 3 + 32768);
-    html += "<!DOCTYPE html>\n<html lang=\"en\" data-errors=\"0\" data-frame=\"-1\" data-ready=\"0\">\n<head>\n"
+    html += "<!DOCTYPE html>\n<html lang=\"en\" data-errors=\"0\" data-frame=\"-1\" data-ready=\"0\" data-events=\"" + std::to_string(in.events.size()) + "\">\n<head>\n"
             "<meta charset=\"utf-8\">\n"
             "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; img-src data:; "
             "style-src 'unsafe-inline'; script-src 'unsafe-inline'\">\n"
@@ -699,11 +967,13 @@ StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& png, c
     html += "</script>\n</head>\n<body>\n<header><h1>" + title + "</h1><span class=\"sub\">" +
             std::to_string(in.frames.size()) + " frames \xC2\xB7 " + fixed(duration_s, 1) + " s \xC2\xB7 " +
             std::to_string(in.movers.size()) + " moving obstacle" + (in.movers.size() == 1 ? "" : "s") +
+            " \xC2\xB7 " + std::to_string(in.events.size()) + " event" + (in.events.size() == 1 ? "" : "s") +
             "</span></header>\n<main>\n";
-    appendStage(html, png, view, in.frames.size());
+    appendStage(html, png, view, in);
     html += "<aside>\n";
     appendClockAndRobot(html, in);
     appendLegend(html, in, statuses);
+    appendEventList(html, in);
     if (!in.summary.empty()) {
       html += "<div class=\"panel\"><h2>Summary</h2><table>\n";
       appendSummaryRows(html, in);
@@ -725,6 +995,7 @@ StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& png, c
       info->background_bytes = png.size();
       info->frame_data_bytes = data.size();
       info->frames = in.frames.size();
+      info->events = in.events.size();
     }
     return html;
   } catch (const std::exception& e) {

@@ -61,6 +61,20 @@ struct NavigatedRun {
   /// `expected_path: plan` with refinement: the initial path before (initial_path is after) and
   /// after the break-point refinement, with its time.
   std::optional<PlanRefinement> refinement;
+  /// Each expected path the run changed to after the start (a replan's, an operator's), with the
+  /// time of the cycle that made it: a replay draws each from its time on (initial_path before).
+  struct PathChange {
+    double t_s = 0.0;
+    map::Polyline path;
+  };
+  std::vector<PathChange> path_changes;
+  /// The roof-fall rock the sensor returned, each voxel centre once, at the time of the period it
+  /// was first seen (what the believed map learnt, and when).
+  struct SensedRock {
+    double t_s = 0.0;
+    Vec3 point = Vec3::Zero();
+  };
+  std::vector<SensedRock> sensed;
   double end_time_s = 0.0;             ///< simulated time when the run ended
   double wall_time_s = 0.0;            ///< the whole simulation, map loading included
   /// Of wall_time_s: the believed world (a copy of NavigatedOptions::believed, or loaded) and the

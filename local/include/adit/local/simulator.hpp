@@ -154,6 +154,9 @@ struct SimulationResult {
   bool first_collision_by_mover = false;
   int steps = 0;       ///< step() calls
   int escapes = 0;     ///< escape manoeuvres started
+  /// When each escape began: the start of the period whose StepCommand::escapes went up (a
+  /// replay marks them).
+  std::vector<double> escape_times_s;
   double step_time_p50_us = 0.0;
   double step_time_p99_us = 0.0;
   double final_goal_distance_m = 0.0;
