@@ -23,13 +23,23 @@ A block that needs what this test cannot have is marked on the line before its f
     <!-- doc-test: skip (needs ../shared/data) -->
 Its commands are listed as skipped, with the reason.
 
+A newcomer's path: the README's commands run in order, as a user types them; after a command that
+succeeds, every output it names (`--out`, `-o`, `--csv`, `--html`, `--picture`, `--svg`, `--json`
+with a file) must exist and parse as its kind: JSON (and, when it names a schema, valid against
+docs/schemas/, python3's jsonschema), CSV with a header and rows of its width, PNG by its
+signature, SVG and HTML by their root element; a campaign's `--out DIR` must hold a shard JSON that
+validates. Outputs to devices (/dev/null, /dev/stdout) and to stdout (`-`) are not files to check.
+
 Exit 0 when every command did what its line says, 1 when one did not, 2 on bad usage (or when no
 command was found at all: the extraction would then be what is broken).
 """
 import argparse
 import concurrent.futures
+import csv
+import json
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -114,6 +124,92 @@ def prepare(scratch, repo, adit):
     os.symlink(adit, os.path.join(scratch, "build", "bin", "adit"))
 
 
+CHECKED = []  # every output checked (list.append is atomic under the GIL: the files' threads share it)
+OUTPUT_FLAGS = ("--out", "-o", "--csv", "--html", "--picture", "--svg", "--json")
+
+
+def load_validators(repo):
+    """{schema name: validator} from docs/schemas/, or None without python3's jsonschema."""
+    try:
+        import jsonschema
+    except ImportError:
+        return None
+    validators = {}
+    schema_dir = os.path.join(repo, "docs", "schemas")
+    for f in sorted(os.listdir(schema_dir)):
+        if f.endswith(".schema.json"):
+            with open(os.path.join(schema_dir, f)) as fh:
+                s = json.load(fh)
+            validators[s["properties"]["schema"]["const"]] = jsonschema.Draft202012Validator(s)
+    return validators
+
+
+def named_outputs(text):
+    """The files a command line names as its outputs (the value after an output flag)."""
+    try:
+        words = shlex.split(text, comments=True)
+    except ValueError:
+        return []
+    out = []
+    for i, w in enumerate(words):
+        flag, _, value = w.partition("=")
+        if flag in OUTPUT_FLAGS:
+            if not value and i + 1 < len(words) and not words[i + 1].startswith("-"):
+                value = words[i + 1]
+            if value and value != "-" and not value.startswith("/dev/"):
+                out.append(value)
+    return out
+
+
+def check_json(path, validators):
+    with open(path, encoding="utf-8") as fh:
+        doc = json.load(fh)
+    kind = doc.get("schema") if isinstance(doc, dict) else None
+    if kind and validators is not None:
+        if kind not in validators:
+            return f"names schema {kind!r}, which docs/schemas/ does not have"
+        errors = list(validators[kind].iter_errors(doc))
+        if errors:
+            e = errors[0]
+            return f"not valid against {kind}: /{'/'.join(map(str, e.path))}: {e.message}"
+    return None
+
+
+def check_output(path, validators):
+    """None when the file at `path` is there and parses as its kind, else why not."""
+    if os.path.isdir(path):
+        shards = [f for f in sorted(os.listdir(path)) if re.fullmatch(r"shard-\d+-of-\d+\.json", f)]
+        if not shards:
+            return "a directory without a shard JSON"
+        return check_json(os.path.join(path, shards[0]), validators)
+    if not os.path.isfile(path):
+        return "was not written"
+    if os.path.getsize(path) == 0:
+        return "is empty"
+    ext = os.path.splitext(path)[1].lower()
+    try:
+        if ext == ".json":
+            return check_json(path, validators)
+        if ext == ".csv":
+            with open(path, newline="", encoding="utf-8") as fh:
+                rows = list(csv.reader(fh))
+            if len(rows) < 2:
+                return "a CSV without rows"
+            bad = [i + 1 for i, r in enumerate(rows) if len(r) != len(rows[0])]
+            return f"CSV line {bad[0]} is not as wide as its header" if bad else None
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+        if ext == ".png" and not head.startswith(b"\x89PNG\r\n\x1a\n"):
+            return "not a PNG"
+        if ext == ".svg" and b"<svg" not in head:
+            return "not an SVG"
+        if ext == ".html" and b"<html" not in head.lower():
+            return "not an HTML page"
+    except (ValueError, UnicodeDecodeError, csv.Error) as e:
+        return f"does not parse: {e}"
+    return None
+
+
 def tail(text, n=12):
     rows = text.strip("\n").split("\n")
     return "\n".join("    | " + r for r in rows[-n:]) if text.strip() else "    | (no output)"
@@ -138,6 +234,13 @@ def run_file(rel, commands, args, root):
         except subprocess.TimeoutExpired as e:
             code = None
             output = (e.stdout or b"").decode("utf-8", "replace")
+        if code == 0 and c.expect == 0:
+            for out in named_outputs(c.text):
+                why = check_output(os.path.join(scratch, out), args.validators)
+                CHECKED.append(out)
+                if why:
+                    code = -1
+                    output += f"\noutput {out}: {why}"
         results.append((c, code, output, time.monotonic() - t0))
     return results
 
@@ -182,6 +285,9 @@ def main():
         print(f"{len(everything) - len(skipped)} to run, {len(skipped)} skipped")
         return 0
 
+    args.validators = load_validators(args.repo)
+    if args.validators is None:
+        print("doc_commands: no python3 jsonschema module: JSON outputs are parsed, not validated")
     root = os.path.abspath(args.workdir) if args.workdir else tempfile.mkdtemp(prefix="adit-doc-commands-")
     if args.workdir:
         shutil.rmtree(root, ignore_errors=True)
@@ -204,11 +310,13 @@ def main():
                     print(f"ok   {c.where()} ({secs:.1f} s, exit {code}): {c.text}")
                     continue
                 why = (f"timed out after {args.timeout * args.slowdown:.0f} s" if code is None
+                       else "an output it names is missing or does not parse" if code == -1
                        else f"exit {code}, the doc says {c.expect}")
                 print(f"FAIL {c.where()} ({why}): {c.text}\n{tail(output)}")
                 failed.append((c, why))
     print(f"doc_commands: {ran} commands run in {time.monotonic() - t0:.1f} s, {len(skipped)} skipped, "
-          f"{len(failed)} failed")
+          f"{len(failed)} failed; {len(CHECKED)} outputs they name checked "
+          f"({sum(o.endswith('.json') or '.' not in os.path.basename(o) for o in CHECKED)} JSON or campaign directories)")
     for c, why in sorted(failed, key=lambda x: (x[0].doc, x[0].line)):
         print(f"  {c.where()}: {why}: {c.text}")
     if failed or args.keep:
