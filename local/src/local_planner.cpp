@@ -789,7 +789,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
       escaping_ = true;
       escape_until_s_ = clock_s_ + P.monitor.escape_time_s;
       escape_axis_ = freeSideAxis(to_goal, nearest ? Vec3(nearest->point - q) : to_goal);
-      pursuit_escape_ = !ground_ && escapes_ == 1 && P.pursuit.enabled && P.pursuit.escape_run_m > 0.0 && !has_subgoal_ && n >= 2;
+      pursuit_escape_ = !ground_ && world_.field && escapes_ == 1 && P.pursuit.enabled && P.pursuit.escape_run_m > 0.0 && !has_subgoal_ && n >= 2;
       escape_from_progress_ = best_progress_;
       if (escapes_ % 2 == 0) escape_axis_ = -escape_axis_;  // every other attempt: the other side
     } else {
@@ -904,6 +904,11 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   // robot can still stop at the goal.
   Vec3 v_des;
   Vec3 steer_to = sub_goal;
+  // A pursuit escape whose line is blocked circulates from here on, and so ends at its first gain
+  // as a circulating escape does.
+  Vec3 escape_carrot = Vec3::Zero();
+  if (escaping_ && pursuit_escape_ && !manual && !terminal && !pursuitPoint(q, path, proj, &escape_carrot))
+    pursuit_escape_ = false;
   if (manual) {
     // The operator's set-point replaces the attraction; the repulsion (all of it, or only the
     // moving obstacles' for a pause) bends it as the field would.
@@ -915,8 +920,7 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     // Straight at the goal, bent by the (scaled) repulsion; an escape in progress rests, since its
     // virtual goal would lead away from a goal in sight.
     v_des = v_max * unitOr(goal - q, Vec3::Zero()) + v_max * repulsion_force / P.monitor.full_speed_force;
-  } else if (Vec3 escape_carrot = Vec3::Zero();
-             escaping_ && pursuit_escape_ && !terminal && pursuitPoint(q, path, proj, &escape_carrot)) {
+  } else if (escaping_ && pursuit_escape_ && !terminal) {
     // Along the path the global layer proved clear, at the circulating escape's speed, giving way
     // to movers; the envelope below still keeps the stopping run off rock.
     v_des = 0.6 * v_max * unitOr(Vec3(escape_carrot - q), Vec3::Zero()) + v_max * moving_force / P.monitor.full_speed_force;
