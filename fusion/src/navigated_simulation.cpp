@@ -316,10 +316,8 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
     res.outcome = Outcome::kTimeout;
     res.message = "t_max reached";
   }
-  // The last expected path was made at the last replan (the start's plan otherwise).
-  double path_made_at = 0.0;
-  for (const NavigatorEvent& e : out.events)
-    if (e.type == "replan") path_made_at = e.t_s;
+  // The last expected path was made at the last path change (the start's plan otherwise).
+  const double path_made_at = out.path_changes.empty() ? 0.0 : out.path_changes.back().t_s;
   res.end_cause = local::endCause(sc, res.outcome, res.final_goal_distance_m, path_made_at, out.final_path.length());
   if (observer) observer->finished(t, nav, state, res);
   out.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
