@@ -21,6 +21,21 @@
   key('ArrowLeft');
   key('ArrowLeft');
   check(attr('data-frame') === '99', 'the left arrow did not step back to frame 99');
+  // "routes ahead": the movers' routes after the frame shown, only while ticked.
+  var ahead = $('ahead');
+  if (ahead) {
+    var tc = $('tracks'), tctx = tc.getContext('2d');
+    var inked = function () {
+      var d = tctx.getImageData(0, 0, tc.width, tc.height).data;
+      for (var i = 3; i < d.length; i += 4) if (d[i]) return true;
+      return false;
+    };
+    check(!inked(), 'routes ahead were drawn before "routes ahead" was ticked');
+    ahead.click();
+    check(inked(), 'ticking "routes ahead" drew no route');
+    ahead.click();
+    check(!inked(), 'unticking "routes ahead" left the routes drawn');
+  }
   key('End');
   check(attr('data-frame') === last, 'End did not show the last frame');
   check(attr('data-playing') === '0', 'stepping did not pause');

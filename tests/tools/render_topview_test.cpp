@@ -10,6 +10,7 @@
 #include <octomap/OcTree.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -182,19 +183,93 @@ TEST_F(RenderTopViewTest, SliceAboveTheRoofShowsNoFreeSpace) {
   EXPECT_GT(occupied, 0);  // the shell above the roof is still drawn
 }
 
-TEST_F(RenderTopViewTest, SvgEmbedsTheRaster) {
+std::string readAll(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+/// The SVG's map group redrawn as pixels: the ground rectangle's colour, then each path's
+/// rectangles ("Mx yhWvHh-Wz") in their fill colour. Fails the test on anything else in the group.
+std::vector<std::uint32_t> svgMapPixels(const std::string& svg, const TopViewInfo& info) {
+  std::vector<std::uint32_t> px(static_cast<std::size_t>(info.map_width_px) * info.map_height_px, 0xFF000000u);
+  const std::size_t g0 = svg.find("<g id=\"map\"");
+  const std::size_t g1 = svg.find("</g>", g0);
+  if (g0 == std::string::npos || g1 == std::string::npos) {
+    ADD_FAILURE() << "no map group";
+    return px;
+  }
+  const std::string g = svg.substr(g0, g1 - g0);
+  auto fill = [&](int x, int y, int w, int h, std::uint32_t c) {
+    for (int r = y - info.map_top_px; r < y - info.map_top_px + h; ++r)
+      for (int i = x - info.map_left_px; i < x - info.map_left_px + w; ++i) {
+        if (r < 0 || i < 0 || r >= info.map_height_px || i >= info.map_width_px) {
+          ADD_FAILURE() << "a map rectangle outside the map area at " << i << "," << r;
+          return;
+        }
+        px[static_cast<std::size_t>(r) * info.map_width_px + i] = c;
+      }
+  };
+  int x, y, w, h;
+  unsigned c;
+  const std::size_t ground = g.find("<rect ");
+  EXPECT_EQ(std::sscanf(g.c_str() + ground, "<rect x=\"%d\" y=\"%d\" width=\"%d\" height=\"%d\" fill=\"#%6x\"", &x, &y,
+                        &w, &h, &c), 5);
+  fill(x, y, w, h, c);
+  for (std::size_t at = g.find("<path "); at != std::string::npos; at = g.find("<path ", at + 1)) {
+    EXPECT_EQ(std::sscanf(g.c_str() + at, "<path fill=\"#%6x\"", &c), 1);
+    std::size_t d = g.find("d=\"", at) + 3;
+    const std::size_t end = g.find('"', d);
+    while (d < end) {
+      int back = 0, n = 0;
+      if (std::sscanf(g.c_str() + d, "M%d %dh%dv%dh-%dz%n", &x, &y, &w, &h, &back, &n) != 5 || back != w || n == 0) {
+        ADD_FAILURE() << "not a rectangle: " << g.substr(d, 40);
+        return px;
+      }
+      fill(x, y, w, h, c);
+      d += static_cast<std::size_t>(n);
+    }
+  }
+  return px;
+}
+
+TEST_F(RenderTopViewTest, SvgIsVectorWithRealText) {
   TopViewOptions o;
-  o.title = "junction";
+  o.title = "junction <T> & branch";
   o.max_pixels = 300;
+  TopViewInfo png_info, svg_info;
+  ASSERT_TRUE(renderTopView(junction(), o, (dir_ / "top.png").string(), &png_info).ok());
   const fs::path out = dir_ / "top.SVG";  // extension is case-insensitive
-  ASSERT_TRUE(renderTopView(junction(), o, out.string()).ok());
-  std::ifstream in(out, std::ios::binary);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_TRUE(renderTopView(junction(), o, out.string(), &svg_info).ok());
+  ASSERT_EQ(svg_info.map_width_px, png_info.map_width_px);
+  ASSERT_EQ(svg_info.map_left_px, png_info.map_left_px);
+  const std::string text = readAll(out);
   ASSERT_GT(text.size(), 1000u);
-  EXPECT_TRUE(text.rfind("<?xml", 0) == 0 || text.rfind("<svg", 0) == 0) << text.substr(0, 80);
-  EXPECT_NE(text.find("<svg"), std::string::npos);
-  EXPECT_NE(text.find("data:image/png;base64"), std::string::npos);
+  EXPECT_EQ(text.rfind("<?xml", 0), 0u) << text.substr(0, 80);
   EXPECT_NE(text.find("</svg>"), std::string::npos);
+  // No embedded picture and no glyph outlines: the map is rectangles and the text is text.
+  EXPECT_EQ(text.find("data:image/png;base64"), std::string::npos);
+  EXPECT_EQ(text.find("glyph"), std::string::npos);
+  EXPECT_NE(text.find(">junction &lt;T&gt; &amp; branch</text>"), std::string::npos);
+  EXPECT_NE(text.find("<title>junction &lt;T&gt; &amp; branch</title>"), std::string::npos);
+  std::size_t texts = 0;
+  for (std::size_t at = text.find("<text "); at != std::string::npos; at = text.find("<text ", at + 1)) ++texts;
+  EXPECT_GE(texts, 10u) << "title, caption, axis ticks, legend";
+  EXPECT_NE(text.find("text-anchor=\"end\""), std::string::npos) << "the y axis' tick labels end at their tick";
+
+  // Pixel for pixel, the SVG's map is the PNG's.
+  const Picture png(dir_ / "top.png");
+  ASSERT_TRUE(png.ok());
+  const std::vector<std::uint32_t> svg_px = svgMapPixels(text, svg_info);
+  std::size_t differ = 0, free_px = 0;
+  for (int r = 0; r < svg_info.map_height_px; ++r)
+    for (int i = 0; i < svg_info.map_width_px; ++i) {
+      const std::uint32_t want = png.at(png_info.map_left_px + i, png_info.map_top_px + r);
+      differ += svg_px[static_cast<std::size_t>(r) * svg_info.map_width_px + i] != want;
+      free_px += want != kTopViewBackground;
+    }
+  EXPECT_EQ(differ, 0u);
+  EXPECT_EQ(free_px, svg_info.free_pixels);
+  EXPECT_GT(free_px, 100u);
 }
 
 TEST_F(RenderTopViewTest, ExplicitScaleIsUsed) {
@@ -390,10 +465,11 @@ TEST_F(FigureTest, OpenSpaceFigureTakesItsExtentFromTheOverlays) {
   ASSERT_TRUE(fig.render(out.string(), &info).ok());
   EXPECT_LE(info.x_min_m, 0.0);
   EXPECT_GE(info.y_max_m, 14.0);
-  std::ifstream in(out, std::ios::binary);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string text = readAll(out);
   EXPECT_NE(text.find("</svg>"), std::string::npos);
   EXPECT_EQ(text.find("data:image/png;base64"), std::string::npos);  // no raster without a map
+  EXPECT_EQ(text.find("<g id=\"map\""), std::string::npos);         // and no map layer
+  EXPECT_NE(text.find(">time [s]</text>"), std::string::npos);        // the colour bar's caption
 }
 
 TEST_F(FigureTest, ProfilePanelAddsItsHeight) {
@@ -494,6 +570,18 @@ TEST_F(RenderTopViewTest, CrowdedMarkerLabelsDoNotOverlap) {
     EXPECT_LT(info.labels, 14u) << "crowded markers share a label";
     EXPECT_GE(info.labels_merged, 2u);
     EXPECT_EQ(info.label_overlaps, 0u);
+    if (std::string(name) == "labels.svg") {  // the labels as haloed text, each once
+      const std::string svg = readAll(dir_ / name);
+      std::vector<std::string> haloed;
+      for (std::size_t at = svg.find("<text "); at != std::string::npos; at = svg.find("<text ", at + 1)) {
+        const std::size_t open_end = svg.find('>', at), close = svg.find("</text>", at);
+        if (svg.substr(at, open_end - at).find("paint-order=\"stroke\"") != std::string::npos)
+          haloed.push_back(svg.substr(open_end + 1, close - open_end - 1));
+      }
+      EXPECT_EQ(haloed.size(), info.labels);
+      for (const char* label : {"start", "goal", "A"})
+        EXPECT_EQ(std::count(haloed.begin(), haloed.end(), label), 1) << label;
+    }
     if (std::string(name) == "labels.png") {
       Picture pic(dir_ / name);
       ASSERT_TRUE(pic.ok());

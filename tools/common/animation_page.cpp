@@ -43,26 +43,6 @@ std::string fixed(double v, int decimals) {
   return buf;
 }
 
-}  // namespace
-
-std::string htmlEscape(const std::string& s) {
-  std::string out;
-  out.reserve(s.size());
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
-namespace {
-
 // RFC 4648 base64 for the data: URL. None of the project's libraries exposes an encoder (Cairo
 // writes PNG streams only), and this is the whole of it.
 std::string base64(const std::vector<unsigned char>& bytes) {
@@ -473,18 +453,25 @@ const char* kMainScript = R"JS(
     if (V.mw > 0 && V.mh > 0) ctx.rect(V.left, V.top, V.mw, V.mh); else ctx.rect(0, 0, V.w, V.h);
     ctx.clip();
   }
-  // The movers' whole tracks, past and future: drawn once per size.
-  function drawTracks() {
+  // The movers' routes still ahead of frame f, dashed, only when the viewer asks (the "ahead"
+  // box): a replay shows what had happened by t, and the robot never knew where a mover would go.
+  var aheadBox = $('ahead');
+  function drawTracks(f, u) {
     tracks.setTransform(1, 0, 0, 1, 0, 0);
     tracks.clearRect(0, 0, V.w, V.h);
+    if (!aheadBox || !aheadBox.checked || f < 0) return;
     tracks.save();
     clipToMap(tracks);
     tracks.lineCap = 'round'; tracks.lineJoin = 'round';
     tracks.setLineDash([6 * K, 5 * K]);
     tracks.lineWidth = 1.5 * K;
     movers.forEach(function (m) {
-      tracks.strokeStyle = rgba(m.colour, 0.75);
-      pathTo(tracks, m.c, m.r, m.keep, n - 1, m.c[n - 1], m.r[n - 1]);
+      tracks.strokeStyle = rgba(m.colour, 0.6);
+      tracks.beginPath();
+      tracks.moveTo(lerp(m.c, f, u), lerp(m.r, f, u));
+      for (var j = 0; j < m.keep.length; ++j) if (m.keep[j] > f) tracks.lineTo(m.c[m.keep[j]], m.r[m.keep[j]]);
+      tracks.lineTo(m.c[n - 1], m.r[n - 1]);
+      tracks.stroke();
     });
     tracks.restore();
   }
@@ -492,6 +479,7 @@ const char* kMainScript = R"JS(
   var TRAIL = D.trail_s, ROBOT_TRAIL = '#2E86DE', FADE_STEPS = 12;
   // Frame f, a fraction u of the way to frame f + 1 (playback moves smoothly between frames).
   function draw(f, u) {
+    drawTracks(f, u);
     live.clearRect(0, 0, V.w, V.h);
     live.save();
     clipToMap(live);
@@ -700,12 +688,12 @@ const char* kMainScript = R"JS(
     }
   })();
   measure();
-  drawTracks();
   window.addEventListener('resize', function () {
     var before = K;
     measure();
-    if (K !== before) { drawTracks(); if (frame >= 0) draw(frame, 0); }
+    if (K !== before && frame >= 0) draw(frame, 0);
   });
+  if (aheadBox) aheadBox.addEventListener('change', function () { if (frame >= 0) draw(frame, 0); });
 
   // Default speed: the smallest offered that plays the run in about half a minute.
   var duration = T[n - 1] - T[0], options = Array.prototype.slice.call(speedSel.options);
@@ -773,7 +761,11 @@ void appendStage(std::string& html, const std::vector<unsigned char>& png, const
   for (const char* s : {"0.25", "0.5", "1", "2", "5", "10", "20", "50", "100"}) {
     html += std::string("<option value=\"") + s + "\">" + s + "\xC3\x97</option>";
   }
-  html += "</select></label>\n</div>\n</section>\n";
+  html += "</select></label>\n";
+  if (!in.movers.empty())
+    html += "<label title=\"draw each moving obstacle's route still ahead, dashed (the robot did not know "
+            "it)\"><input id=\"ahead\" type=\"checkbox\"> routes ahead</label>\n";
+  html += "</div>\n</section>\n";
 }
 
 void appendClockAndRobot(std::string& html, const AnimationPageInput& in) {
@@ -859,8 +851,9 @@ void appendLegend(std::string& html, const AnimationPageInput& in,
             fixed(m.radius_m, 2) + " m</li>\n";
   }
   if (!in.movers.empty()) {
-    html += "<li><span class=\"sw line\" style=\"border-top-style:dashed;border-color:" +
-            cssColour(in.movers.front().colour) + "\"></span>obstacle track (whole run)</li>\n";
+    html += "<li><span class=\"sw line\" style=\"border-top-style:solid;border-color:" +
+            cssColour(in.movers.front().colour) + "\"></span>obstacle track so far; ticking \"routes ahead\" adds the "
+            "rest, dashed</li>\n";
   }
   html += "</ul><div class=\"statuses\">";
   for (const auto& [name, colour] : statuses) {

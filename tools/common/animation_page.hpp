@@ -51,6 +51,7 @@
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
 #include "common/figure.hpp"
+#include "common/markup.hpp"  // htmlEscape, for the page's callers too
 
 namespace adit::tools {
 
@@ -138,8 +139,5 @@ adit::StatusOr<std::string> animationPageHtml(const std::vector<unsigned char>& 
 adit::Status writeAnimationPageHtml(const std::vector<unsigned char>& png, const TopViewInfo& view,
                                     const AnimationPageInput& input, const std::string& path,
                                     AnimationPageInfo* info = nullptr);
-
-/// `s` with & < > " ' as HTML entities (for text and attribute values of generated pages).
-std::string htmlEscape(const std::string& s);
 
 }  // namespace adit::tools

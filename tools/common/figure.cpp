@@ -18,10 +18,12 @@
 #include <memory>
 #include <ostream>
 #include <sstream>
+#include <unordered_map>
 #include <vector>
 
 #include "adit/map/map_io.hpp"
 #include "common/label_layout.hpp"
+#include "common/markup.hpp"
 
 namespace adit::tools {
 namespace {
@@ -180,9 +182,33 @@ LineMetrics lineMetrics(cairo_t* cr, const Font& f) {
   return {e.ascent, e.descent};
 }
 
+/// Text kept aside while drawing an SVG, to be written as <text> elements (Cairo's SVG surface
+/// writes glyph outlines, which no one can search, select, translate or restyle).
+struct SvgText {
+  double x = 0, y = 0;  ///< device pixels; the baseline's start, middle or end (by `align`)
+  Font font;
+  std::uint32_t colour = 0;
+  double align = 0.0;
+  bool halo = false;
+  std::string text;
+};
+cairo_user_data_key_t kSvgTextKey;
+
+/// The SVG's text list when `cr` draws an SVG, else null.
+std::vector<SvgText>* svgTextSink(cairo_t* cr) {
+  return static_cast<std::vector<SvgText>*>(cairo_get_user_data(cr, &kSvgTextKey));
+}
+
+void keepSvgText(std::vector<SvgText>* sink, cairo_t* cr, const Font& f, std::uint32_t colour, const std::string& s,
+                 double x, double y, double align, bool halo) {
+  cairo_user_to_device(cr, &x, &y);
+  sink->push_back({x, y, f, colour, align, halo, s});
+}
+
 /// Draws `s` with its baseline at y; align 0 = left, 0.5 = centre, 1 = right of x.
 void drawText(cairo_t* cr, const Font& f, std::uint32_t colour, const std::string& s, double x, double y,
               double align = 0.0) {
+  if (std::vector<SvgText>* sink = svgTextSink(cr)) return keepSvgText(sink, cr, f, colour, s, x, y, align, false);
   useFont(cr, f);
   cairo_text_extents_t e;
   cairo_text_extents(cr, s.c_str(), &e);
@@ -895,6 +921,7 @@ void drawMarkerGlyph(cairo_t* cr, MarkerShape shape, std::uint32_t colour, doubl
 
 /// Text with a light halo, legible over any colour of the map.
 void drawHaloText(cairo_t* cr, const Font& f, const std::string& s, double x, double y) {
+  if (std::vector<SvgText>* sink = svgTextSink(cr)) return keepSvgText(sink, cr, f, kInk, s, x, y, 0.0, true);
   useFont(cr, f);
   cairo_move_to(cr, x, y);
   cairo_text_path(cr, s.c_str());
@@ -1217,6 +1244,118 @@ cairo_status_t writeToStream(void* closure, const unsigned char* data, unsigned 
   return os->good() ? CAIRO_STATUS_SUCCESS : CAIRO_STATUS_WRITE_ERROR;
 }
 
+// ---- SVG ------------------------------------------------------------------------------------------
+// An SVG is assembled from three layers: the map as vector rectangles (`<g id="map">`), Cairo's
+// drawing of the overlays and annotations with the map area left transparent (`<g id="drawing">`),
+// and the text as <text> elements (`<g id="text">`), so a surveyor can select, search and restyle
+// labels, and hide or recolour the map in an editor.
+
+std::string svgColour(std::uint32_t c) {
+  char b[8];
+  std::snprintf(b, sizeof b, "#%06X", static_cast<unsigned>(c & 0xFFFFFFu));
+  return b;
+}
+
+/// Device pixels to two decimals, trailing zeros dropped.
+std::string svgNumber(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f", v);
+  std::string t(b);
+  while (!t.empty() && t.back() == '0') t.pop_back();
+  if (!t.empty() && t.back() == '.') t.pop_back();
+  return t == "-0" ? "0" : t;
+}
+
+/// The raster (`w` x `h` pixels, 0x00RRGGBB) as rectangles at (left, top): runs of one colour in a
+/// row, merged with equal runs in the rows below; one path per colour over a rock-coloured ground.
+void appendMapLayer(std::string& out, const std::uint32_t* base, std::size_t stride, int w, int h, int left, int top) {
+  struct Rect {
+    int x, y, w, h;
+    std::uint32_t c;
+  };
+  std::vector<Rect> rects;
+  // (first column, end column, colour) of a run -> its rectangle in the row above
+  std::unordered_map<std::uint64_t, std::size_t> above, here;
+  const bool merge = w < (1 << 20);  // the key's room for columns
+  for (int r = 0; r < h; ++r) {
+    here.clear();
+    const std::uint32_t* row = base + static_cast<std::size_t>(r) * stride;
+    for (int i = 0; i < w;) {
+      const std::uint32_t c = row[i] & 0xFFFFFFu;
+      int j = i + 1;
+      while (j < w && (row[j] & 0xFFFFFFu) == c) ++j;
+      if (c != kTopViewBackground) {
+        const std::uint64_t key =
+            (static_cast<std::uint64_t>(i) << 44) | (static_cast<std::uint64_t>(j) << 24) | c;
+        const auto it = merge ? above.find(key) : above.end();
+        if (it != above.end()) {
+          ++rects[it->second].h;
+          here.emplace(key, it->second);
+        } else {
+          if (merge) here.emplace(key, rects.size());
+          rects.push_back({i, r, j - i, 1, c});
+        }
+      }
+      i = j;
+    }
+    above.swap(here);
+  }
+  std::stable_sort(rects.begin(), rects.end(), [](const Rect& a, const Rect& b) { return a.c < b.c; });
+  out += "<g id=\"map\" shape-rendering=\"crispEdges\">\n<rect x=\"" + std::to_string(left) + "\" y=\"" +
+         std::to_string(top) + "\" width=\"" + std::to_string(w) + "\" height=\"" + std::to_string(h) +
+         "\" fill=\"" + svgColour(kTopViewBackground) + "\"/>\n";
+  for (std::size_t k = 0; k < rects.size();) {
+    const std::uint32_t c = rects[k].c;
+    out += "<path fill=\"" + svgColour(c) + "\" d=\"";
+    for (; k < rects.size() && rects[k].c == c; ++k) {
+      const Rect& q = rects[k];
+      out += "M" + std::to_string(left + q.x) + " " + std::to_string(top + q.y) + "h" + std::to_string(q.w) + "v" +
+             std::to_string(q.h) + "h-" + std::to_string(q.w) + "z";
+    }
+    out += "\"/>\n";
+  }
+  out += "</g>\n";
+}
+
+void appendTextLayer(std::string& out, const std::vector<SvgText>& texts) {
+  // preserve: the captions space their parts with runs of blanks
+  out += "<g id=\"text\" font-family=\"sans-serif\" xml:space=\"preserve\">\n";
+  for (const SvgText& t : texts) {
+    out += "<text x=\"" + svgNumber(t.x) + "\" y=\"" + svgNumber(t.y) + "\" font-size=\"" + svgNumber(t.font.size) +
+           "\"";
+    if (t.font.bold) out += " font-weight=\"bold\"";
+    if (t.align >= 0.75) {
+      out += " text-anchor=\"end\"";
+    } else if (t.align >= 0.25) {
+      out += " text-anchor=\"middle\"";
+    }
+    out += " fill=\"" + svgColour(t.colour) + "\"";
+    if (t.halo) {
+      out += " stroke=\"" + svgColour(kPage) + "\" stroke-opacity=\"0.85\" stroke-width=\"" +
+             svgNumber(0.3 * t.font.size) + "\" stroke-linejoin=\"round\" paint-order=\"stroke\"";
+    }
+    out += ">" + htmlEscape(t.text) + "</text>\n";
+  }
+  out += "</g>\n";
+}
+
+/// The whole document: `drawing` is Cairo's SVG of everything but the map and the text.
+std::string assembleSvg(const Layout& L, const std::string& map_layer, const std::string& drawing,
+                        const std::vector<SvgText>& texts) {
+  const std::string w = std::to_string(L.width), h = std::to_string(L.height);
+  std::string out = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" +
+                    w + "\" height=\"" + h + "\" viewBox=\"0 0 " + w + " " + h + "\">\n<title>" +
+                    htmlEscape(L.title.empty() ? std::string("adit picture") : L.title) + "</title>\n";
+  out += map_layer;
+  const std::size_t root = drawing.find("<svg");
+  out += "<g id=\"drawing\">\n";
+  out += root == std::string::npos ? drawing : drawing.substr(root);
+  out += "</g>\n";
+  appendTextLayer(out, texts);
+  out += "</svg>\n";
+  return out;
+}
+
 Status validateOptions(const TopViewOptions& o) {
   auto bad = [](const char* field, double v, const char* rule) {
     std::ostringstream os;
@@ -1472,21 +1611,38 @@ Status Figure::draw(Output kind, const std::string& path, std::vector<unsigned c
     }
   } else {
     stage = "write the SVG";
-    written = map::writeFileAtomically(path, [&](std::ostream& os) {
-      SurfacePtr surface(cairo_svg_surface_create_for_stream(writeToStream, &os, L.width, L.height));
+    std::string map_layer;
+    if (raster) {
+      const std::size_t stride = cairo_image_surface_get_stride(raster.get()) / 4;
+      appendMapLayer(map_layer, reinterpret_cast<const std::uint32_t*>(cairo_image_surface_get_data(raster.get())),
+                     stride, std::min(L.mw, cairo_image_surface_get_width(raster.get())),
+                     std::min(L.mh, cairo_image_surface_get_height(raster.get())), L.map_left, L.map_top);
+    }
+    std::vector<SvgText> texts;
+    std::ostringstream drawing;
+    {
+      SurfacePtr surface(cairo_svg_surface_create_for_stream(writeToStream, &drawing, L.width, L.height));
       cst = cairo_surface_status(surface.get());
-      if (cst != CAIRO_STATUS_SUCCESS) return false;
-      cairo_svg_surface_set_document_unit(surface.get(), CAIRO_SVG_UNIT_PX);
-      {
-        ContextPtr cr(cairo_create(surface.get()));
-        fillPage(cr.get(), L, /*skip_map_area=*/false);
-        drawPicture(cr.get(), L, raster.get(), ov, counts);
-        cst = cairo_status(cr.get());
+      if (cst == CAIRO_STATUS_SUCCESS) {
+        cairo_svg_surface_set_document_unit(surface.get(), CAIRO_SVG_UNIT_PX);
+        {
+          ContextPtr cr(cairo_create(surface.get()));
+          cairo_set_user_data(cr.get(), &kSvgTextKey, &texts, nullptr);
+          fillPage(cr.get(), L, /*skip_map_area=*/map_ != nullptr);
+          drawPicture(cr.get(), L, nullptr, ov, counts);
+          cst = cairo_status(cr.get());
+        }
+        if (cst == CAIRO_STATUS_SUCCESS) {
+          cairo_surface_finish(surface.get());
+          cst = cairo_surface_status(surface.get());
+        }
       }
-      if (cst != CAIRO_STATUS_SUCCESS) return false;
-      cairo_surface_finish(surface.get());
-      cst = cairo_surface_status(surface.get());
-      return cst == CAIRO_STATUS_SUCCESS;
+    }
+    if (cst != CAIRO_STATUS_SUCCESS) return cairoFailure(name, stage, cst);
+    const std::string doc = assembleSvg(L, map_layer, drawing.str(), texts);
+    written = map::writeFileAtomically(path, [&](std::ostream& os) {
+      os.write(doc.data(), static_cast<std::streamsize>(doc.size()));
+      return os.good();
     });
   }
   // A stream failure is the writer's to explain; any other Cairo failure is ours.

@@ -118,7 +118,10 @@ class Figure {
   void addDisc(FigureDisc disc);
   void setProfile(SideProfile profile);
 
-  /// Writes `path` (.png or .svg, case-insensitive), atomically. Errors: invalid options or
+  /// Writes `path` (.png or .svg, case-insensitive), atomically. An SVG is vector throughout: the
+  /// map as rectangles, one path per colour (group `map`), the overlays and annotations (group
+  /// `drawing`), and every label, tick and legend line as a <text> element (group `text`).
+  /// Errors: invalid options or
   /// overlays (NaN coordinates, mismatched value counts), unknown extension, missing or
   /// unwritable directory, picture too large, nothing to draw (no map, no bounds, no overlays).
   adit::Status render(const std::string& path, TopViewInfo* info = nullptr) const;
