@@ -40,7 +40,7 @@ struct MapArgs {
   std::string path;
   std::string unknown = "rock";
   bool quiet = false;
-  std::string max_memory;  // empty: 2G (budgetOf), 4G for an import (runImportConvert)
+  std::string max_memory;  // empty: the machine's budget (budgetOf), 4G for an import (runImportConvert)
   std::string crop;
   bool no_cache = false;  // query and graph: --no-cache
 };
@@ -51,8 +51,8 @@ void addMapArgs(CLI::App* cmd, MapArgs* a) {
       ->check(CLI::IsMember({"rock", "free"}));
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
   cmd->add_option("--max-memory", a->max_memory,
-                  "Refuse work estimated to need more memory than this (e.g. 512M, 8G; default 2G, 4G for a "
-                  "scan or mesh import's working grid)");
+                  maxMemoryHelp("loading, the distance field, the roadway graph; 4G for a scan or mesh import's "
+                                "working grid"));
   cmd->add_option("--crop", a->crop,
                   "Only the part of the map inside xmin,ymin,zmin,xmax,ymax,zmax (metres); a survey is cut "
                   "before it is voxelized");
@@ -60,9 +60,8 @@ void addMapArgs(CLI::App* cmd, MapArgs* a) {
 
 // --max-memory as a budget (also used by the verbs for what they build after loading).
 StatusOr<MemoryBudget> budgetOf(const MapArgs& a) {
-  StatusOr<std::uint64_t> bytes = parseByteSize(a.max_memory.empty() ? std::string("2G") : a.max_memory);
-  if (!bytes.ok()) return invalidArgument("--max-memory: " + bytes.status().message());
-  return MemoryBudget{*bytes};
+  ADIT_ASSIGN_OR_RETURN(const std::uint64_t bytes, memoryBudgetOf(a.max_memory));
+  return MemoryBudget{bytes};
 }
 
 // Loads a map (for a survey, with its network) and ends the progress line.
@@ -398,7 +397,7 @@ int runGraph(const MapArgs& a, const GraphArgs& g) {
   }
   StatusOr<MemoryBudget> budget = budgetOf(a);
   if (!budget.ok()) return report(budget.status());
-  if (!a.max_memory.empty()) params.max_graph_memory_bytes = budget->max_bytes;
+  params.max_graph_memory_bytes = budget->max_bytes;
   ProgressBar bar(a.quiet);
   MapCacheReport cache_report;
   StatusOr<World> world = cachedWorld(a, bar, &cache_report);

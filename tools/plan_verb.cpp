@@ -31,7 +31,7 @@ using adit::global::GlobalPlanResult;
 
 struct PlanArgs {
   std::string map_path, start, goal, robot = "sphere:0.4", mode = "fly", planner = "bitstar";
-  std::string unknown = "rock", out, picture;
+  std::string unknown = "rock", out, picture, max_memory;
   double time_s = 2.0, margin = 0.2, clearance_weight = 0.05, max_slope = 15.0;
   int seed = 1, iterations = 1500;
   bool quiet = false, farthest_ends = false, refine = false, no_cache = false;
@@ -49,6 +49,7 @@ StatusOr<GlobalPlannerParams> paramsFrom(const PlanArgs& a) {
   p.safety_margin_m = a.margin;
   p.clearance_weight = a.clearance_weight;
   p.max_slope_deg = a.max_slope;
+  ADIT_ASSIGN_OR_RETURN(p.max_graph_memory_bytes, memoryBudgetOf(a.max_memory));
   ADIT_RETURN_IF_ERROR(p.validate());
   return p;
 }
@@ -107,7 +108,7 @@ int runPlan(const PlanArgs& a) {
   if (Status s = checkOutputPath(a.picture, "--picture"); !s.ok()) return report(s);
 
   phases.mark("arguments");
-  StatusOr<map::World> world = loadWorld(a.map_path, *policy, a.quiet, a.no_cache);
+  StatusOr<map::World> world = loadWorld(a.map_path, *policy, a.quiet, a.no_cache, params->max_graph_memory_bytes);
   if (!world.ok()) return report(world.status());
   phases.mark("map other");
   phases.splitWorld("map other", world->times());
@@ -206,6 +207,7 @@ void registerPlanVerb(CLI::App& app, int* rc) {
                 "the clearance penalty along the path, every segment re-validated;\n"
                 "the JSON gains \"before\" (unrefined length, clearances, path) and \"refine\"");
   cmd->add_flag("--no-cache", a->no_cache, "Build the map's octree and distance field afresh: neither read nor write the map cache");
+  cmd->add_option("--max-memory", a->max_memory, maxMemoryHelp("loading the map, its distance field and roadway graph"));
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
   cmd->callback([=] { *rc = runPlan(*a); });
 }

@@ -72,7 +72,7 @@ struct SimulateArgs {
   double live_speed = 1.0;
   double live_period = 0.1;
   double live_flush = 30.0;
-  std::string max_memory = "2G";
+  std::string max_memory;  // empty: the machine's budget
   bool live_hold = false;
   bool live_lockstep = false;
   std::string robot_id;
@@ -734,8 +734,8 @@ int run(const SimulateArgs& a) {
   // dt 0.1 reached 8.7 GB: 870 B a period, rounded up here).
   {
     constexpr double kRecordBytesPerPeriod = 1024.0;
-    StatusOr<std::uint64_t> budget = map::parseByteSize(a.max_memory);
-    if (!budget.ok()) return report(invalidArgument("--max-memory: " + budget.status().message()));
+    StatusOr<std::uint64_t> budget = memoryBudgetOf(a.max_memory);
+    if (!budget.ok()) return report(budget.status());
     const double periods = std::ceil(sc->t_max_s / sc->dt_s) + 1.0;
     char count[32];
     std::snprintf(count, sizeof count, "%.0f", periods);
@@ -755,7 +755,9 @@ int run(const SimulateArgs& a) {
   std::optional<map::World> world;
   StatusOr<Environment> env = Environment::openSpace();
   if (sc->map_path) {
-    StatusOr<map::World> w = loadWorld(*sc->map_path, map::UnknownPolicy::kRock, a.quiet, a.no_cache);
+    const StatusOr<std::uint64_t> budget = memoryBudgetOf(a.max_memory);  // checked above
+    StatusOr<map::World> w =
+        loadWorld(*sc->map_path, map::UnknownPolicy::kRock, a.quiet, a.no_cache, budget.ok() ? *budget : 0);
     if (!w.ok()) return report(w.status());
     world.emplace(std::move(w).value());
     env = Environment::borrow(*world);
@@ -998,8 +1000,7 @@ void registerSimulateVerb(CLI::App& app, int* rc) {
                 "With --live: after each period wait for the console's acknowledgement (at most --live-flush), so "
                 "a command answering a message acts in the next period");
   cmd->add_option("--max-memory", args->max_memory,
-                  "Refuse a run whose record (a trajectory sample per period) would need more than this "
-                  "(e.g. 512M, 8G; default 2G)");
+                  maxMemoryHelp("loading the map, and the run's record (a trajectory sample per period)"));
   cmd->add_option("--robot-id", args->robot_id, "With --live: the robot's id (default: the scenario file's stem)");
   cmd->add_option("--live-token-file", args->live_token_file,
                   "With --live: the robot's credential, a file whose first line is its token (from the console's "

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
+#include <unistd.h>
 #include <unordered_set>
 
 #include "adit/map/survey_network.hpp"
@@ -36,6 +37,14 @@ std::uint64_t tileKey(int bx, int by, int bz) {
 }
 
 }  // namespace
+
+std::uint64_t machineMemoryBudgetBytes() {
+  constexpr std::uint64_t kCap = std::uint64_t{8} << 30;
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+  if (pages <= 0 || page <= 0) return kDefaultMaxMemoryBytes;  // unknown: the library's default
+  const double three_quarters = 0.75 * double(pages) * double(page);
+  return std::clamp(std::uint64_t(three_quarters), kDefaultMaxMemoryBytes, kCap);
+}
 
 StatusOr<std::uint64_t> parseByteSize(const std::string& text) {
   const char* s = text.c_str();

@@ -121,6 +121,17 @@ TEST(ByteSize, ParsesUnitsAndRefusesNonsense) {
   EXPECT_EQ(formatBytes(100), "100 B");
 }
 
+TEST(ByteSize, TheMachineBudgetIsThreeQuartersOfItsMemoryBetween2And8GiB) {
+  const std::uint64_t budget = machineMemoryBudgetBytes();
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+  ASSERT_GT(pages, 0);
+  const double three_quarters = 0.75 * double(pages) * double(page);
+  EXPECT_GE(budget, kDefaultMaxMemoryBytes);
+  EXPECT_LE(budget, std::uint64_t{8} << 30);
+  if (three_quarters >= double(std::uint64_t{8} << 30)) EXPECT_EQ(budget, std::uint64_t{8} << 30);
+  else if (three_quarters >= double(kDefaultMaxMemoryBytes)) EXPECT_NEAR(double(budget), three_quarters, 1.0);
+}
+
 TEST(Box, ParsesSixFiniteValues) {
   const StatusOr<Aabb> b = parseBox("0,-1,2.5,10,1,3");
   ASSERT_TRUE(b.ok());

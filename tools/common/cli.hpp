@@ -7,6 +7,7 @@
 /// connected, or nothing found within the budget).
 
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -14,6 +15,7 @@
 #include <unistd.h>
 
 #include "adit/map/map_io.hpp"
+#include "adit/map/size_estimate.hpp"
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
 
@@ -92,6 +94,21 @@ inline adit::Status checkOutputPath(const std::string& path, const std::string& 
   if (::access(dir.c_str(), W_OK | X_OK) != 0)
     return adit::invalidArgument(flag + " " + path + ": cannot write in '" + dir + "': " + std::strerror(errno));
   return {};
+}
+
+/// --max-memory as bytes: the value given, or (empty) the machine's default budget
+/// (map::machineMemoryBudgetBytes). Errors name the flag.
+inline adit::StatusOr<std::uint64_t> memoryBudgetOf(const std::string& max_memory) {
+  if (max_memory.empty()) return adit::map::machineMemoryBudgetBytes();
+  adit::StatusOr<std::uint64_t> bytes = adit::map::parseByteSize(max_memory);
+  if (!bytes.ok()) return adit::invalidArgument("--max-memory: " + bytes.status().message());
+  return bytes;
+}
+
+/// --max-memory's help text, one wording for every verb; `what` says what the budget covers.
+inline std::string maxMemoryHelp(const std::string& what) {
+  return "Refuse work estimated to need more memory than this: " + what + " (e.g. 512M, 8G; default " +
+         adit::map::kMachineMemoryBudgetText + ")";
 }
 
 /// Flushes stdout and checks that everything printed on it arrived: results on a full disk,

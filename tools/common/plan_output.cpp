@@ -32,10 +32,12 @@ void logCacheReport(const map::World& world) {
   if (!r.write_error.empty()) std::fprintf(stderr, "map cache: not written: %s\n", r.write_error.c_str());
 }
 
-StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet, bool no_cache) {
+StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet, bool no_cache,
+                               std::uint64_t max_memory_bytes) {
   ProgressBar bar(quiet);
   map::WorldOptions options;
   options.load.unknown_policy = policy;
+  options.load.max_memory_bytes = max_memory_bytes ? max_memory_bytes : map::machineMemoryBudgetBytes();
   options.load.progress = bar.callback();
   options.cache = verbCacheOptions(no_cache);
   StatusOr<map::World> world = map::World::load(path, options);

@@ -21,7 +21,10 @@ namespace adit::tools {
 
 /// map::World::load with the progress bar on stderr (none when `quiet`), through the map cache
 /// unless `no_cache` (--no-cache) or ADIT_NO_MAP_CACHE; what the cache did is logged on stderr.
-StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet, bool no_cache = false);
+/// Loading refuses work estimated beyond `max_memory_bytes` (0: the machine's budget,
+/// map::machineMemoryBudgetBytes).
+StatusOr<map::World> loadWorld(const std::string& path, map::UnknownPolicy policy, bool quiet, bool no_cache = false,
+                               std::uint64_t max_memory_bytes = 0);
 
 /// WorldOptions::cache as the verbs use it: on unless `no_cache` or ADIT_NO_MAP_CACHE.
 map::MapCacheOptions verbCacheOptions(bool no_cache);

@@ -26,6 +26,13 @@ struct SurveyNetwork;
 /// needs 0.25 GB for a distance query; a larger map asks for more explicitly.
 constexpr std::uint64_t kDefaultMaxMemoryBytes = std::uint64_t{2} << 30;
 
+/// The command line's default budget: three quarters of this machine's physical memory, at most
+/// 8 GiB (a map of 10^8 voxels plans within it) and at least kDefaultMaxMemoryBytes. A whole
+/// 2 km x 1 km district needs about 3 GiB; a laptop's memory still refuses what would swap.
+std::uint64_t machineMemoryBudgetBytes();
+/// The same, as --max-memory's help says it.
+inline constexpr const char* kMachineMemoryBudgetText = "3/4 of this machine's memory, at most 8G";
+
 /// "4G", "512M", "800k", "1.5GiB", "123456" (bytes); binary units (k = 1024). Errors name the text.
 StatusOr<std::uint64_t> parseByteSize(const std::string& text);
 /// "3.2 GiB", "512.0 MiB", "800 B".
