@@ -637,36 +637,72 @@ bool LocalPlanner::pursuitPoint(const Vec3& q, const map::Polyline& path, const 
   return true;
 }
 
-StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& path, const map::MovingObstacle* moving,
-                               std::size_t moving_count, double dt) {
-  StepCommand cmd;
-  auto refuse = [&](const char* why) {
-    cmd.status = StepStatus::kRefused;
-    cmd.message = why;
-    return cmd;
-  };
+// ---- step(), one period in named steps ------------------------------------------------------------
+
+// One period's working values, handed from each named step of step() to the next. On the stack:
+// step() allocates nothing.
+struct LocalPlanner::Cycle {
+  Cycle(const RobotState& s, const map::Polyline& p, const map::MovingObstacle* m, std::size_t count, double period)
+      : state(s), path(p), moving(m), moving_count(count), dt(period), q(s.position), v(s.velocity),
+        a(s.acceleration), goal(p.points.back()), goal_distance((q - goal).norm()), n(p.points.size()) {}
+  const RobotState& state;
+  const map::Polyline& path;
+  const map::MovingObstacle* moving;
+  std::size_t moving_count;
+  double dt;
+  Vec3 q, v, a, goal;
+  double goal_distance;
+  std::size_t n;                  // the path's points
+  bool manual = false;            // the operator drives (setOverride)
+  // followPath()
+  Vec3 seg_a = Vec3::Zero(), seg_b = Vec3::Zero();  // the segment steered along
+  bool terminal = false;          // TerminalParams: the goal near and in sight
+  Vec3 sub_goal = Vec3::Zero();   // what the field steers at
+  // measureProgress()
+  Vec3 proj = Vec3::Zero();       // the robot's projection onto the segment
+  double progress = 0.0;          // path length still to go
+  // senseObstacles()
+  const ObstacleData* nearest = nullptr;
+  bool moving_closing = false;
+  Vec3 to_goal = Vec3::UnitX(), heading = Vec3::UnitX();
+  // fieldForce()
+  Vec3 force = Vec3::Zero(), moving_force = Vec3::Zero(), repulsion_force = Vec3::Zero();
+  // desiredVelocity() and after
+  Vec3 v_des = Vec3::Zero(), steer_to = Vec3::Zero(), wish = Vec3::Zero();
+  bool safety_override = false;   // giveWayToMovers() changed the set-point
+  Vec3 acc = Vec3::Zero(), v_cmd = Vec3::Zero();
+};
+
+const char* LocalPlanner::inputError(const RobotState& state, const map::Polyline& path,
+                                     const map::MovingObstacle* moving, std::size_t moving_count, double dt) const {
   if (!allFinite(state.position) || !allFinite(state.velocity) || !allFinite(state.acceleration) ||
       !std::isfinite(state.yaw) || !std::isfinite(state.yaw_rate))
-    return refuse("robot state is not finite");
-  if (!(dt > 0.0) || !std::isfinite(dt)) return refuse("dt must be finite and > 0");
-  if (path.points.empty()) return refuse("expected path is empty");
+    return "robot state is not finite";
+  if (!(dt > 0.0) || !std::isfinite(dt)) return "dt must be finite and > 0";
+  if (path.points.empty()) return "expected path is empty";
   for (const Vec3& p : path.points)
-    if (!allFinite(p)) return refuse("expected path has a non-finite point");
-  if (moving_count > 0 && !moving) return refuse("moving obstacles: null array");
-  if (has_subgoal_ && !allFinite(subgoal_)) return refuse("the caller's sub-goal is not finite");
-  if (has_override_ && !allFinite(override_velocity_)) return refuse("the operator's velocity is not finite");
+    if (!allFinite(p)) return "expected path has a non-finite point";
+  if (moving_count > 0 && !moving) return "moving obstacles: null array";
+  if (has_subgoal_ && !allFinite(subgoal_)) return "the caller's sub-goal is not finite";
+  if (has_override_ && !allFinite(override_velocity_)) return "the operator's velocity is not finite";
   for (std::size_t i = 0; i < moving_count; ++i) {
     const map::MovingObstacle& m = moving[i];
     if (!allFinite(m.position) || !allFinite(m.velocity) || !allFinite(m.acceleration) || !finiteShape(m.shape))
-      return refuse("a moving obstacle is not finite");
+      return "a moving obstacle is not finite";
   }
+  return nullptr;
+}
 
-  const LocalParams& P = params_;
-  const double v_max = P.robot.v_max_mps, a_max = P.robot.a_max_mps2;
-  const Vec3 q = state.position, v = state.velocity, a = state.acceleration;
-  const Vec3 goal = path.points.back();
-  clock_s_ += dt;
+StepCommand& LocalPlanner::brakeTo(const Cycle& c, StepStatus status, StepCommand& cmd) const {
+  const Vec3 acc = clampNorm(-c.v / c.dt, params_.robot.a_max_mps2);
+  cmd.acceleration = acc;
+  cmd.velocity = c.v + acc * c.dt;
+  if (ground_) cmd.forward_speed = cmd.velocity.dot(Vec3(std::cos(c.state.yaw), std::sin(c.state.yaw), 0.0));
+  cmd.status = status;
+  return cmd;
+}
 
+void LocalPlanner::restartOnNewPath(const map::Polyline& path) {
   // A different path (the caller replanned) restarts the sub-goal index and the monitor, and
   // clears a kStuck verdict.
   const std::uint64_t signature = pathSignature(path);
@@ -675,59 +711,46 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     path_size_ = path.points.size();
     path_signature_ = signature;
   }
+}
 
-  auto brake = [&](StepStatus status) {
-    const Vec3 acc = clampNorm(-v / dt, a_max);
-    cmd.acceleration = acc;
-    cmd.velocity = v + acc * dt;
-    if (ground_) cmd.forward_speed = cmd.velocity.dot(Vec3(std::cos(state.yaw), std::sin(state.yaw), 0.0));
-    cmd.status = status;
-    return cmd;
-  };
-  const double goal_distance = (q - goal).norm();
-  const bool manual = has_override_;
-  cmd.sub_goal = goal;
-  if (!manual && goal_distance <= P.monitor.arrival_tolerance_m) return brake(StepStatus::kArrived);
-  if (!manual && stuck_) {
-    cmd.message = "no progress after the escapes; replan";
-    cmd.escapes = escapes_;
-    return brake(StepStatus::kStuck);
-  }
-
+void LocalPlanner::followPath(Cycle& c) {
+  const LocalParams& P = params_;
   // Current segment and sub-goal: never move back along the path.
-  const std::size_t n = path.points.size();
-  Vec3 seg_a = goal, seg_b = goal;
-  if (n >= 2) {
+  c.seg_a = c.goal;
+  c.seg_b = c.goal;
+  if (c.n >= 2) {
     std::size_t nearest_seg = 0;
-    path.nearestPoint(q, &nearest_seg);
-    segment_ = std::min(std::max(segment_, nearest_seg), n - 2);
-    while (segment_ + 2 < n) {
-      const double to_break = (q - path.points[segment_ + 1]).norm();
+    c.path.nearestPoint(c.q, &nearest_seg);
+    segment_ = std::min(std::max(segment_, nearest_seg), c.n - 2);
+    while (segment_ + 2 < c.n) {
+      const double to_break = (c.q - c.path.points[segment_ + 1]).norm();
       if (to_break >= P.monitor.subgoal_switch_m) break;
       // Turning toward a break point behind the corner cuts the corner into the rib.
       if (P.envelope.sight_switch && to_break >= 0.5 * P.monitor.subgoal_switch_m &&
-          !goalInSight(q, path.points[segment_ + 2]))
+          !goalInSight(c.q, c.path.points[segment_ + 2]))
         break;
       ++segment_;
     }
-    seg_a = path.points[segment_];
-    seg_b = path.points[segment_ + 1];
+    c.seg_a = c.path.points[segment_];
+    c.seg_b = c.path.points[segment_ + 1];
   }
   // Terminal phase (TerminalParams): the goal near and in sight of the robot's sphere. Then it is
   // what the robot steers at, whatever the break point or the caller's sub-goal.
-  const bool terminal =
-      !manual && P.terminal.enabled && goal_distance <= P.terminal.range_m && goalInSight(q, goal);
+  c.terminal = !c.manual && P.terminal.enabled && c.goal_distance <= P.terminal.range_m && goalInSight(c.q, c.goal);
   // By hand, the goal-aware terms look where the operator drives.
-  const Vec3 toward_hand = override_velocity_.norm() > 1e-6 ? override_velocity_ : Vec3(1e-3 * unitOr(goal - q, Vec3::UnitX()));
-  const Vec3 sub_goal = manual ? Vec3(q + toward_hand) : terminal ? goal : has_subgoal_ ? subgoal_ : seg_b;
-  cmd.sub_goal = sub_goal;
+  const Vec3 toward_hand = override_velocity_.norm() > 1e-6 ? override_velocity_
+                                                            : Vec3(1e-3 * unitOr(c.goal - c.q, Vec3::UnitX()));
+  c.sub_goal = c.manual ? Vec3(c.q + toward_hand) : c.terminal ? c.goal : has_subgoal_ ? subgoal_ : c.seg_b;
+}
 
+void LocalPlanner::measureProgress(Cycle& c) {
+  const LocalParams& P = params_;
   // Progress: path length still to go from the projection onto the current segment, plus the
   // distance off the path. It only counts as progress when it beats the best so far.
-  const Vec3 proj = nearestOnSegment(q, seg_a, seg_b);
-  double progress = (proj - seg_b).norm() + (q - proj).norm();
-  for (std::size_t i = segment_ + 1; i + 1 < n; ++i) progress += (path.points[i + 1] - path.points[i]).norm();
-  if (manual) {
+  c.proj = nearestOnSegment(c.q, c.seg_a, c.seg_b);
+  c.progress = (c.proj - c.seg_b).norm() + (c.q - c.proj).norm();
+  for (std::size_t i = segment_ + 1; i + 1 < c.n; ++i) c.progress += (c.path.points[i + 1] - c.path.points[i]).norm();
+  if (c.manual) {
     // The monitor rests while the operator drives: it starts afresh when the override ends.
     best_progress_ = std::numeric_limits<double>::infinity();
     escapes_ = 0;
@@ -735,148 +758,161 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
   } else if (!std::isfinite(best_progress_)) {
     // A new path may point behind the robot: it cannot make progress before it has stopped,
     // so its stopping time is not held against it.
-    best_progress_ = progress;
-    last_improvement_s_ = clock_s_ + v.norm() / a_max;
-  } else if (progress < best_progress_ - P.monitor.min_progress_m) {
-    best_progress_ = progress;
+    best_progress_ = c.progress;
+    last_improvement_s_ = clock_s_ + c.v.norm() / P.robot.a_max_mps2;
+  } else if (c.progress < best_progress_ - P.monitor.min_progress_m) {
+    best_progress_ = c.progress;
     last_improvement_s_ = clock_s_;
     wait_credit_s_ = 0.0;
     // A pursuit escape runs on past the stall: ended at the first gain, it handed the robot back
     // to the field inside the gap that had stalled it.
-    if (!(escaping_ && pursuit_escape_ && progress > escape_from_progress_ - P.pursuit.escape_run_m)) {
+    if (!(escaping_ && pursuit_escape_ && c.progress > escape_from_progress_ - P.pursuit.escape_run_m)) {
       escapes_ = 0;
       escaping_ = false;
     }
   }
+}
 
-  gatherObstacles(q, v, a, moving, moving_count);
-  const ObstacleData* nearest = nullptr;
-  bool moving_closing = false;
+void LocalPlanner::senseObstacles(Cycle& c, StepCommand& cmd) {
+  gatherObstacles(c.q, c.v, c.a, c.moving, c.moving_count);
   for (const ObstacleData& o : obstacles_) {
-    if (!nearest || o.rho < nearest->rho) nearest = &o;
-    moving_closing = moving_closing || o.closing;
+    if (!c.nearest || o.rho < c.nearest->rho) c.nearest = &o;
+    c.moving_closing = c.moving_closing || o.closing;
   }
-  if (nearest) cmd.clearance_m = nearest->rho;
+  if (c.nearest) cmd.clearance_m = c.nearest->rho;
+  c.to_goal = unitOr(c.sub_goal - c.q, unitOr(c.goal - c.q, Vec3::UnitX()));
+  c.heading = unitOr(c.v, c.to_goal);
+}
 
-  const Vec3 to_goal = unitOr(sub_goal - q, unitOr(goal - q, Vec3::UnitX()));
-  const Vec3 heading = unitOr(v, to_goal);
+Vec3 LocalPlanner::freeSideAxis(const Vec3& q, const Vec3& dir, const Vec3& to_obstacle) const {
   // The side to pass an obstacle on: the UUV rotation direction (the turn is toward -d); with no
   // preferred side (head-on), the side where the obstacles are fewer and farther.
-  auto freeSideAxis = [&](const Vec3& dir, const Vec3& to_obstacle) {
-    Vec3 c = dir.cross(to_obstacle);
-    if (c.norm() > 1e-6 * std::max(1.0, to_obstacle.norm())) return Vec3(c.normalized());
-    Vec3 up = std::abs(dir.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
-    const Vec3 left = up.cross(dir).normalized();
-    double lean = 0.0;  // > 0: obstacles lean left
-    for (const ObstacleData& o : obstacles_) lean += (o.point - q).dot(left) / std::max(o.rho, 0.05);
-    // Axis +up circulates to the right of an obstacle ahead (see potential_terms.hpp).
-    return lean >= 0.0 ? up : Vec3(-up);
-  };
+  Vec3 c = dir.cross(to_obstacle);
+  if (c.norm() > 1e-6 * std::max(1.0, to_obstacle.norm())) return Vec3(c.normalized());
+  Vec3 up = std::abs(dir.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
+  const Vec3 left = up.cross(dir).normalized();
+  double lean = 0.0;  // > 0: obstacles lean left
+  for (const ObstacleData& o : obstacles_) lean += (o.point - q).dot(left) / std::max(o.rho, 0.05);
+  // Axis +up circulates to the right of an obstacle ahead (see potential_terms.hpp).
+  return lean >= 0.0 ? up : Vec3(-up);
+}
 
+bool LocalPlanner::watchForStall(Cycle& c, StepCommand& cmd) {
+  const LocalParams& P = params_;
   // Progress monitor: a window without a new best is a local minimum or an oscillation. Waiting
   // for a moving obstacle does not count against the robot.
-  if (!manual && moving_closing && wait_credit_s_ < P.monitor.max_wait_s) {
-    last_improvement_s_ += dt;
-    wait_credit_s_ += dt;
+  if (!c.manual && c.moving_closing && wait_credit_s_ < P.monitor.max_wait_s) {
+    last_improvement_s_ += c.dt;
+    wait_credit_s_ += c.dt;
   }
   if (escaping_ && clock_s_ >= escape_until_s_) {
     escaping_ = false;
     last_improvement_s_ = clock_s_;
   }
-  if (!manual && !escaping_ && clock_s_ - last_improvement_s_ > P.monitor.window_s) {
+  if (!c.manual && !escaping_ && clock_s_ - last_improvement_s_ > P.monitor.window_s) {
     if (P.monitor.escape && escapes_ < P.monitor.max_escapes) {
       ++escapes_;
       escaping_ = true;
       escape_until_s_ = clock_s_ + P.monitor.escape_time_s;
-      escape_axis_ = freeSideAxis(to_goal, nearest ? Vec3(nearest->point - q) : to_goal);
-      pursuit_escape_ = !ground_ && world_.field && escapes_ == 1 && P.pursuit.enabled && P.pursuit.escape_run_m > 0.0 && !has_subgoal_ && n >= 2;
+      escape_axis_ = freeSideAxis(c.q, c.to_goal, c.nearest ? Vec3(c.nearest->point - c.q) : c.to_goal);
+      pursuit_escape_ = !ground_ && world_.field && escapes_ == 1 && P.pursuit.enabled && P.pursuit.escape_run_m > 0.0 &&
+                        !has_subgoal_ && c.n >= 2;
       escape_from_progress_ = best_progress_;
       if (escapes_ % 2 == 0) escape_axis_ = -escape_axis_;  // every other attempt: the other side
     } else {
       stuck_ = true;
       cmd.message = P.monitor.escape ? "no progress after the escapes; replan" : "no progress (local minimum)";
       cmd.escapes = escapes_;
-      return brake(StepStatus::kStuck);
+      return true;
     }
   }
   cmd.escapes = escapes_;
+  return false;
+}
 
+TermValue LocalPlanner::repulsionOf(const ObstacleData& o, const Cycle& c, const Vec3& field_goal, double wang_rho0,
+                                    Vec3* no_potential) const {
+  const LocalParams& P = params_;
+  const Proximity prox{o.rho, o.grad, o.pivot};
+  switch (P.method) {
+    case Method::kClassic: return classicRepulsion(prox, P.classic.eta, P.classic.rho0_m);
+    case Method::kTian2016: return tianRepulsion(prox, o.v_rel, o.a_rel, P.tian2016);
+    case Method::kWang2014: {
+      const Wang2014Params& w = P.wang2014;
+      const double half_view = w.view_half_angle_deg * kPi / 180.0;
+      if (o.rho > wang_rho0 || !inFieldOfView(c.q, c.heading, o.point, w.view_range_m, half_view)) return {};
+      double delta = 1.0;
+      if (o.moving) {
+        const double v_ro = o.v_rel.dot(-o.grad);
+        delta = v_ro > kClosingSpeed ? w.approach_factor : v_ro < -kClosingSpeed ? w.recede_factor : 1.0;
+      }
+      const double f = fuzzyRepulsionGain(o.rho, bearing(c.heading, o.point - c.q), w.view_range_m, half_view);
+      return goalAwareRepulsion(prox, c.q, field_goal, w.K_2 * delta * f, wang_rho0, w.n, w.goal_factor_cap_m);
+    }
+    case Method::kVff:
+    case Method::kCvff:
+      if (P.vff.compound) *no_potential += cvffVelocityRepulsion(prox, o.v_rel, P.vff.M_v, P.vff.p0_m);
+      return vffRepulsion(prox, P.vff.M_p, P.vff.p0_m);
+    case Method::kUuv: {
+      const TermValue rep = goalAwareRepulsion(prox, c.q, field_goal, P.uuv.k_rep, P.uuv.rho0_m, 2.0, P.uuv.goal_factor_cap_m);
+      const Vec3 b = o.point - c.q;
+      if (rep.dq.norm() > 0.0 && b.dot(c.heading) > 0.0) {
+        // Turn the velocity toward the free side: -d, d = (a x b) x a.
+        Vec3 side = rotationSide(c.heading, b);
+        if (side.norm() <= 0.0) side = freeSideAxis(c.q, c.heading, b).cross(c.heading).cross(c.heading);
+        *no_potential -= P.uuv.rotation_gain * rep.dq.norm() * unitOr(side, Vec3::Zero());
+      }
+      return rep;
+    }
+  }
+  return {};
+}
+
+bool LocalPlanner::fieldForce(Cycle& c, StepCommand& cmd) const {
+  const LocalParams& P = params_;
+  const Vec3 q = c.q;
   // Toward a break point of the path (not the goal) the field's goal-distance terms see the goal
   // where the path's remaining length puts it, along the same bearing: a break point is not where
   // the robot stops, and an attraction that fades as it nears (Tian 2016's k_q rho_g^s gives
   // 0.1 m/s at 1 m) crawled into every corner (tian2016 took 37 s for an 11 m path round a T).
-  Vec3 field_goal = sub_goal;
-  if (!manual && !terminal && !has_subgoal_ && P.terminal.pull_to_go && segment_ + 2 < n) {
-    const double d = (sub_goal - q).norm();
-    if (d > 1e-9 && progress > d) field_goal = q + (sub_goal - q) * (progress / d);
+  Vec3 field_goal = c.sub_goal;
+  if (!c.manual && !c.terminal && !has_subgoal_ && P.terminal.pull_to_go && segment_ + 2 < c.n) {
+    const double d = (c.sub_goal - q).norm();
+    if (d > 1e-9 && c.progress > d) field_goal = q + (c.sub_goal - q) * (c.progress / d);
   }
   // The field of the selected model: attraction, then each obstacle's repulsion (a potential
   // term plus, for CVFF and UUV, forces the papers define without one).
   TermValue total;
   Vec3 extra = Vec3::Zero();
-  if (!manual) switch (P.method) {
+  if (!c.manual) switch (P.method) {
     case Method::kClassic: total += classicAttraction(q, field_goal, P.classic.xi); break;
-    case Method::kTian2016: total += tianAttraction(q, v, a, field_goal, seg_a, seg_b, P.tian2016); break;
+    case Method::kTian2016: total += tianAttraction(q, c.v, c.a, field_goal, c.seg_a, c.seg_b, P.tian2016); break;
     case Method::kWang2014: total += classicAttraction(q, field_goal, P.wang2014.k_att); break;
     case Method::kVff:
     case Method::kCvff:
       total += cvffAttraction(q, field_goal, P.vff.K_p);
-      if (P.vff.compound) extra += cvffVelocityAttraction(v, P.vff.K_v, v_max);
+      if (P.vff.compound) extra += cvffVelocityAttraction(c.v, P.vff.K_v, P.robot.v_max_mps);
       break;
     case Method::kUuv: total += boundedAttraction(q, field_goal, P.uuv.k_att, P.uuv.conic_distance_m); break;
   }
-  const double half_view = P.wang2014.view_half_angle_deg * kPi / 180.0;
   const double wang_rho0 = shrinkingInfluenceRange((q - field_goal).norm(), P.wang2014.sensing_radius_m);
-  auto repulsion = [&](const ObstacleData& o, Vec3* no_potential) -> TermValue {
-    const Proximity prox{o.rho, o.grad, o.pivot};
-    switch (P.method) {
-      case Method::kClassic: return classicRepulsion(prox, P.classic.eta, P.classic.rho0_m);
-      case Method::kTian2016: return tianRepulsion(prox, o.v_rel, o.a_rel, P.tian2016);
-      case Method::kWang2014: {
-        const Wang2014Params& w = P.wang2014;
-        if (o.rho > wang_rho0 || !inFieldOfView(q, heading, o.point, w.view_range_m, half_view)) return {};
-        double delta = 1.0;
-        if (o.moving) {
-          const double v_ro = o.v_rel.dot(-o.grad);
-          delta = v_ro > kClosingSpeed ? w.approach_factor : v_ro < -kClosingSpeed ? w.recede_factor : 1.0;
-        }
-        const double f = fuzzyRepulsionGain(o.rho, bearing(heading, o.point - q), w.view_range_m, half_view);
-        return goalAwareRepulsion(prox, q, field_goal, w.K_2 * delta * f, wang_rho0, w.n, w.goal_factor_cap_m);
-      }
-      case Method::kVff:
-      case Method::kCvff:
-        if (P.vff.compound) *no_potential += cvffVelocityRepulsion(prox, o.v_rel, P.vff.M_v, P.vff.p0_m);
-        return vffRepulsion(prox, P.vff.M_p, P.vff.p0_m);
-      case Method::kUuv: {
-        const TermValue rep = goalAwareRepulsion(prox, q, field_goal, P.uuv.k_rep, P.uuv.rho0_m, 2.0, P.uuv.goal_factor_cap_m);
-        const Vec3 b = o.point - q;
-        if (rep.dq.norm() > 0.0 && b.dot(heading) > 0.0) {
-          // Turn the velocity toward the free side: -d, d = (a x b) x a.
-          Vec3 side = rotationSide(heading, b);
-          if (side.norm() <= 0.0) side = freeSideAxis(heading, b).cross(heading).cross(heading);
-          *no_potential -= P.uuv.rotation_gain * rep.dq.norm() * unitOr(side, Vec3::Zero());
-        }
-        return rep;
-      }
-    }
-    return {};
-  };
   // In the terminal phase the static repulsion U becomes s U with Ge & Cui's factor
   // s = min(1, (rho_g / R)^n): zero at the goal, so the goal is the minimum of the whole field
   // however near rock it lies. Its gradient s dU + U ds; U ds pulls toward the goal (Wang 2014's
   // F_rep2). Forces without a potential are scaled alike. Moving obstacles keep their repulsion.
   double goal_factor = 1.0;
   Vec3 goal_factor_grad = Vec3::Zero();
-  if (terminal && goal_distance < P.terminal.range_m) {
+  if (c.terminal && c.goal_distance < P.terminal.range_m) {
     const double R = P.terminal.range_m, e = P.terminal.n;
-    goal_factor = std::pow(goal_distance / R, e);
-    if (goal_distance > 1e-9) goal_factor_grad = (e / R) * std::pow(goal_distance / R, e - 1.0) * ((q - goal) / goal_distance);
+    goal_factor = std::pow(c.goal_distance / R, e);
+    if (c.goal_distance > 1e-9)
+      goal_factor_grad = (e / R) * std::pow(c.goal_distance / R, e - 1.0) * ((q - c.goal) / c.goal_distance);
   }
-  Vec3 moving_force = Vec3::Zero();  // kept apart: escapes still give way to moving obstacles
-  Vec3 repulsion_force = Vec3::Zero();  // every obstacle's, as applied (the terminal phase's seek adds it)
+  // Moving obstacles' repulsion is kept apart (escapes still give way to them), and so is every
+  // obstacle's as applied (the terminal phase's seek adds it).
   for (const ObstacleData& o : obstacles_) {
     Vec3 no_potential = Vec3::Zero();
-    TermValue rep = repulsion(o, &no_potential);
+    TermValue rep = repulsionOf(o, c, field_goal, wang_rho0, &no_potential);
     if (!o.moving && goal_factor < 1.0) {
       const double u = rep.u;
       rep.u *= goal_factor;
@@ -887,137 +923,151 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
     }
     total += rep;
     extra += no_potential;
-    repulsion_force += rep.force() + no_potential;
-    if (o.moving) moving_force += rep.force() + no_potential;
+    c.repulsion_force += rep.force() + no_potential;
+    if (o.moving) c.moving_force += rep.force() + no_potential;
   }
   cmd.potential = total.u;
-  Vec3 force = total.force() + extra;
+  c.force = total.force() + extra;
   if (ground_) {
     // A ground robot moves in the floor's plane: what the field asks of z is the floor's to give.
-    force.z() = 0.0;
-    moving_force.z() = 0.0;
-    repulsion_force.z() = 0.0;
+    c.force.z() = 0.0;
+    c.moving_force.z() = 0.0;
+    c.repulsion_force.z() = 0.0;
   }
-  if (!allFinite(force) || !allFinite(moving_force)) return refuse("internal: non-finite force");
+  return allFinite(c.force) && allFinite(c.moving_force);
+}
 
-  // Desired velocity: along the force (or round the obstacle when escaping), no faster than the
-  // robot can still stop at the goal.
+void LocalPlanner::desiredVelocity(Cycle& c) {
+  const LocalParams& P = params_;
+  const double v_max = P.robot.v_max_mps, a_max = P.robot.a_max_mps2;
+  const Vec3 q = c.q;
+  const double full = P.monitor.full_speed_force;
+  // Along the force (or round the obstacle when escaping), no faster than the robot can still
+  // stop at the goal.
   Vec3 v_des;
-  Vec3 steer_to = sub_goal;
+  c.steer_to = c.sub_goal;
   // A pursuit escape whose line is blocked circulates from here on, and so ends at its first gain
   // as a circulating escape does.
   Vec3 escape_carrot = Vec3::Zero();
-  if (escaping_ && pursuit_escape_ && !manual && !terminal && !pursuitPoint(q, path, proj, &escape_carrot))
+  if (escaping_ && pursuit_escape_ && !c.manual && !c.terminal && !pursuitPoint(q, c.path, c.proj, &escape_carrot))
     pursuit_escape_ = false;
-  if (manual) {
+  if (c.manual) {
     // The operator's set-point replaces the attraction; the repulsion (all of it, or only the
     // moving obstacles' for a pause) bends it as the field would.
-    const Vec3 push = override_rock_ ? force : moving_force;
-    v_des = override_velocity_ + v_max * push / P.monitor.full_speed_force;
-    v_des = capTowardRock(q, v_des, dt);  // pushed or driven, never into rock
-    steer_to = sub_goal;
-  } else if (terminal && P.terminal.seek) {
+    const Vec3 push = override_rock_ ? c.force : c.moving_force;
+    v_des = override_velocity_ + v_max * push / full;
+    v_des = capTowardRock(q, v_des, c.dt);  // pushed or driven, never into rock
+  } else if (c.terminal && P.terminal.seek) {
     // Straight at the goal, bent by the (scaled) repulsion; an escape in progress rests, since its
     // virtual goal would lead away from a goal in sight.
-    v_des = v_max * unitOr(goal - q, Vec3::Zero()) + v_max * repulsion_force / P.monitor.full_speed_force;
-  } else if (escaping_ && pursuit_escape_ && !terminal) {
+    v_des = v_max * unitOr(c.goal - q, Vec3::Zero()) + v_max * c.repulsion_force / full;
+  } else if (escaping_ && pursuit_escape_ && !c.terminal) {
     // Along the path the global layer proved clear, at the circulating escape's speed, giving way
     // to movers; the envelope below still keeps the stopping run off rock.
-    v_des = 0.6 * v_max * unitOr(Vec3(escape_carrot - q), Vec3::Zero()) + v_max * moving_force / P.monitor.full_speed_force;
-    steer_to = escape_carrot;
-  } else if (escaping_ && !terminal) {
+    v_des = 0.6 * v_max * unitOr(Vec3(escape_carrot - q), Vec3::Zero()) + v_max * c.moving_force / full;
+    c.steer_to = escape_carrot;
+  } else if (escaping_ && !c.terminal) {
     // Virtual sub-goal on the chosen side: circulate about the escape axis round the nearest
     // obstacle, holding about half a metre from its surface.
     const ObstacleData* wall = nullptr;  // the static obstacle being followed
     for (const ObstacleData& o : obstacles_)
       if (!o.moving && (!wall || o.rho < wall->rho)) wall = &o;
-    const Vec3 g = wall ? wall->grad : Vec3(-to_goal);
+    const Vec3 g = wall ? wall->grad : Vec3(-c.to_goal);
     const double rho = wall ? wall->rho : 1.0;
-    Vec3 tangent = unitOr(escape_axis_.cross(g), to_goal);
+    Vec3 tangent = unitOr(escape_axis_.cross(g), c.to_goal);
     const Vec3 dir = unitOr(tangent + std::clamp(0.5 - rho, -1.0, 1.0) * g, tangent);
-    steer_to = q + P.monitor.virtual_goal_offset_m * dir;
-    v_des = 0.6 * v_max * dir + v_max * moving_force / P.monitor.full_speed_force;
+    c.steer_to = q + P.monitor.virtual_goal_offset_m * dir;
+    v_des = 0.6 * v_max * dir + v_max * c.moving_force / full;
   } else if (Vec3 carrot = Vec3::Zero();
-             ground_ && P.pursuit.enabled && !has_subgoal_ && n >= 2 && pursuitPoint(q, path, proj, &carrot) &&
+             ground_ && P.pursuit.enabled && !has_subgoal_ && c.n >= 2 && pursuitPoint(q, c.path, c.proj, &carrot) &&
              // A car-like robot cannot turn about on the spot: a point behind it is the field's
              // (which backs and fills), not a pursuit's.
              (P.robot.drive != DriveType::kAckermann ||
-              (carrot - q).dot(Vec3(std::cos(state.yaw), std::sin(state.yaw), 0.0)) > 0.0)) {
+              (carrot - q).dot(Vec3(std::cos(c.state.yaw), std::sin(c.state.yaw), 0.0)) > 0.0)) {
     // The path ahead is clear (PursuitParams): along it, giving way to movers as an escape does,
     // slow enough at the next break point to turn there rather than overshoot it (as regulated
     // pure pursuit slows for curvature): the turn's cosine of full speed, braking at a_max / 2.
     double speed = v_max;
-    if (segment_ + 2 < n) {
-      const Vec3 in = path.points[segment_ + 1] - path.points[segment_];
-      const Vec3 out = path.points[segment_ + 2] - path.points[segment_ + 1];
+    if (segment_ + 2 < c.n) {
+      const Vec3 in = c.path.points[segment_ + 1] - c.path.points[segment_];
+      const Vec3 out = c.path.points[segment_ + 2] - c.path.points[segment_ + 1];
       if (in.norm() > 1e-9 && out.norm() > 1e-9) {
         const double turn = std::clamp(in.dot(out) / (in.norm() * out.norm()), 0.15, 1.0) * v_max;
-        speed = std::min(v_max, std::sqrt(turn * turn + a_max * (path.points[segment_ + 1] - q).norm()));
+        speed = std::min(v_max, std::sqrt(turn * turn + a_max * (c.path.points[segment_ + 1] - q).norm()));
       }
     }
-    v_des = speed * unitOr(Vec3(carrot - q), Vec3::Zero()) + v_max * moving_force / P.monitor.full_speed_force;
-    steer_to = carrot;
+    v_des = speed * unitOr(Vec3(carrot - q), Vec3::Zero()) + v_max * c.moving_force / full;
+    c.steer_to = carrot;
   } else {
-    const double fn = force.norm();
-    const double speed = v_max * std::min(1.0, fn / P.monitor.full_speed_force);
-    v_des = fn > 1e-12 ? Vec3(force * (speed / fn)) : Vec3::Zero();
+    const double fn = c.force.norm();
+    const double speed = v_max * std::min(1.0, fn / full);
+    v_des = fn > 1e-12 ? Vec3(c.force * (speed / fn)) : Vec3::Zero();
   }
   if (ground_) v_des.z() = 0.0;
-  const double stop_speed = manual ? v_max : std::sqrt(2.0 * a_max * 0.8 * goal_distance);
-  v_des = clampNorm(v_des, std::min(v_max, stop_speed));
-  bool safety_override = false;
+  const double stop_speed = c.manual ? v_max : std::sqrt(2.0 * a_max * 0.8 * c.goal_distance);
+  c.v_des = clampNorm(v_des, std::min(v_max, stop_speed));
+}
+
+void LocalPlanner::giveWayToMovers(Cycle& c) {
+  const LocalParams& P = params_;
+  const double v_max = P.robot.v_max_mps, a_max = P.robot.a_max_mps2;
   // Only obstacles that can reach the robot within the safety horizon take part in the check.
   reachable_.clear();
   if (P.monitor.safety_horizon_s > 0.0) {
     const double T = P.monitor.safety_horizon_s;
-    const double robot_reach = std::max(v.norm(), v_max) * T + 0.5 * a_max * T * T;
-    for (std::size_t i = 0; i < moving_count && reachable_.size() < reachable_.capacity(); ++i) {
-      const map::MovingObstacle& m = moving[i];
+    const double robot_reach = std::max(c.v.norm(), v_max) * T + 0.5 * a_max * T * T;
+    for (std::size_t i = 0; i < c.moving_count && reachable_.size() < reachable_.capacity(); ++i) {
+      const map::MovingObstacle& m = c.moving[i];
       const double reach = robot_reach + m.velocity.norm() * T + 0.5 * m.acceleration.norm() * T * T;
-      if ((q - m.position).norm() - m.shape.boundingRadius() - P.robot.radius_m <= reach + 0.1) reachable_.push_back(i);
+      if ((c.q - m.position).norm() - m.shape.boundingRadius() - P.robot.radius_m <= reach + 0.1) reachable_.push_back(i);
     }
     // More than the buffer holds: check them all rather than miss one.
-    if (reachable_.size() == reachable_.capacity() && moving_count > reachable_.size()) {
+    if (reachable_.size() == reachable_.capacity() && c.moving_count > reachable_.size()) {
       reachable_.clear();
-      for (std::size_t i = 0; i < std::min(moving_count, reachable_.capacity()); ++i) reachable_.push_back(i);
+      for (std::size_t i = 0; i < std::min(c.moving_count, reachable_.capacity()); ++i) reachable_.push_back(i);
     }
   }
-  if (!reachable_.empty() && P.monitor.safety_horizon_s > 0.0) {
-    // Last line of defence against moving obstacles: the field's velocity must not lead into one
-    // within the horizon (the robot turning toward it at a_max and holding it, the obstacles under
-    // constant acceleration). Otherwise the first clear of: brake, either side, back off; if none
-    // is clear, the one that keeps the most room.
-    const double score_des = encounterMargin(q, v, v_des, moving);
-    if (score_des < 0.0) {
-      const Vec3 up = std::abs(heading.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
-      const Vec3 left = up.cross(heading).normalized();
-      const Vec3 candidates[4] = {Vec3::Zero(), 0.6 * v_max * left, -0.6 * v_max * left, -0.5 * v_max * heading};
-      Vec3 best = v_des;
-      double best_score = score_des;
-      for (const Vec3& c : candidates) {
-        const double sc = encounterMargin(q, v, c, moving);
-        if (sc > best_score + 1e-9) {
-          best = c;
-          best_score = sc;
-        }
-        if (sc >= 0.0) break;
-      }
-      safety_override = best != v_des;
-      v_des = best;
+  if (reachable_.empty() || !(P.monitor.safety_horizon_s > 0.0)) return;
+  // Last line of defence against moving obstacles: the field's velocity must not lead into one
+  // within the horizon (the robot turning toward it at a_max and holding it, the obstacles under
+  // constant acceleration). Otherwise the first clear of: brake, either side, back off; if none
+  // is clear, the one that keeps the most room.
+  const double score_des = encounterMargin(c.q, c.v, c.v_des, c.moving);
+  if (score_des >= 0.0) return;
+  const Vec3 up = std::abs(c.heading.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
+  const Vec3 left = up.cross(c.heading).normalized();
+  const Vec3 candidates[4] = {Vec3::Zero(), 0.6 * v_max * left, -0.6 * v_max * left, -0.5 * v_max * c.heading};
+  Vec3 best = c.v_des;
+  double best_score = score_des;
+  for (const Vec3& cand : candidates) {
+    const double sc = encounterMargin(c.q, c.v, cand, c.moving);
+    if (sc > best_score + 1e-9) {
+      best = cand;
+      best_score = sc;
     }
+    if (sc >= 0.0) break;
   }
+  c.safety_override = best != c.v_des;
+  c.v_des = best;
+}
+
+void LocalPlanner::applyEnvelope(Cycle& c) {
+  const LocalParams& P = params_;
+  const double v_max = P.robot.v_max_mps, a_max = P.robot.a_max_mps2, dt = c.dt;
+  const Vec3 q = c.q, v = c.v;
   if (ground_) {
     // Along the floor: the stopping runs below then follow a ramp rather than run into it.
-    v_des.z() = 0.0;
-    const double h = v_des.norm();
-    if (h > 1e-9) v_des.z() = slopeAhead(q, v_des / h) * h;
+    c.v_des.z() = 0.0;
+    const double h = c.v_des.norm();
+    if (h > 1e-9) c.v_des.z() = slopeAhead(q, c.v_des / h) * h;
   }
   // The safety envelope (EnvelopeParams): whatever the field, the escape or the safety check
   // asked for, the speed toward rock and movers stays what still stops the robot short of them.
   // Off, the terminal phase still caps toward rock: its goal is near rock by design.
-  const Vec3 wish = v_des;  // before the envelope: where a drive that must stop may still face
-  if (P.envelope.enabled) v_des = capTowardRock(q, v_des, dt, moving, moving_count);
-  else if (terminal) v_des = capTowardRock(q, v_des, dt);
+  c.wish = c.v_des;  // before the envelope: where a drive that must stop may still face
+  if (P.envelope.enabled) c.v_des = capTowardRock(q, c.v_des, dt, c.moving, c.moving_count);
+  else if (c.terminal) c.v_des = capTowardRock(q, c.v_des, dt);
+  const Vec3 v_des = c.v_des;
   Vec3 acc = clampNorm((v_des - v) / dt, a_max);
   if (P.envelope.enabled && world_.field) {
     // Braking toward the nearest rock first: the barrier above assumed all of a_max for it, and
@@ -1071,25 +1121,62 @@ StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& pat
       v_cmd = v + acc * dt;
     }
   }
-  if (!allFinite(v_cmd) || !allFinite(acc)) return refuse("internal: non-finite command");
-  cmd.velocity = v_cmd;
-  cmd.acceleration = acc;
+  c.acc = acc;
+  c.v_cmd = v_cmd;
+}
+
+StepStatus LocalPlanner::statusOf(const Cycle& c) const {
+  const double v_max = params_.robot.v_max_mps;
+  const double along = c.v_cmd.dot(c.to_goal);
+  if (c.safety_override) return StepStatus::kYielding;
+  if (c.manual) return StepStatus::kFollowing;
+  if (escaping_ && !c.terminal) return StepStatus::kDetouring;
+  if (c.moving_closing && along < 0.5 * v_max) return StepStatus::kYielding;
+  if (c.nearest && c.v_cmd.norm() > 1e-3 && along < std::cos(30.0 * kPi / 180.0) * c.v_cmd.norm())
+    return StepStatus::kDetouring;
+  return StepStatus::kFollowing;
+}
+
+StepCommand LocalPlanner::step(const RobotState& state, const map::Polyline& path, const map::MovingObstacle* moving,
+                               std::size_t moving_count, double dt) {
+  StepCommand cmd;
+  auto refuse = [&](const char* why) {
+    cmd.status = StepStatus::kRefused;
+    cmd.message = why;
+    return cmd;
+  };
+  if (const char* why = inputError(state, path, moving, moving_count, dt)) return refuse(why);
+  Cycle c(state, path, moving, moving_count, dt);
+  clock_s_ += dt;
+  restartOnNewPath(path);
+  c.manual = has_override_;
+  cmd.sub_goal = c.goal;
+  if (!c.manual && c.goal_distance <= params_.monitor.arrival_tolerance_m) return brakeTo(c, StepStatus::kArrived, cmd);
+  if (!c.manual && stuck_) {
+    cmd.message = "no progress after the escapes; replan";
+    cmd.escapes = escapes_;
+    return brakeTo(c, StepStatus::kStuck, cmd);
+  }
+  followPath(c);  // the segment, the terminal phase, the sub-goal
+  cmd.sub_goal = c.sub_goal;
+  measureProgress(c);
+  senseObstacles(c, cmd);
+  if (watchForStall(c, cmd)) return brakeTo(c, StepStatus::kStuck, cmd);  // or begin an escape
+  if (!fieldForce(c, cmd)) return refuse("internal: non-finite force");
+  desiredVelocity(c);
+  giveWayToMovers(c);
+  applyEnvelope(c);
+  if (!allFinite(c.v_cmd) || !allFinite(c.acc)) return refuse("internal: non-finite command");
+  cmd.velocity = c.v_cmd;
+  cmd.acceleration = c.acc;
   if (ground_) {
-    driveCommand(state, v_des, wish, dt, cmd);
+    driveCommand(state, c.v_des, c.wish, dt, cmd);
     if (!allFinite(cmd.velocity) || !allFinite(cmd.acceleration) || !std::isfinite(cmd.yaw_rate))
       return refuse("internal: non-finite drive command");
-    v_cmd = cmd.velocity;
+    c.v_cmd = cmd.velocity;
   }
-  cmd.sub_goal = steer_to;
-
-  const double along = v_cmd.dot(to_goal);
-  if (safety_override) cmd.status = StepStatus::kYielding;
-  else if (manual) cmd.status = StepStatus::kFollowing;
-  else if (escaping_ && !terminal) cmd.status = StepStatus::kDetouring;
-  else if (moving_closing && along < 0.5 * v_max) cmd.status = StepStatus::kYielding;
-  else if (nearest && v_cmd.norm() > 1e-3 && along < std::cos(30.0 * kPi / 180.0) * v_cmd.norm())
-    cmd.status = StepStatus::kDetouring;
-  else cmd.status = StepStatus::kFollowing;
+  cmd.sub_goal = c.steer_to;
+  cmd.status = statusOf(c);
   return cmd;
 }
 

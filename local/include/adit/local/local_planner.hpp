@@ -48,6 +48,7 @@ class CollisionChecker;
 namespace adit::local {
 
 using map::Vec3;
+struct TermValue;  // potential_terms.hpp
 
 enum class StepStatus {
   kFollowing,  ///< on the way, the field mostly pulls along the path
@@ -158,7 +159,38 @@ class LocalPlanner {
  private:
   LocalPlanner(const LocalParams& params, World world);
 
-  struct Obstacle;  // one repelling thing this period
+  // ---- step() in named steps, in the order it calls them. A Cycle holds one period's values.
+  struct Cycle;
+  struct ObstacleData;
+  /// Why the inputs cannot be stepped (a static string), or null.
+  const char* inputError(const RobotState& state, const map::Polyline& path, const map::MovingObstacle* moving,
+                         std::size_t moving_count, double dt) const;
+  /// A new path (the caller replanned) restarts the monitor and the segment index.
+  void restartOnNewPath(const map::Polyline& path);
+  /// Braking straight at a_max, reported as `status` (arrived, stuck).
+  StepCommand& brakeTo(const Cycle& c, StepStatus status, StepCommand& cmd) const;
+  /// The segment steered along (never back along the path), the terminal phase, the sub-goal.
+  void followPath(Cycle& c);
+  /// The path length still to go, and the best so far (the progress monitor's measure).
+  void measureProgress(Cycle& c);
+  /// Rock and movers near the robot this period, the nearest, whether a mover is closing.
+  void senseObstacles(Cycle& c, StepCommand& cmd);
+  /// No progress for a window: begin an escape, or, when they are spent, say stuck (true).
+  bool watchForStall(Cycle& c, StepCommand& cmd);
+  /// The selected model's attraction and repulsion; false if it came out non-finite.
+  bool fieldForce(Cycle& c, StepCommand& cmd) const;
+  TermValue repulsionOf(const ObstacleData& o, const Cycle& c, const Vec3& field_goal, double wang_rho0,
+                        Vec3* no_potential) const;
+  /// The side to pass an obstacle on (an axis to circulate about).
+  Vec3 freeSideAxis(const Vec3& q, const Vec3& dir, const Vec3& to_obstacle) const;
+  /// The set-point: along the force, an escape, the pursuit of the path, the operator's.
+  void desiredVelocity(Cycle& c);
+  /// The safety check against movers over the horizon: brake, side-step or back off if needed.
+  void giveWayToMovers(Cycle& c);
+  /// The safety envelope: speeds toward rock and movers that still stop short, braking first.
+  void applyEnvelope(Cycle& c);
+  StepStatus statusOf(const Cycle& c) const;
+
   void gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, const map::MovingObstacle* moving,
                        std::size_t moving_count);
   void addRockPoints(const Vec3& q, const Vec3& v, const Vec3& a, double radius);
