@@ -261,11 +261,13 @@ int runBench(const BenchArgs& a) {
   if (map_paths.empty() && a.movingai.empty()) map_paths.push_back("maps/district.yaml");
   bool header = false;  // printed once a map has loaded: a bad first map leaves stdout empty
   for (const std::string& path : map_paths) {
+    peakRssMiB(/*reset_after=*/true);  // each map's peak its own
     StatusOr<map::World> world = loadWorld(path, UnknownPolicy::kRock, a.quiet, a.no_cache);
     if (!world.ok()) return report(world.status());
     if (!std::exchange(header, true))
-      std::printf("%-22s %-22s %5s %8s %9s %9s %9s %9s %9s %7s %8s\n", "map", "planner", "runs", "success", "first_ms",
-                  "final_ms", "final_p90", "len/grid", "worst", "breaks", "min_clr");
+      std::printf("%-22s %-22s %5s %8s %9s %9s %9s %9s %9s %7s %8s %-11s %8s %9s\n", "map", "planner", "runs", "success",
+                  "first_ms", "final_ms", "final_p90", "len/grid", "worst", "breaks", "min_clr", "graph", "graph_s",
+                  "peak_MiB");
     const LoadedMap* loaded = &world->loaded();
     const DistanceField* field = &world->field();
     const auto t_map = std::chrono::steady_clock::now();
@@ -274,8 +276,13 @@ int runBench(const BenchArgs& a) {
     base.mode = *mode;
     base.time_budget_s = a.time_s;
     const SurveyNetwork* survey = world->survey();
+    // The roadway graph: the survey's, or built from the robot's free space (the time it takes is
+    // what a map without a survey costs before its first plan).
+    const auto t_graph = std::chrono::steady_clock::now();
     StatusOr<global::GlobalPlanner> reference = global::GlobalPlanner::create(loaded->map, *field, base, survey);
     if (!reference.ok()) return report(reference.status());
+    const double graph_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_graph).count();
+    const char* graph_kind = survey ? "survey" : "free-space";
     const auto probs = problems(*reference, a.pairs);
     if (probs.empty()) return report(failedPrecondition(path + ": fewer than two roadway ends to plan between"));
     std::vector<double> grid(probs.size(), 0.0);
@@ -316,6 +323,7 @@ int runBench(const BenchArgs& a) {
     }
     const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_map).count();
     const std::string map_name = std::filesystem::path(path).filename().string();
+    const double peak_mib = peakRssMiB(/*reset_after=*/false);
     for (const Variant& v : variants) {
       std::vector<double> first, final_t, ratio, breaks, clear;
       int ok = 0;
@@ -330,17 +338,20 @@ int runBench(const BenchArgs& a) {
         clear.push_back(g.min_clearance_m);
       }
       const double success = double(ok) / double(v.runs.size());
-      std::printf("%-22s %-22s %5zu %7.0f%% %9.1f %9.1f %9.1f %9.3f %9.3f %7.0f %8.2f\n", map_name.c_str(),
-                  v.name.c_str(), v.runs.size(), 100 * success, quantile(first, 0.5), quantile(final_t, 0.5),
-                  quantile(final_t, 0.9), quantile(ratio, 0.5), ratio.empty() ? std::nan("") : *std::max_element(ratio.begin(), ratio.end()),
-                  quantile(breaks, 0.5), clear.empty() ? std::nan("") : *std::min_element(clear.begin(), clear.end()));
+      std::printf("%-22s %-22s %5zu %7.0f%% %9.1f %9.1f %9.1f %9.3f %9.3f %7.0f %8.2f %-11s %8.2f %9.0f\n",
+                  map_name.c_str(), v.name.c_str(), v.runs.size(), 100 * success, quantile(first, 0.5),
+                  quantile(final_t, 0.5), quantile(final_t, 0.9), quantile(ratio, 0.5),
+                  ratio.empty() ? std::nan("") : *std::max_element(ratio.begin(), ratio.end()), quantile(breaks, 0.5),
+                  clear.empty() ? std::nan("") : *std::min_element(clear.begin(), clear.end()), graph_kind, graph_s,
+                  peak_mib);
       all.push_back({{"map", map_name}, {"planner", v.name}, {"baseline", v.baseline}, {"runs", v.runs.size()},
                      {"success_rate", success}, {"first_path_ms_median", quantile(first, 0.5)},
                      {"final_path_ms_median", quantile(final_t, 0.5)}, {"final_path_ms_p90", quantile(final_t, 0.9)},
                      {"length_over_grid_median", quantile(ratio, 0.5)},
                      {"length_over_grid_max", ratio.empty() ? std::nan("") : *std::max_element(ratio.begin(), ratio.end())},
                      {"break_points_median", quantile(breaks, 0.5)},
-                     {"min_clearance", clear.empty() ? std::nan("") : *std::min_element(clear.begin(), clear.end())}});
+                     {"min_clearance", clear.empty() ? std::nan("") : *std::min_element(clear.begin(), clear.end())},
+                     {"graph", graph_kind}, {"graph_build_s", graph_s}, {"peak_rss_mib", peak_mib}});
     }
     std::fflush(stdout);
     if (!a.log_dir.empty()) {
