@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "adit/local/simulator.hpp"
+#include "adit/sim/simulator.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -16,8 +16,17 @@
 #include "adit/map/rock_points.hpp"
 #include "adit/map/world.hpp"
 
-namespace adit::local {
+namespace adit::sim {
 
+using local::LocalPlanner;
+using local::RobotLimits;
+using local::RobotState;
+using local::StaticSphere;
+using local::StepCommand;
+using local::StepStatus;
+using local::SubgoalPick;
+using local::SubgoalRequest;
+using local::World;
 using map::allFinite;
 
 // ---- Environment ------------------------------------------------------------------------------
@@ -410,23 +419,12 @@ bool collisionVerdict(SimulationResult& res) {
   return true;
 }
 
-void SubgoalStats::add(const std::string& kind, double us) {
-  time_mean_us += (us - time_mean_us) / double(++periods);
-  time_max_us = std::max(time_max_us, us);
-  for (auto& [k, n] : by_kind)
-    if (k == kind) {
-      ++n;
-      return;
-    }
-  by_kind.emplace_back(kind, 1);
-}
-
 StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment& env, const SimulateOptions& options) {
   ADIT_RETURN_IF_ERROR(scenario.validate());
   ADIT_ASSIGN_OR_RETURN(const Scenario sc, placeOnFloor(scenario, env));
   if (sc.needsNavigator())
     return invalidArgument(sc.file + ": expected_path: plan, robot.sensor_range and events need the navigator "
-                           "(adit::fusion::simulateNavigated)");
+                           "(adit::simulateNavigated)");
   const bool select_subgoals = sc.subgoal_mode != SubgoalMode::kNone;
   if (select_subgoals && !options.subgoals)
     return invalidArgument(sc.file + ": subgoals: " + subgoalModeName(sc.subgoal_mode) +
@@ -548,4 +546,11 @@ StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment&
   return res;
 }
 
-}  // namespace adit::local
+fusion::SubgoalParams subgoalParamsFor(const Scenario& scenario) {
+  fusion::SubgoalParams p;
+  p.t0_s = scenario.subgoal_period_s;
+  p.optimizer.seed = scenario.seed;
+  return p;
+}
+
+}  // namespace adit::sim
