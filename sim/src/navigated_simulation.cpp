@@ -12,6 +12,7 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "escape_record.hpp"
 
 namespace adit::sim {
 
@@ -230,7 +231,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const Environ
   double t = 0.0;
   res.trajectory.push_back({0.0, state.position, state.velocity, local::StepStatus::kFollowing, state.position, state.yaw});
   NavigatorStatus last = NavigatorStatus::kDriving;
-  int escapes_before = 0;  // the previous cycle's StepCommand::escapes
+  EscapeRecord escapes;
   for (std::size_t k = 0; k < max_steps; ++k) {
     // The true world changes; the robot senses what of it is in range.
     while (next_event < sc.events.size() && sc.events[next_event].t_s <= t + 1e-9) {
@@ -264,9 +265,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const Environ
       cycle_us.push_back(c.cycle_time_s * 1e6);
       out.max_cycle_time_s = std::max(out.max_cycle_time_s, c.cycle_time_s);
     }
-    if (c.command.escapes > escapes_before) res.escape_times_s.push_back(t);
-    escapes_before = c.command.escapes;
-    res.escapes = std::max(res.escapes, c.command.escapes);
+    escapes.add(c.command.escapes, t, res);
     last = c.status;
     // The operator holding or driving the robot is not an end.
     const bool by_hand = c.status == NavigatorStatus::kPaused || c.status == NavigatorStatus::kManual;

@@ -15,6 +15,7 @@
 #include "adit/map/occupancy_map.hpp"
 #include "adit/map/rock_points.hpp"
 #include "adit/map/world.hpp"
+#include "escape_record.hpp"
 
 namespace adit::sim {
 
@@ -479,7 +480,7 @@ StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment&
   const auto period_steps = std::size_t(std::llround(sc.subgoal_period_s / sc.dt_s));
   std::size_t next_selection = 0, selected_segment = 0;
   std::optional<Vec3> subgoal;  // in force
-  int escapes_before = 0;       // the previous period's StepCommand::escapes
+  EscapeRecord escapes;
 
   for (std::size_t k = 0; k < max_steps; ++k) {
     for (std::size_t i = 0; i < nm; ++i) {
@@ -512,9 +513,7 @@ StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment&
     const auto t1 = std::chrono::steady_clock::now();
     step_us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     ++res.steps;
-    if (c.escapes > escapes_before) res.escape_times_s.push_back(t);
-    escapes_before = c.escapes;
-    res.escapes = std::max(res.escapes, c.escapes);
+    escapes.add(c.escapes, t, res);
     last = c.status;
     if (c.status == StepStatus::kArrived) break;
     if (c.status == StepStatus::kStuck || c.status == StepStatus::kRefused) {
