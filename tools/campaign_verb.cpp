@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // `adit campaign run|merge` (issue 9): a validation campaign of N randomized navigated scenarios
-// (adit/fusion/batch.hpp) split into M shards that run anywhere (one laptop, a Slurm array) and
+// (adit/sim/batch.hpp) split into M shards that run anywhere (one laptop, a Slurm array) and
 // merge exactly. Shard K runs the indices {i : i mod M == K} (strided, so slow and fast parts of
 // the index range spread evenly over the shards) and writes DIR/shard-K-of-M.csv (a row per
 // scenario) and then DIR/shard-K-of-M.json (the campaign's identity and mergeable statistics:
@@ -24,9 +24,9 @@
 #include <set>
 #include <sstream>
 
-#include "adit/fusion/batch.hpp"
-#include "adit/map/map_io.hpp"
 #include "adit/map/content_hash.hpp"
+#include "adit/map/map_io.hpp"
+#include "adit/sim/batch.hpp"
 #include "adit_commit.hpp"
 #include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
@@ -76,11 +76,11 @@ int runShard(const CampaignArgs& a) {
     return report(invalidArgument("--shard " + a.shard + ": more shards than scenarios (" + std::to_string(a.scenarios) + ")"));
   if (a.jobs < 1) return report(invalidArgument("--jobs must be >= 1 (got " + std::to_string(a.jobs) + ")"));
   if (a.out.empty()) return report(invalidArgument("--out DIR is required"));
-  fusion::BatchParams bp;
+  sim::BatchParams bp;
   if (!a.generator.empty()) {
     StatusOr<std::string> text = map::readFile(a.generator);
     if (!text.ok()) return report(text.status());
-    StatusOr<fusion::BatchParams> p = fusion::parseBatchParams(*text, a.generator);
+    StatusOr<sim::BatchParams> p = sim::parseBatchParams(*text, a.generator);
     if (!p.ok()) return report(p.status());
     bp = *p;
   }
@@ -106,7 +106,7 @@ int runShard(const CampaignArgs& a) {
   StatusOr<BatchSetup> setup = loadBatchSetup("", a.map, a.no_cache);
   if (!setup.ok()) return report(setup.status());
   // Bad generator ranges show in the first scenario: refuse them before forking.
-  if (StatusOr<local::Scenario> first = fusion::makeBatchScenario(setup->base, setup->roadways, setup->truth, bp, k);
+  if (StatusOr<sim::Scenario> first = sim::makeBatchScenario(setup->base, setup->roadways, setup->truth, bp, k);
       !first.ok())
     return report(first.status());
   std::error_code ec;
@@ -122,16 +122,16 @@ int runShard(const CampaignArgs& a) {
                  indices.size(), a.scenarios, a.map.c_str(), static_cast<unsigned long long>(a.seed),
                  std::min<int>(a.jobs, int(indices.size())));
   ProgressBar bar(a.quiet);
-  StatusOr<std::vector<fusion::BatchRunResult>> runs = runBatchWorkers(*setup, bp, indices, a.jobs, bar, "shard");
+  StatusOr<std::vector<sim::BatchRunResult>> runs = runBatchWorkers(*setup, bp, indices, a.jobs, bar, "shard");
   if (!runs.ok()) return report(runs.status());
   // The statistics are computed from the rows as written (3 decimals), the way merge recomputes
   // them, so that a shard's JSON and its CSV agree exactly.
   CampaignStats stats;
   Json failures = Json::array();
-  std::string csv = std::string(fusion::batchCsvHeader()) + "\n";
-  for (const fusion::BatchRunResult& r : *runs) {
-    const std::string line = fusion::batchCsvRow(r);
-    StatusOr<fusion::BatchRunResult> written = fusion::parseBatchCsvRow(line);
+  std::string csv = std::string(sim::batchCsvHeader()) + "\n";
+  for (const sim::BatchRunResult& r : *runs) {
+    const std::string line = sim::batchCsvRow(r);
+    StatusOr<sim::BatchRunResult> written = sim::parseBatchCsvRow(line);
     if (!written.ok())
       return report(internalError("scenario " + std::to_string(r.index) + ": its row does not read back: " +
                                   written.status().message()));
@@ -217,7 +217,7 @@ std::string reportPage(const Json& j) {
          percent(f) + "</td><td>" + bar(f, outcome == "arrived" ? "#2a9d8f" : "#e76f51") + "</td></tr>\n";
   }
   h += "</table>\n";
-  // What the runs that ran out of time or got stuck would need (local::EndCause).
+  // What the runs that ran out of time or got stuck would need (sim::EndCause).
   if (counts.contains("end_causes") && !counts["end_causes"].empty()) {
     h += "<h2>Why runs timed out or got stuck</h2>\n<p><code>route_outlasts_t_max</code>: the route the robot was "
          "given last could not be driven in the time left even at v_max (a detour round a roof fall); "
@@ -416,7 +416,7 @@ int merge(const CampaignArgs& a) {
   j["failures"] = failure_list;
   if (!a.csv.empty()) {
     std::sort(rows.begin(), rows.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-    std::string csv = std::string(fusion::batchCsvHeader()) + "\n";
+    std::string csv = std::string(sim::batchCsvHeader()) + "\n";
     for (const auto& r : rows) csv += r.second + "\n";
     if (Status s = writeText(a.csv, csv); !s.ok()) return report(s);
   }

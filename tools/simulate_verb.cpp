@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // `adit simulate SCENARIO.yaml`: run a scenario through the local planner and report the run.
-// Thin: load, call adit::local::simulate (or adit::fusion::simulateNavigated for scenarios with
+// Thin: load, call adit::sim::simulate (or adit::sim::simulateNavigated for scenarios with
 // `expected_path: plan`, `robot.sensor_range` or `events`), write JSON / picture / page.
-// `adit simulate --batch N --map M`: N randomized navigated runs (adit/fusion/batch.hpp) on
+// `adit simulate --batch N --map M`: N randomized navigated runs (adit/sim/batch.hpp) on
 // worker processes, a CSV row per run and a JSON summary.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -23,13 +23,13 @@
 
 
 #include "adit/console/robot_link.hpp"
-#include "adit/fusion/batch.hpp"
-#include "adit/fusion/navigated_simulation.hpp"
 #include "adit/fusion/subgoal_selector.hpp"
-#include "adit/local/simulator.hpp"
-#include "adit/map/map_io.hpp"
 #include "adit/map/content_hash.hpp"
+#include "adit/map/map_io.hpp"
 #include "adit/map/readers/import.hpp"
+#include "adit/sim/batch.hpp"
+#include "adit/sim/navigated_simulation.hpp"
+#include "adit/sim/simulator.hpp"
 #include "common/animation_page.hpp"
 #include "common/batch_runner.hpp"
 #include "adit/map/size_estimate.hpp"
@@ -46,6 +46,7 @@ namespace adit::tools {
 namespace {
 
 using namespace adit::local;
+using namespace adit::sim;
 using adit::map::Vec3;
 
 struct SimulateArgs {
@@ -102,7 +103,7 @@ struct LiveOptions {
   bool quiet = false;
 };
 
-class LiveConsole final : public fusion::NavigatedObserver {
+class LiveConsole final : public sim::NavigatedObserver {
  public:
   LiveConsole(console::RobotLink& link, double dt_s, double radius_m, const LiveOptions& o)
       : link_(link), dt_(dt_s), radius_(radius_m), speed_(o.speed), period_(o.period_s), quiet_(o.quiet), hold_(o.hold),
@@ -122,7 +123,7 @@ class LiveConsole final : public fusion::NavigatedObserver {
     for (const console::ReceivedCommand& c : link_.pollCommands()) execute(t_s, nav, c);
   }
 
-  void roofFall(const local::ScenarioEvent& e) override {
+  void roofFall(const sim::ScenarioEvent& e) override {
     // A fall between two periods is sensed at the next: sent then (t never goes back, as the
     // console requires), with the moment it happened in `at`.
     console::Event m;
@@ -136,7 +137,7 @@ class LiveConsole final : public fusion::NavigatedObserver {
 
   void afterCycle(double t_s, const fusion::Navigator& nav, const fusion::NavigatorCycle& c,
                   const local::RobotState& state, const fusion::SensorScan& scan,
-                  const std::vector<map::MovingObstacle>& tracks, const local::SimulationResult& res) override {
+                  const std::vector<map::MovingObstacle>& tracks, const sim::SimulationResult& res) override {
     const double t = t_s + dt_;
     if (c.replanned) sendPlan(t, nav.expectedPath(), "replan");
     if (c.inserted_points > 0)
@@ -160,7 +161,7 @@ class LiveConsole final : public fusion::NavigatedObserver {
   }
 
   void finished(double t_s, const fusion::Navigator& nav, const local::RobotState& state,
-                const local::SimulationResult& res) override {
+                const sim::SimulationResult& res) override {
     const char* status = res.collisions > 0 ? "collision"
                          : res.outcome == Outcome::kArrived ? "arrived"
                          : res.outcome == Outcome::kNoRoute ? "no_route"
@@ -426,7 +427,7 @@ nlohmann::ordered_json toJson(const Scenario& sc, const SimulationResult& r) {
 }
 
 // What the navigator adds to the JSON: replans, the world's and the navigator's events, paths.
-void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const fusion::NavigatedRun& n) {
+void addNavigatorJson(nlohmann::ordered_json& j, const Scenario& sc, const sim::NavigatedRun& n) {
   auto pathJson = [](const map::Polyline& p) {
     auto a = nlohmann::ordered_json::array();
     for (const Vec3& q : p.points) a.push_back(mmPoint(q));
@@ -575,7 +576,7 @@ Figure runFigure(const Scenario& sc, const Environment& env, const SimulationRes
 // The run's events for the page's timeline, in time order: roof falls (with their balls),
 // replans (with the path each made), the navigator's other decisions, escapes, the robot getting
 // stuck, the first collision, and the end (arrival or the outcome).
-std::vector<PageEvent> pageEvents(const Scenario& sc, const SimulationResult& r, const fusion::NavigatedRun* nav) {
+std::vector<PageEvent> pageEvents(const Scenario& sc, const SimulationResult& r, const sim::NavigatedRun* nav) {
   std::vector<PageEvent> events;
   const double t_end = r.trajectory.empty() ? 0.0 : r.trajectory.back().t_s;
   char buf[160];
@@ -633,7 +634,7 @@ std::vector<PageEvent> pageEvents(const Scenario& sc, const SimulationResult& r,
 
 // The animated page: the figure's standing part as background; the robot, the movers, the paths,
 // the falls, the sensed rock and the sub-goals drawn by the page at their times.
-Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& r, const fusion::NavigatedRun* nav,
+Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& r, const sim::NavigatedRun* nav,
                  const std::string& path) {
   AnimationPageInput in;
   in.title = sc.name + " (" + methodName(sc.params.method) + ")";
@@ -648,7 +649,7 @@ Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& 
   in.initial_path = sc.expected_path.points;  // the navigator's initial path for a navigated run
   in.events = pageEvents(sc, r, nav);
   if (nav)
-    for (const fusion::NavigatedRun::SensedRock& p : nav->sensed) in.sensed.push_back({p.t_s, p.point});
+    for (const sim::NavigatedRun::SensedRock& p : nav->sensed) in.sensed.push_back({p.t_s, p.point});
   if (sc.subgoal_mode != SubgoalMode::kNone) {
     // The samples hold the sub-goal in force: a new value is a new selection, made in the period
     // that ended at the sample before.
@@ -771,7 +772,7 @@ int run(const SimulateArgs& a) {
       phases.mark("octree from cache");
     }
   }
-  std::optional<fusion::NavigatedRun> nav;
+  std::optional<sim::NavigatedRun> nav;
   StatusOr<SimulationResult> r = internalError("not run");
   std::unique_ptr<console::RobotLink> link;
   std::optional<LiveConsole> live;
@@ -785,12 +786,12 @@ int run(const SimulateArgs& a) {
     if (!a.quiet) std::fprintf(stderr, "adit: live: connected to %s\n", a.live.c_str());
   }
   if (sc->needsNavigator() || live) {
-    fusion::NavigatedOptions options;
+    sim::NavigatedOptions options;
     options.refine_plan = !a.no_refine;
     options.refine_replans = a.refine_replans;
     if (live) options.observer = &*live;
     if (world) options.believed = &*world;
-    StatusOr<fusion::NavigatedRun> n = fusion::simulateNavigated(*sc, *env, options);
+    StatusOr<sim::NavigatedRun> n = sim::simulateNavigated(*sc, *env, options);
     if (link) {
       // Bounded wait for the centre to acknowledge everything (the run's end included). What is
       // not acknowledged then is lost with this process: the run fails (exit 1), saying so.
@@ -814,7 +815,7 @@ int run(const SimulateArgs& a) {
   } else {
     SimulateOptions options;
     if (sc->subgoal_mode == SubgoalMode::kGaTrustRegion)
-      options.subgoals = fusion::subgoalFunction(sc->params, fusion::subgoalParamsFor(*sc));
+      options.subgoals = fusion::subgoalFunction(sc->params, sim::subgoalParamsFor(*sc));
     r = simulate(*sc, *env, options);
     phases.mark("simulation");
   }
@@ -860,7 +861,7 @@ int run(const SimulateArgs& a) {
 
 // --- `adit simulate --batch N`: randomized navigated runs on one map (issue 8) ---------------
 
-nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base, const std::vector<fusion::BatchRunResult>& runs,
+nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base, const std::vector<sim::BatchRunResult>& runs,
                                     double wall_s) {
   nlohmann::ordered_json outcomes;
   for (const char* o : {"arrived", "collision", "stuck", "timeout", "no_route", "hit_by_fall", "hit_by_mover", "error"})
@@ -868,7 +869,7 @@ nlohmann::ordered_json batchSummary(const SimulateArgs& a, const Scenario& base,
   int arrived = 0, bad_arrivals = 0, dishonest = 0, replans = 0, runs_replanned = 0;
   std::vector<double> p50, p99, arrival;
   std::map<std::string, std::map<std::string, int>> end_causes;
-  for (const fusion::BatchRunResult& r : runs) {
+  for (const sim::BatchRunResult& r : runs) {
     outcomes[r.outcome] = outcomes.value(r.outcome, 0) + 1;
     if (r.end_cause != EndCause::kNone) ++end_causes[r.outcome][endCauseName(r.end_cause)];
     replans += r.replans;
@@ -917,13 +918,13 @@ int runBatch(const SimulateArgs& a) {
   StatusOr<BatchSetup> setup = loadBatchSetup(a.scenario, a.map, a.no_cache);
   if (!setup.ok()) return report(setup.status());
   const std::string& map_path = *setup->base.map_path;
-  fusion::BatchParams bp;
+  sim::BatchParams bp;
   bp.seed = a.seed;
   bp.t_max_s = a.t_max;
   bp.max_separation_m = a.max_separation;
   if (Status s = bp.validate(); !s.ok()) return report(s);
   // Bad input shows in the first scenario: refuse it before forking.
-  if (StatusOr<Scenario> first = fusion::makeBatchScenario(setup->base, setup->roadways, setup->truth, bp, 0); !first.ok())
+  if (StatusOr<Scenario> first = sim::makeBatchScenario(setup->base, setup->roadways, setup->truth, bp, 0); !first.ok())
     return report(first.status());
   if (!a.quiet)
     std::fprintf(stderr, "adit: batch of %d runs on %s (seed %llu, %d workers)\n", a.batch, map_path.c_str(),
@@ -931,13 +932,13 @@ int runBatch(const SimulateArgs& a) {
   ProgressBar bar(a.quiet);
   std::vector<int> indices(std::size_t(a.batch));
   for (int k = 0; k < a.batch; ++k) indices[std::size_t(k)] = a.first + k;
-  StatusOr<std::vector<fusion::BatchRunResult>> runs = runBatchWorkers(*setup, bp, indices, a.jobs, bar);
+  StatusOr<std::vector<sim::BatchRunResult>> runs = runBatchWorkers(*setup, bp, indices, a.jobs, bar);
   if (!runs.ok()) return report(runs.status());
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   if (!a.csv.empty()) {
     Status s = map::writeFileAtomically(a.csv, [&](std::ostream& os) {
-      os << fusion::batchCsvHeader() << "\n";
-      for (const fusion::BatchRunResult& r : *runs) os << fusion::batchCsvRow(r) << "\n";
+      os << sim::batchCsvHeader() << "\n";
+      for (const sim::BatchRunResult& r : *runs) os << sim::batchCsvRow(r) << "\n";
       return bool(os);
     });
     if (!s.ok()) return report(s);

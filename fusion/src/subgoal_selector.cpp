@@ -237,11 +237,4 @@ local::SubgoalFn subgoalFunction(const local::LocalParams& local, const SubgoalP
   };
 }
 
-SubgoalParams subgoalParamsFor(const local::Scenario& scenario) {
-  SubgoalParams p;
-  p.t0_s = scenario.subgoal_period_s;
-  p.optimizer.seed = scenario.seed;
-  return p;
-}
-
 }  // namespace adit::fusion

@@ -13,7 +13,7 @@
 
 #include "adit/fusion/subgoal_selector.hpp"
 #include "adit/local/local_planner.hpp"
-#include "adit/local/simulator.hpp"
+#include "adit/sim/simulator.hpp"
 
 namespace {
 
@@ -26,24 +26,24 @@ struct PeriodStart {
 };
 
 struct Setup {
-  local::Scenario scenario;
+  sim::Scenario scenario;
   std::vector<PeriodStart> starts;
 };
 
 const Setup& setup() {
   static const Setup s = [] {
-    StatusOr<local::Scenario> sc = local::loadScenario(std::string(ADIT_MAPS_DIR) + "/scenarios/tian2016_polyline.yaml");
+    StatusOr<sim::Scenario> sc = sim::loadScenario(std::string(ADIT_MAPS_DIR) + "/scenarios/tian2016_polyline.yaml");
     if (!sc.ok()) std::abort();
-    StatusOr<local::SimulationResult> run = local::simulate(*sc, local::Environment::openSpace());
+    StatusOr<sim::SimulationResult> run = sim::simulate(*sc, sim::Environment::openSpace());
     if (!run.ok()) std::abort();
     Setup out{*sc, {}};
     const auto per_period = std::size_t(sc->subgoal_period_s / sc->dt_s + 0.5);
     for (std::size_t i = 0; i < run->trajectory.size(); i += per_period) {
-      const local::TrajectorySample& t = run->trajectory[i];
+      const sim::TrajectorySample& t = run->trajectory[i];
       PeriodStart p;
       p.state.position = t.position;
       p.state.velocity = t.velocity;
-      for (const local::NamedObstacle& m : sc->moving_obstacles) {
+      for (const sim::NamedObstacle& m : sc->moving_obstacles) {
         map::MovingObstacle now = m.obstacle;
         now.position = m.obstacle.positionAt(t.t_s);
         now.velocity = m.obstacle.velocityAt(t.t_s);
@@ -67,7 +67,7 @@ double threadCpuNs() {
 
 void BM_SubgoalSelection(benchmark::State& st) {
   const Setup& s = setup();
-  const fusion::SubgoalParams params = fusion::subgoalParamsFor(s.scenario);
+  const fusion::SubgoalParams params = sim::subgoalParamsFor(s.scenario);
   const std::vector<map::Vec3>& path = s.scenario.expected_path.points;
   std::size_t i = 0, optimized = 0;
   const double t0 = threadCpuNs();

@@ -111,15 +111,5 @@ TEST(SubgoalSelector, PickAimsAlongTheSubgoalsBearingAtTheBreakPointsDistance) {
   EXPECT_EQ(pick.kind, "invalid_input");
 }
 
-TEST(SubgoalSelector, ParamsForAScenarioTakeItsPeriodAndSeed) {
-  local::Scenario sc;
-  sc.subgoal_period_s = 0.5;
-  sc.seed = 42;
-  const SubgoalParams p = subgoalParamsFor(sc);
-  EXPECT_EQ(p.t0_s, 0.5);
-  EXPECT_EQ(p.optimizer.seed, 42u);
-  EXPECT_TRUE(p.validate().ok());
-}
-
 }  // namespace
 }  // namespace adit::fusion

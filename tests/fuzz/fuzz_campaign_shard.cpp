@@ -30,8 +30,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!rows.ok()) return 0;
   adit::tools::CampaignStats again;
   for (std::size_t i = 0; i < rows->rows.size(); ++i) {
-    const std::string printed = adit::fusion::batchCsvRow(rows->rows[i]);
-    adit::StatusOr<adit::fusion::BatchRunResult> back = adit::fusion::parseBatchCsvRow(printed);
+    const std::string printed = adit::sim::batchCsvRow(rows->rows[i]);
+    adit::StatusOr<adit::sim::BatchRunResult> back = adit::sim::parseBatchCsvRow(printed);
     if (!back.ok()) std::abort();  // an accepted row must print as a row
     if (!again.add(*back).ok()) std::abort();
   }

@@ -25,12 +25,15 @@
 #include <vector>
 
 #include "adit/fusion/navigator.hpp"
-#include "adit/local/simulator.hpp"
 #include "adit/map/world.hpp"
+#include "adit/sim/simulator.hpp"
 #include "support/pillar_field.hpp"
 
 namespace adit::fusion {
 namespace {
+
+// The scenarios, the runs and their referee are adit::sim's; what is tested is adit::fusion's.
+using namespace adit::sim;
 
 constexpr int kStartCol = 3, kFirstCol = 17, kLastCol = 47, kGoalCol = 70, kCols = 74, kRows = 30;
 
@@ -38,7 +41,7 @@ struct WorldResult {
   bool passable_inscribed = false;
   bool passable_covering = false;
   bool planned = false;
-  local::Outcome outcome = local::Outcome::kTimeout;
+  sim::Outcome outcome = sim::Outcome::kTimeout;
   int collisions = 0;
   double time_s = 0.0;
   double optimal_s = 0.0;
@@ -100,12 +103,12 @@ WorldResult runWorld(int index, bool pursuit) {
   EXPECT_TRUE(nav.ok()) << nav.status().message();
   if (!nav.ok()) return out;
   if (Status s = nav->plan(start); !s.ok()) {
-    out.outcome = local::Outcome::kNoRoute;
+    out.outcome = sim::Outcome::kNoRoute;
     return out;
   }
   out.planned = true;
 
-  local::Scenario sc;
+  sim::Scenario sc;
   sc.name = "barn-" + std::to_string(index);
   sc.file = "generated";
   sc.params = np.local;
@@ -114,10 +117,10 @@ WorldResult runWorld(int index, bool pursuit) {
   sc.expected_path = nav->expectedPath();
   sc.dt_s = 0.1;
   sc.t_max_s = 8.0 * out.optimal_s + 10.0;
-  StatusOr<local::Environment> env = local::Environment::borrow(*f->map, *f->field);
+  StatusOr<sim::Environment> env = sim::Environment::borrow(*f->map, *f->field);
   EXPECT_TRUE(env.ok());
   if (!env.ok()) return out;
-  StatusOr<local::SimulationResult> run = local::simulate(sc, *env);
+  StatusOr<sim::SimulationResult> run = sim::simulate(sc, *env);
   EXPECT_TRUE(run.ok()) << run.status().message();
   if (!run.ok()) return out;
   out.outcome = run->outcome;
@@ -136,7 +139,7 @@ struct Tally {
     inscribed += w.passable_inscribed;
     covering += w.passable_covering;
     planned += w.planned;
-    arrived += w.passable_covering && w.outcome == local::Outcome::kArrived && w.collisions == 0;
+    arrived += w.passable_covering && w.outcome == sim::Outcome::kArrived && w.collisions == 0;
     collided += w.collisions > 0;
     score_sum += w.score;
   }
@@ -156,8 +159,8 @@ TEST(BarnBenchmark, JackalCrossesPillarFieldsWithoutCollision) {
     if (w.passable_covering)
       std::printf("world %3d fill %.2f passes %d: pursuit %-8s t=%5.1f s score %.3f | field %-8s t=%5.1f s score %.3f "
                   "(opt %.1f s)\n",
-                  i, 0.10 + 0.05 * (i % 5), 1 + (i / 5) % 4, local::outcomeName(w.outcome), w.time_s, w.score,
-                  local::outcomeName(f.outcome), f.time_s, f.score, w.optimal_s);
+                  i, 0.10 + 0.05 * (i % 5), 1 + (i / 5) % 4, sim::outcomeName(w.outcome), w.time_s, w.score,
+                  sim::outcomeName(f.outcome), f.time_s, f.score, w.optimal_s);
     EXPECT_EQ(w.collisions, 0) << "world " << i;
     EXPECT_EQ(f.collisions, 0) << "world " << i << ", field alone";
   }

@@ -14,15 +14,18 @@
 #include <string>
 #include <vector>
 
-#include "adit/local/simulator.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/occupancy_map.hpp"
 #include "adit/map/rock_points.hpp"
+#include "adit/sim/simulator.hpp"
 #include "support/pillar_field.hpp"
 #include "support/synthetic_roadway.hpp"
 
 namespace adit::local {
 namespace {
+
+// The scenarios, the runs and their referee are adit::sim's; what is tested is the local planner's.
+using namespace adit::sim;
 
 constexpr double kPi = 3.14159265358979323846;
 

@@ -11,29 +11,32 @@
 #include <cstdio>
 #include <optional>
 
-#include "adit/fusion/navigated_simulation.hpp"
+#include "adit/sim/navigated_simulation.hpp"
 
 namespace adit::fusion {
 namespace {
 
+// The scenarios, the runs and their referee are adit::sim's; what is tested is adit::fusion's.
+using namespace adit::sim;
+
 const std::string kDir = std::string(ADIT_MAPS_DIR) + "/scenarios/";
 
 // `truth`, when given, keeps the true world the run was refereed in.
-NavigatedRun run(const std::string& name, std::optional<local::Environment>* truth = nullptr) {
-  StatusOr<local::Scenario> sc = local::loadScenario(kDir + name);
+NavigatedRun run(const std::string& name, std::optional<sim::Environment>* truth = nullptr) {
+  StatusOr<sim::Scenario> sc = sim::loadScenario(kDir + name);
   EXPECT_TRUE(sc.ok()) << sc.status().message();
   if (!sc.ok()) return {};
-  StatusOr<local::Environment> env = local::Environment::load(*sc);
+  StatusOr<sim::Environment> env = sim::Environment::load(*sc);
   EXPECT_TRUE(env.ok()) << env.status().message();
   if (!env.ok()) return {};
   StatusOr<NavigatedRun> r = simulateNavigated(*sc, *env);
   if (truth) truth->emplace(std::move(env).value());
   EXPECT_TRUE(r.ok()) << r.status().message();
   if (!r.ok()) return {};
-  const local::SimulationResult& x = r->run;
+  const sim::SimulationResult& x = r->run;
   std::printf("[%s] %s t=%.1f s (end %.1f s), path %.1f m, min clearance %.3f m, fall clearance %.3f m, "
               "%d collisions, %d replans (longest %.3f s), cycle p50 %.1f us p99 %.1f us max %.1f us, wall %.2f s\n",
-              sc->name.c_str(), local::outcomeName(x.outcome), x.arrival_time_s, r->end_time_s, x.path_length_m,
+              sc->name.c_str(), sim::outcomeName(x.outcome), x.arrival_time_s, r->end_time_s, x.path_length_m,
               x.min_clearance_m, r->min_fall_clearance_m, x.collisions, r->replans, r->max_replan_time_s,
               x.step_time_p50_us, x.step_time_p99_us, r->max_cycle_time_s * 1e6, r->wall_time_s);
   for (const NavigatorEvent& e : r->events) std::printf("    t=%.1f %s: %s\n", e.t_s, e.type.c_str(), e.reason.c_str());
@@ -43,14 +46,14 @@ NavigatedRun run(const std::string& name, std::optional<local::Environment>* tru
                 refineOutcomeName(f.outcome), f.time_s, f.before.length_m, f.after.length_m, f.before.min_clearance_m,
                 f.after.min_clearance_m, f.before.break_points);
   }
-  for (const local::ClosestApproach& c : x.closest)
+  for (const sim::ClosestApproach& c : x.closest)
     std::printf("    closest approach to %s: %.3f m at t=%.1f s\n", c.name.c_str(), c.distance_m, c.t_s);
   return *r;
 }
 
 TEST(NavigatedScenario, DistrictRescueReroutesThroughAnotherCrossCut) {
   const NavigatedRun r = run("district_rescue.yaml");
-  EXPECT_EQ(r.run.outcome, local::Outcome::kArrived) << r.run.message;
+  EXPECT_EQ(r.run.outcome, sim::Outcome::kArrived) << r.run.message;
   EXPECT_EQ(r.run.collisions, 0);
   EXPECT_GE(r.replans, 1);
   EXPECT_GT(r.run.min_clearance_m, 0.0);        // clear of rock, the fall included
@@ -71,10 +74,10 @@ TEST(NavigatedScenario, DistrictRescueReroutesThroughAnotherCrossCut) {
 // The same rescue with a tracked ground robot (issue 16): on the floor all the way, the rubble is
 // no way through for it, and it arrives within 10 % of the flying run's time.
 TEST(NavigatedScenario, DistrictRescueByATrackedGroundRobotReroutesOnTheFloor) {
-  std::optional<local::Environment> truth;
+  std::optional<sim::Environment> truth;
   const NavigatedRun r = run("district_rescue_ground.yaml", &truth);
   const NavigatedRun fly = run("district_rescue.yaml");
-  EXPECT_EQ(r.run.outcome, local::Outcome::kArrived) << r.run.message;
+  EXPECT_EQ(r.run.outcome, sim::Outcome::kArrived) << r.run.message;
   EXPECT_EQ(r.run.collisions, 0);
   EXPECT_GT(r.min_fall_clearance_m, 0.0);
   ASSERT_FALSE(r.events.empty());
@@ -85,7 +88,7 @@ TEST(NavigatedScenario, DistrictRescueByATrackedGroundRobotReroutesOnTheFloor) {
   // quantisation on the sloping roadways).
   ASSERT_TRUE(truth.has_value());
   const map::DistanceField& field = *truth->field();
-  for (const local::TrajectorySample& s : r.run.trajectory) {
+  for (const sim::TrajectorySample& s : r.run.trajectory) {
     double floor = s.position.z();
     while (field.isFree(map::Vec3(s.position.x(), s.position.y(), floor)) && floor > s.position.z() - 3.0)
       floor -= 0.01;
@@ -95,7 +98,7 @@ TEST(NavigatedScenario, DistrictRescueByATrackedGroundRobotReroutesOnTheFloor) {
 
 TEST(NavigatedScenario, SealedRoadwayEndsInNoRouteWithinSeconds) {
   const NavigatedRun r = run("sealed_roadway.yaml");
-  EXPECT_EQ(r.run.outcome, local::Outcome::kNoRoute) << r.run.message;
+  EXPECT_EQ(r.run.outcome, sim::Outcome::kNoRoute) << r.run.message;
   EXPECT_EQ(r.run.collisions, 0);
   EXPECT_LT(r.end_time_s, 20.0);  // simulated: stopped once the sensor saw the fall
   EXPECT_LT(r.wall_time_s, 10.0); // wall clock: a bound against a hang, not a speed measurement
@@ -124,10 +127,10 @@ TEST(NavigatedScenario, SealedRoadwayEndsInNoRouteWithinSeconds) {
 // The inspection run: most of the main haulage roadway (x = 25 -> 580 m) on the refined expected
 // path, a machine coming the other way.
 TEST(NavigatedScenario, DistrictInspectionPassesTheOncomingMachineOnARefinedPath) {
-  std::optional<local::Environment> truth;
+  std::optional<sim::Environment> truth;
   const NavigatedRun r = run("district_inspection.yaml", &truth);
   ASSERT_TRUE(truth.has_value());
-  EXPECT_EQ(r.run.outcome, local::Outcome::kArrived) << r.run.message;
+  EXPECT_EQ(r.run.outcome, sim::Outcome::kArrived) << r.run.message;
   EXPECT_EQ(r.run.collisions, 0);  // with rock and with the machine
   EXPECT_GT(r.run.min_clearance_m, 0.0);
   ASSERT_EQ(r.run.closest.size(), 1u);
@@ -165,7 +168,7 @@ TEST(NavigatedScenario, DistrictInspectionPassesTheOncomingMachineOnARefinedPath
   EXPECT_GT(lowest, radius + 0.5 * field.resolution());
   // The run's clearance from rock alone (min_clearance counts the machine too), from the field.
   double rock = 1e9;
-  for (const local::TrajectorySample& s : r.run.trajectory) rock = std::min(rock, field.distance(s.position) - radius);
+  for (const sim::TrajectorySample& s : r.run.trajectory) rock = std::min(rock, field.distance(s.position) - radius);
   std::printf("    trajectory: clearance from rock >= %.3f m\n", rock);
   EXPECT_GT(rock, 0.0);
 }

@@ -14,13 +14,16 @@
 #include <string>
 #include <vector>
 
-#include "adit/local/simulator.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "adit/sim/simulator.hpp"
 #include "support/synthetic_roadway.hpp"
 
 namespace adit::local {
 namespace {
+
+// The scenarios, the runs and their referee are adit::sim's; what is tested is the local planner's.
+using namespace adit::sim;
 
 constexpr double kRadius = 0.3, kVMax = 1.5, kAMax = 0.5;
 

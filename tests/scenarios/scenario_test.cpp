@@ -8,11 +8,14 @@
 #include <random>
 #include <string>
 
-#include "adit/local/simulator.hpp"
 #include "adit/map/distance_field.hpp"
+#include "adit/sim/simulator.hpp"
 
 namespace adit::local {
 namespace {
+
+// The scenarios, the runs and their referee are adit::sim's; what is tested is the local planner's.
+using namespace adit::sim;
 
 const std::string kDir = std::string(ADIT_MAPS_DIR) + "/scenarios/";
 

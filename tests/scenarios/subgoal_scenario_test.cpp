@@ -6,19 +6,22 @@
 
 #include <cstdio>
 
-#include "adit/fusion/navigated_simulation.hpp"
 #include "adit/fusion/subgoal_selector.hpp"
-#include "adit/local/simulator.hpp"
+#include "adit/sim/navigated_simulation.hpp"
+#include "adit/sim/simulator.hpp"
 
 namespace adit::fusion {
 namespace {
 
+// The scenarios, the runs and their referee are adit::sim's; what is tested is adit::fusion's.
+using namespace adit::sim;
+
 const std::string kDir = std::string(ADIT_MAPS_DIR) + "/scenarios/";
 
-local::Scenario load(const std::string& name) {
-  StatusOr<local::Scenario> s = local::loadScenario(kDir + name);
+sim::Scenario load(const std::string& name) {
+  StatusOr<sim::Scenario> s = sim::loadScenario(kDir + name);
   EXPECT_TRUE(s.ok()) << s.status().message();
-  return s.ok() ? *s : local::Scenario{};
+  return s.ok() ? *s : sim::Scenario{};
 }
 
 int count(const local::SubgoalStats& s, const std::string& kind) {
@@ -27,30 +30,30 @@ int count(const local::SubgoalStats& s, const std::string& kind) {
   return 0;
 }
 
-void print(const char* label, const local::SimulationResult& r) {
+void print(const char* label, const sim::SimulationResult& r) {
   std::printf("[%s] %s t=%.1f s, path %.2f m, min clearance %.3f m, %d collisions, %d steps; %d sub-goal periods "
               "(%d optimized, %d straight, %d straight_kept, %d target_near), selection mean %.0f us max %.0f us\n",
-              label, local::outcomeName(r.outcome), r.arrival_time_s, r.path_length_m, r.min_clearance_m, r.collisions,
+              label, sim::outcomeName(r.outcome), r.arrival_time_s, r.path_length_m, r.min_clearance_m, r.collisions,
               r.steps, r.subgoals.periods, count(r.subgoals, "optimized"), count(r.subgoals, "straight"),
               count(r.subgoals, "straight_kept"), count(r.subgoals, "target_near"), r.subgoals.time_mean_us,
               r.subgoals.time_max_us);
 }
 
-local::SimulationResult run(const local::Scenario& sc, const char* label) {
-  StatusOr<local::Environment> env = local::Environment::load(sc);
+sim::SimulationResult run(const sim::Scenario& sc, const char* label) {
+  StatusOr<sim::Environment> env = sim::Environment::load(sc);
   EXPECT_TRUE(env.ok()) << env.status().message();
   if (!env.ok()) return {};
-  local::SimulateOptions opt;
-  if (sc.subgoal_mode == local::SubgoalMode::kGaTrustRegion) opt.subgoals = subgoalFunction(sc.params, subgoalParamsFor(sc));
-  StatusOr<local::SimulationResult> r = local::simulate(sc, *env, opt);
+  sim::SimulateOptions opt;
+  if (sc.subgoal_mode == sim::SubgoalMode::kGaTrustRegion) opt.subgoals = subgoalFunction(sc.params, subgoalParamsFor(sc));
+  StatusOr<sim::SimulationResult> r = sim::simulate(sc, *env, opt);
   EXPECT_TRUE(r.ok()) << r.status().message();
   if (!r.ok()) return {};
   print(label, *r);
   return *r;
 }
 
-void expectCleanArrival(const local::SimulationResult& r) {
-  EXPECT_EQ(r.outcome, local::Outcome::kArrived) << r.message;
+void expectCleanArrival(const sim::SimulationResult& r) {
+  EXPECT_EQ(r.outcome, sim::Outcome::kArrived) << r.message;
   EXPECT_EQ(r.collisions, 0);
   EXPECT_GT(r.min_clearance_m, 0.0);
   EXPECT_LE(r.final_goal_distance_m, r.arrival_tolerance_m);
@@ -64,13 +67,13 @@ void expectCleanArrival(const local::SimulationResult& r) {
 // optimised, and far from them the choice is straight). Arrival times and path lengths are
 // printed, not ordered: the paper reports no figure with sub-goals alone to compare against.
 TEST(SubgoalScenario, Tian2016PolylineArrivesWithAndWithoutSubgoals) {
-  local::Scenario none = load("tian2016_polyline.yaml");
-  ASSERT_EQ(none.subgoal_mode, local::SubgoalMode::kNone);
-  local::Scenario ga = none;
-  ga.subgoal_mode = local::SubgoalMode::kGaTrustRegion;
+  sim::Scenario none = load("tian2016_polyline.yaml");
+  ASSERT_EQ(none.subgoal_mode, sim::SubgoalMode::kNone);
+  sim::Scenario ga = none;
+  ga.subgoal_mode = sim::SubgoalMode::kGaTrustRegion;
 
-  const local::SimulationResult a = run(none, "none");
-  const local::SimulationResult b = run(ga, "ga_trust_region");
+  const sim::SimulationResult a = run(none, "none");
+  const sim::SimulationResult b = run(ga, "ga_trust_region");
   expectCleanArrival(a);
   expectCleanArrival(b);
   EXPECT_EQ(a.subgoals.periods, 0);
@@ -79,7 +82,7 @@ TEST(SubgoalScenario, Tian2016PolylineArrivesWithAndWithoutSubgoals) {
   EXPECT_GT(count(b.subgoals, "straight"), 0);
   EXPECT_EQ(count(b.subgoals, "invalid_input"), 0);
   // Deterministic: the optimiser's GA draws from the scenario's seed.
-  const local::SimulationResult again = run(ga, "ga_trust_region, again");
+  const sim::SimulationResult again = run(ga, "ga_trust_region, again");
   EXPECT_EQ(again.arrival_time_s, b.arrival_time_s);
   EXPECT_EQ(again.path_length_m, b.path_length_m);
   std::printf("    arrival %.1f s with sub-goals, %.1f s without (ratio %.2f); path %.2f m vs %.2f m\n", b.arrival_time_s,
@@ -88,8 +91,8 @@ TEST(SubgoalScenario, Tian2016PolylineArrivesWithAndWithoutSubgoals) {
 
 // The bundled demo scenario says `subgoals: ga_trust_region` itself.
 TEST(SubgoalScenario, BundledSubgoalScenarioSelectsSubgoals) {
-  const local::Scenario sc = load("tian2016_polyline_subgoals.yaml");
-  EXPECT_EQ(sc.subgoal_mode, local::SubgoalMode::kGaTrustRegion);
+  const sim::Scenario sc = load("tian2016_polyline_subgoals.yaml");
+  EXPECT_EQ(sc.subgoal_mode, sim::SubgoalMode::kGaTrustRegion);
   EXPECT_EQ(sc.subgoal_period_s, 1.0);
 }
 
@@ -97,11 +100,11 @@ TEST(SubgoalScenario, BundledSubgoalScenarioSelectsSubgoals) {
 // bundled district with its expected path planned. Asserted: it arrives clean, and the navigator
 // selected sub-goals (at least one per second of the run).
 TEST(SubgoalScenario, NavigatedRunHonoursTheSubgoalsKey) {
-  local::Scenario sc = load("district_oncoming.yaml");
+  sim::Scenario sc = load("district_oncoming.yaml");
   sc.plan_expected_path = true;
   sc.expected_path.points = {sc.start, sc.goal};
-  sc.subgoal_mode = local::SubgoalMode::kGaTrustRegion;
-  StatusOr<local::Environment> env = local::Environment::load(sc);
+  sc.subgoal_mode = sim::SubgoalMode::kGaTrustRegion;
+  StatusOr<sim::Environment> env = sim::Environment::load(sc);
   ASSERT_TRUE(env.ok()) << env.status().message();
   StatusOr<NavigatedRun> r = simulateNavigated(sc, *env);
   ASSERT_TRUE(r.ok()) << r.status().message();

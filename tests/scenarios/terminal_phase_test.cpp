@@ -17,13 +17,16 @@
 #include <tuple>
 #include <vector>
 
-#include "adit/local/simulator.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "adit/sim/simulator.hpp"
 #include "support/synthetic_roadway.hpp"
 
 namespace adit::local {
 namespace {
+
+// The scenarios, the runs and their referee are adit::sim's; what is tested is the local planner's.
+using namespace adit::sim;
 
 constexpr double kRadius = 0.4;          // the flying sphere
 constexpr double kSafetyMargin = 0.2;    // GlobalPlannerParams::safety_margin_m's default
@@ -194,6 +197,9 @@ TEST(TerminalPhasePaper, ThePapersFieldsFallShortOfSomeGoal) {
 
 namespace adit::local {
 namespace {
+
+// The scenarios, the runs and their referee are adit::sim's; what is tested is the local planner's.
+using namespace adit::sim;
 
 // Ground mode: the tracked rescue robot (1.0 x 0.7 m box, 0.6 m high, skid steering) at the same
 // goals, each placed its circumradius + margin + 0.1 m from the rib, corner or face at mid-height

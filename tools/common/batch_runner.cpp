@@ -27,7 +27,7 @@ namespace adit::tools {
 namespace {
 
 // One run's record as a worker writes it for the parent: tab-separated, full precision.
-std::string batchRecord(const fusion::BatchRunResult& r) {
+std::string batchRecord(const sim::BatchRunResult& r) {
   std::string msg = r.message;
   std::replace_if(msg.begin(), msg.end(), [](char c) { return c == '\t' || c == '\n' || c == '\r'; }, ' ');
   char buf[512];
@@ -36,11 +36,11 @@ std::string batchRecord(const fusion::BatchRunResult& r) {
                 r.index, static_cast<unsigned long long>(r.seed), r.outcome.c_str(), r.arrival_time_s, r.path_length_m,
                 r.min_clearance_m, r.collisions, r.replans, r.step_p50_us, r.step_p99_us, r.final_goal_distance_m,
                 r.arrival_tolerance_m, r.vehicles, int(r.roof_fall), r.separation_m, r.robot_radius_m, r.robot_speed_mps,
-                r.roadway_width_m, local::endCauseName(r.end_cause));
+                r.roadway_width_m, sim::endCauseName(r.end_cause));
   return buf + msg + "\n";
 }
 
-std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) {
+std::optional<sim::BatchRunResult> parseBatchRecord(const std::string& line) {
   std::vector<std::string> f;
   std::size_t from = 0;
   for (int k = 0; k < 19; ++k) {
@@ -49,7 +49,7 @@ std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) 
     f.push_back(line.substr(from, tab - from));
     from = tab + 1;
   }
-  fusion::BatchRunResult r;
+  sim::BatchRunResult r;
   auto num = [](const std::string& s) { return std::strtod(s.c_str(), nullptr); };
   r.index = std::atoi(f[0].c_str());
   r.seed = std::strtoull(f[1].c_str(), nullptr, 10);
@@ -69,23 +69,23 @@ std::optional<fusion::BatchRunResult> parseBatchRecord(const std::string& line) 
   r.robot_radius_m = num(f[15]);
   r.robot_speed_mps = num(f[16]);
   r.roadway_width_m = num(f[17]);
-  const std::optional<local::EndCause> cause = local::endCauseFromName(f[18]);
+  const std::optional<sim::EndCause> cause = sim::endCauseFromName(f[18]);
   if (!cause) return std::nullopt;
   r.end_cause = *cause;
   r.message = line.substr(from);
   return r;
 }
 
-fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams& params, int index) {
-  StatusOr<local::Scenario> sc = fusion::makeBatchScenario(setup.base, setup.roadways, setup.truth, params, index);
+sim::BatchRunResult runOne(const BatchSetup& setup, const sim::BatchParams& params, int index) {
+  StatusOr<sim::Scenario> sc = sim::makeBatchScenario(setup.base, setup.roadways, setup.truth, params, index);
   if (sc.ok()) {
-    fusion::BatchRunResult r = fusion::runBatchScenario(*sc, setup.truth, index, &setup.believed);
+    sim::BatchRunResult r = sim::runBatchScenario(*sc, setup.truth, index, &setup.believed);
     r.roadway_width_m = setup.roadways.widthAt(sc->start);
     return r;
   }
-  fusion::BatchRunResult r;
+  sim::BatchRunResult r;
   r.index = index;
-  r.seed = fusion::batchRunSeed(params.seed, index);
+  r.seed = sim::batchRunSeed(params.seed, index);
   r.outcome = "error";
   r.message = sc.status().message();
   return r;
@@ -94,12 +94,12 @@ fusion::BatchRunResult runOne(const BatchSetup& setup, const fusion::BatchParams
 }  // namespace
 
 StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std::string& map, bool no_cache) {
-  StatusOr<local::Scenario> sc = internalError("no base");
+  StatusOr<sim::Scenario> sc = internalError("no base");
   if (!scenario_file.empty()) {
-    sc = local::loadScenario(scenario_file);
+    sc = sim::loadScenario(scenario_file);
   } else {
     if (map.empty()) return invalidArgument("--batch needs --map (or a scenario file)");
-    sc = local::parseScenario("map: " + nlohmann::json(map).dump() +
+    sc = sim::parseScenario("map: " + nlohmann::json(map).dump() +
                                   "\nstart: [0, 0, 0]\ngoal: [1, 0, 0]\nexpected_path: plan\n"
                                   "robot: {radius: 0.4, v_max: 1.0, a_max: 0.5, sensor_range: 8}\n"
                                   "method: tian2016\nparams: {rho0_m: 1.0}\ndt: 0.1\n",
@@ -112,27 +112,27 @@ StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std:
   map::WorldOptions options;
   options.cache = verbCacheOptions(no_cache);
   ADIT_ASSIGN_OR_RETURN(map::World believed, map::World::load(map_path, options));
-  fusion::BatchRoadways roadways;
+  sim::BatchRoadways roadways;
   if (believed.survey()) {
-    roadways = fusion::BatchRoadways::fromSurvey(*believed.survey());
+    roadways = sim::BatchRoadways::fromSurvey(*believed.survey());
   } else {
     // The passages the base robot fits through with room to spare (the generator's own test
     // for a start or goal: clearance above radius + 0.4 m).
-    StatusOr<fusion::BatchRoadways> r =
-        fusion::BatchRoadways::fromFreeSpace(believed.map(), believed.field(), sc->params.robot.radius_m + 0.4);
+    StatusOr<sim::BatchRoadways> r =
+        sim::BatchRoadways::fromFreeSpace(believed.map(), believed.field(), sc->params.robot.radius_m + 0.4);
     if (!r.ok()) return invalidArgument(map_path + ": no roadways to draw starts and goals on: " + r.status().message());
     roadways = std::move(r).value();
   }
-  ADIT_ASSIGN_OR_RETURN(local::Environment truth, local::Environment::borrow(believed));
+  ADIT_ASSIGN_OR_RETURN(sim::Environment truth, sim::Environment::borrow(believed));
   return BatchSetup{std::move(sc).value(), std::move(roadways), std::move(believed), std::move(truth)};
 }
 
-StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& setup,
-                                                                const fusion::BatchParams& params,
+StatusOr<std::vector<sim::BatchRunResult>> runBatchWorkers(const BatchSetup& setup,
+                                                                const sim::BatchParams& params,
                                                                 const std::vector<int>& indices, int jobs_wanted,
                                                                 ProgressBar& bar, const char* stage) {
   const int total = int(indices.size());
-  if (total == 0) return std::vector<fusion::BatchRunResult>{};
+  if (total == 0) return std::vector<sim::BatchRunResult>{};
   const int jobs = std::max(1, std::min(jobs_wanted, total));
   // One unlinked temporary file per worker (tmpfile()): a killed batch leaves nothing behind.
   std::vector<std::FILE*> files;
@@ -209,7 +209,7 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
     workers_ok = workers_ok && WIFEXITED(status) && WEXITSTATUS(status) == 0;
   }
   ::munmap(next, sizeof(std::atomic<int>));
-  std::vector<std::optional<fusion::BatchRunResult>> by_index;
+  std::vector<std::optional<sim::BatchRunResult>> by_index;
   by_index.resize(std::size_t(total));
   std::vector<std::pair<int, std::size_t>> position;  // index -> position in `indices`
   for (std::size_t k = 0; k < indices.size(); ++k) position.emplace_back(indices[k], k);
@@ -223,7 +223,7 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
         line.push_back(char(c));
         continue;
       }
-      std::optional<fusion::BatchRunResult> r = parseBatchRecord(line);
+      std::optional<sim::BatchRunResult> r = parseBatchRecord(line);
       line.clear();
       if (!r) continue;
       const auto it = std::lower_bound(position.begin(), position.end(), std::make_pair(r->index, std::size_t(0)));
@@ -231,7 +231,7 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
     }
   }
   closeAll();
-  std::vector<fusion::BatchRunResult> runs;
+  std::vector<sim::BatchRunResult> runs;
   for (std::size_t k = 0; k < by_index.size(); ++k) {
     if (!by_index[k]) return internalError("batch: run " + std::to_string(indices[k]) + " was lost (a worker " +
                                            (workers_ok ? "wrote no record" : "failed") + ")");
@@ -240,7 +240,7 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
   return runs;
 }
 
-StatusOr<local::Scenario> replayScenario(const std::string& spec, const std::string& map_override) {
+StatusOr<sim::Scenario> replayScenario(const std::string& spec, const std::string& map_override) {
   const std::size_t colon = spec.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == spec.size())
     return invalidArgument("--replay " + spec + ": expected CAMPAIGN:INDEX (a campaign directory or shard JSON)");
@@ -281,7 +281,7 @@ StatusOr<local::Scenario> replayScenario(const std::string& spec, const std::str
     return invalidArgument(map_path + ": the map changed since the campaign (" + hash + ", recorded " + id.map_hash +
                            " in " + shard + ")");
   ADIT_ASSIGN_OR_RETURN(const BatchSetup setup, loadBatchSetup("", map_path));
-  return fusion::makeBatchScenario(setup.base, setup.roadways, setup.truth, id.generator, int(index));
+  return sim::makeBatchScenario(setup.base, setup.roadways, setup.truth, id.generator, int(index));
 }
 
 }  // namespace adit::tools

@@ -4,7 +4,7 @@
 /// The machinery shared by `adit simulate --batch` and `adit campaign run|merge` and
 /// `adit simulate --replay`: the base scenario of a batch (the district rescue robot on a survey
 /// map), the map, survey and true world loaded once, and runBatchWorkers(), which runs a list of
-/// scenario indices (adit/fusion/batch.hpp) on forked worker processes. Workers are processes,
+/// scenario indices (adit/sim/batch.hpp) on forked worker processes. Workers are processes,
 /// not threads, because OMPL's seed is process-global; they are forked after the map is loaded
 /// so they share it copy-on-write. A run's row depends only on (seed, index, generator), never
 /// on the worker that ran it, so any split of the indices gives the same rows.
@@ -22,10 +22,10 @@
 #include <string>
 #include <vector>
 
-#include "adit/fusion/batch.hpp"
-#include "adit/local/scenario.hpp"
-#include "adit/local/simulator.hpp"
 #include "adit/map/survey_network.hpp"
+#include "adit/sim/batch.hpp"
+#include "adit/sim/scenario.hpp"
+#include "adit/sim/simulator.hpp"
 #include "adit/status.hpp"
 #include "common/campaign_shard.hpp"
 #include "common/progress.hpp"
@@ -36,13 +36,13 @@ namespace adit::tools {
 /// starts and goals are drawn on (a survey's, or the free-space graph's of any other map), and
 /// the true world.
 struct BatchSetup {
-  local::Scenario base;
-  fusion::BatchRoadways roadways;
+  sim::Scenario base;
+  sim::BatchRoadways roadways;
   /// The robot's map at t = 0, loaded once; every run starts from a deep copy of it. The true
   /// world borrows its map and field: nothing writes them (a World keeps them on the heap, so the
   /// borrow survives a move).
   map::World believed;
-  local::Environment truth;
+  sim::Environment truth;
 };
 
 /// The base scenario is `scenario_file` when given (its map replaced by `map` when both are
@@ -55,8 +55,8 @@ StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std:
 /// feeding `bar` (stage `stage`). The rows come back in the order of `indices`. A scenario that
 /// cannot be generated or simulated is a row with outcome "error"; a worker that dies loses its
 /// rows and the call fails (internal error) naming the first lost index.
-StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& setup,
-                                                                const fusion::BatchParams& params,
+StatusOr<std::vector<sim::BatchRunResult>> runBatchWorkers(const BatchSetup& setup,
+                                                                const sim::BatchParams& params,
                                                                 const std::vector<int>& indices, int jobs,
                                                                 ProgressBar& bar, const char* stage = "batch");
 
@@ -65,6 +65,6 @@ StatusOr<std::vector<fusion::BatchRunResult>> runBatchWorkers(const BatchSetup& 
 /// since (content hash). `map_override`, if given, is the map's file instead of the recorded path
 /// (a campaign run elsewhere; its content hash must still match). Errors: bad spec, no shard JSON,
 /// index outside 0..N-1, a relative map path not found from here, changed map.
-StatusOr<local::Scenario> replayScenario(const std::string& spec, const std::string& map_override = "");
+StatusOr<sim::Scenario> replayScenario(const std::string& spec, const std::string& map_override = "");
 
 }  // namespace adit::tools

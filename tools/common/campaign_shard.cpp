@@ -71,7 +71,7 @@ std::string shown(const nlohmann::json& j, const nlohmann::json::json_pointer& p
 }  // namespace
 
 nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id) {
-  const fusion::BatchParams& g = id.generator;
+  const sim::BatchParams& g = id.generator;
   nlohmann::ordered_json gen;
   gen["separation"] = range(g.min_separation_m, g.max_separation_m);
   gen["max_moving_obstacles"] = g.max_moving_obstacles;
@@ -119,7 +119,7 @@ StatusOr<CampaignIdentity> campaignIdentityFromJson(const nlohmann::json& j, con
   if (!c.contains("generator") || !c["generator"].is_object())
     return invalidArgument(where + ".generator: expected an object");
   // JSON is YAML: the generator object is read by the generator's own reader.
-  ADIT_ASSIGN_OR_RETURN(id.generator, fusion::parseBatchParams(c["generator"].dump(), where + ".generator"));
+  ADIT_ASSIGN_OR_RETURN(id.generator, sim::parseBatchParams(c["generator"].dump(), where + ".generator"));
   id.generator.seed = id.seed;
   return id;
 }
@@ -134,10 +134,10 @@ CampaignStats::CampaignStats() {
   for (const char* o : kOutcomes) outcomes[o] = 0;
 }
 
-Status CampaignStats::add(const fusion::BatchRunResult& r) {
+Status CampaignStats::add(const sim::BatchRunResult& r) {
   ++scenarios;
   ++outcomes[r.outcome];
-  if (r.end_cause != local::EndCause::kNone) ++end_causes[r.outcome][local::endCauseName(r.end_cause)];
+  if (r.end_cause != sim::EndCause::kNone) ++end_causes[r.outcome][sim::endCauseName(r.end_cause)];
   if (r.separation_m > 0.0) {
     ++by_feature["vehicles"][std::to_string(r.vehicles)][r.outcome];
     ++by_feature["roof_fall"][r.roof_fall ? "yes" : "no"][r.outcome];
@@ -149,7 +149,7 @@ Status CampaignStats::add(const fusion::BatchRunResult& r) {
   ADIT_RETURN_IF_ERROR(checkedAdd(replans, r.replans, "replans"));
   runs_with_replans += r.replans > 0;
   if (r.outcome == "error") return Status();
-  // Rows come from fusion::parseBatchCsvRow(): lengths and times are finite and below 1e9, so
+  // Rows come from sim::parseBatchCsvRow(): lengths and times are finite and below 1e9, so
   // one row's millimetres fit; their sum is what is checked.
   ADIT_RETURN_IF_ERROR(checkedAdd(path_length_mm, std::llround(r.path_length_m * 1000.0), "path_length_mm_sum"));
   if (std::isfinite(r.min_clearance_m))
@@ -204,11 +204,11 @@ nlohmann::ordered_json CampaignStats::toJson() const {
   return {{"counts", c}, {"step_time_us", t}};
 }
 
-bool isFailure(const fusion::BatchRunResult& r) { return r.outcome != "arrived" || r.collisions > 0; }
+bool isFailure(const sim::BatchRunResult& r) { return r.outcome != "arrived" || r.collisions > 0; }
 
-nlohmann::ordered_json failureEntry(const fusion::BatchRunResult& r) {
+nlohmann::ordered_json failureEntry(const sim::BatchRunResult& r) {
   nlohmann::ordered_json e = {{"index", r.index}, {"seed", r.seed}, {"outcome", r.outcome}, {"collisions", r.collisions}};
-  if (r.end_cause != local::EndCause::kNone) e["end_cause"] = local::endCauseName(r.end_cause);
+  if (r.end_cause != sim::EndCause::kNone) e["end_cause"] = sim::endCauseName(r.end_cause);
   e["message"] = r.message;
   return e;
 }
@@ -236,22 +236,22 @@ StatusOr<ShardRows> readShardRows(const std::string& csv_text, const std::string
     const std::string at = csv_path + ":" + std::to_string(line_no) + ": ";
     if (line_no == 1) {
       if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-      if (line != fusion::batchCsvHeader())
-        return invalidArgument(at + "not this adit's header (" + fusion::batchCsvHeader() + ")");
+      if (line != sim::batchCsvHeader())
+        return invalidArgument(at + "not this adit's header (" + sim::batchCsvHeader() + ")");
       continue;
     }
     if (line.empty()) return invalidArgument(at + "an empty line");
     if (static_cast<long long>(out.rows.size()) == expected)
       return invalidArgument(at + "more rows than the " + std::to_string(expected) + " of shard " + std::to_string(k) +
                              " of " + std::to_string(id.shards));
-    StatusOr<fusion::BatchRunResult> r = fusion::parseBatchCsvRow(line);
+    StatusOr<sim::BatchRunResult> r = sim::parseBatchCsvRow(line);
     if (!r.ok()) return invalidArgument(at + r.status().message());
     if (r->index >= id.scenarios || r->index % id.shards != k)
       return invalidArgument(at + "scenario " + std::to_string(r->index) + " is not one of shard " + std::to_string(k) +
                              " of " + std::to_string(id.shards) + " (i mod " + std::to_string(id.shards) + " == " +
                              std::to_string(k) + ", i < " + std::to_string(id.scenarios) + ")");
     if (!seen.insert(r->index).second) return invalidArgument(at + "scenario " + std::to_string(r->index) + " again");
-    if (const std::uint64_t s = fusion::batchRunSeed(id.seed, r->index); r->seed != s)
+    if (const std::uint64_t s = sim::batchRunSeed(id.seed, r->index); r->seed != s)
       return invalidArgument(at + "scenario " + std::to_string(r->index) + " has seed " + std::to_string(r->seed) +
                              "; campaign seed " + std::to_string(id.seed) + " gives it " + std::to_string(s));
     if (Status s = out.stats.add(*r); !s.ok()) return invalidArgument(at + s.message());
@@ -283,7 +283,7 @@ StatusOr<std::vector<nlohmann::ordered_json>> checkShardSummary(const nlohmann::
   const nlohmann::json& listed = shard_json["failures"];
   std::vector<nlohmann::ordered_json> out;
   std::size_t i = 0;
-  for (const fusion::BatchRunResult& r : rows.rows) {
+  for (const sim::BatchRunResult& r : rows.rows) {
     if (!isFailure(r)) continue;
     const std::string where = json_path + ": /failures/" + std::to_string(i);
     if (i >= listed.size())

@@ -2,10 +2,10 @@
 #pragma once
 /// @file
 /// A campaign shard's files and why `adit campaign merge` can trust them. Shard K of M writes
-/// `shard-K-of-M.csv` (a row per scenario, fusion::batchCsvRow()) and `shard-K-of-M.json` (the
+/// `shard-K-of-M.csv` (a row per scenario, sim::batchCsvRow()) and `shard-K-of-M.json` (the
 /// campaign's identity, the SHA-256 of the CSV's bytes, the statistics and the failures). Merge
 /// believes none of the JSON's numbers: it checks the CSV against the recorded digest, parses
-/// every row (fusion::parseBatchCsvRow()), checks that each row belongs to this shard of this
+/// every row (sim::parseBatchCsvRow()), checks that each row belongs to this shard of this
 /// campaign (its index is one of shard K's, once, and its seed is the one the campaign seed gives
 /// that index), recomputes the statistics and the failure list from the rows, and refuses a shard
 /// whose JSON says anything else, naming the file and the field. Sums are checked for overflow,
@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "adit/fusion/batch.hpp"
+#include "adit/sim/batch.hpp"
 #include "adit/status.hpp"
 
 namespace adit::tools {
@@ -39,14 +39,14 @@ struct CampaignIdentity {
   std::uint64_t seed = 1;
   int scenarios = 0;     ///< N: scenario indices 0..N-1
   int shards = 1;        ///< M
-  fusion::BatchParams generator;
+  sim::BatchParams generator;
   std::string adit_version;
   std::string adit_commit;  ///< `git describe` of the build (recorded, not compared: a re-run shard may be a rebuild)
 };
 
 /// {"map", "map_hash", "seed", "scenarios", "shards", "generator": {...}, "adit_version",
 /// "adit_commit"}; the generator object uses the keys of the generator YAML
-/// (fusion::parseBatchParams).
+/// (sim::parseBatchParams).
 nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id);
 /// The inverse; errors name `file` and the missing or bad field. Integers must be integers in
 /// range (a seed is a uint64, N and M ints with 1 <= M <= N), never a float or a wrapped value.
@@ -69,14 +69,14 @@ struct CampaignStats {
   long long replans = 0, runs_with_replans = 0, arrival_time_ms = 0, path_length_mm = 0;
   std::optional<double> min_clearance_m;
   std::array<long long, kStepEdgesUs.size() + 1> step_p50{}, step_p99{};
-  /// Timeout and stuck runs by local::EndCause: outcome -> cause name -> count.
+  /// Timeout and stuck runs by sim::EndCause: outcome -> cause name -> count.
   std::map<std::string, std::map<std::string, long long>> end_causes;
   /// Outcome counts by scenario feature: feature -> bucket label -> outcome -> count.
   std::map<std::string, std::map<std::string, std::map<std::string, long long>>> by_feature;
 
   CampaignStats();
   /// Adds one row. Errors: a sum would overflow (naming it).
-  Status add(const fusion::BatchRunResult& r);
+  Status add(const sim::BatchRunResult& r);
   /// Adds another shard's statistics. Errors: a sum would overflow (naming it).
   Status add(const CampaignStats& o);
   /// {"counts": {...}, "step_time_us": {...}}: "counts" depends only on the campaign,
@@ -85,12 +85,12 @@ struct CampaignStats {
 };
 
 /// A failure-list entry: index, seed, outcome, collisions, message.
-bool isFailure(const fusion::BatchRunResult& r);
-nlohmann::ordered_json failureEntry(const fusion::BatchRunResult& r);
+bool isFailure(const sim::BatchRunResult& r);
+nlohmann::ordered_json failureEntry(const sim::BatchRunResult& r);
 
 /// A shard's CSV, parsed and checked row by row.
 struct ShardRows {
-  std::vector<fusion::BatchRunResult> rows;  ///< in file order
+  std::vector<sim::BatchRunResult> rows;  ///< in file order
   std::vector<std::string> lines;            ///< the rows' text, as in the file
   CampaignStats stats;                       ///< recomputed from `rows`
 };
@@ -99,8 +99,8 @@ struct ShardRows {
 std::size_t maxShardCsvBytes(long long rows);
 
 /// Parses and checks the CSV text of shard `k` of campaign `id`: the header is
-/// fusion::batchCsvHeader(); every row parses; its index is one of shard k's, appears once, and
-/// its seed is fusion::batchRunSeed(id.seed, index); there are exactly shardScenarioCount() rows.
+/// sim::batchCsvHeader(); every row parses; its index is one of shard k's, appears once, and
+/// its seed is sim::batchRunSeed(id.seed, index); there are exactly shardScenarioCount() rows.
 /// Errors name `csv_path`, the line and the column.
 StatusOr<ShardRows> readShardRows(const std::string& csv_text, const std::string& csv_path, const CampaignIdentity& id,
                                   int k);

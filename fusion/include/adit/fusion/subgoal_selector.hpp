@@ -26,14 +26,15 @@
 ///   SubgoalQuery q{pos, vel, acc, goal, start, goal, &spheres, &moving, &field};
 ///   SubgoalChoice c = selectSubgoal(q, local_params, SubgoalParams{});
 ///
-/// In a run (`subgoals: ga_trust_region`): local::simulate() calls subgoalFunction() at the start
+/// In a run (`subgoals: ga_trust_region`): sim::simulate() calls subgoalFunction() at the start
 /// of every period (the Navigator calls selectSubgoal itself, NavigatorParams::subgoals) and hands
 /// the choice to LocalPlanner::setSubgoal(): the attraction pulls toward it, the line field and
-/// the progress monitor still follow the expected path's current segment.
+/// the progress monitor still follow the expected path's current segment. The request and the
+/// answer are adit::local's (subgoal.hpp), so that this layer needs no simulator.
 ///
-///   local::SimulateOptions opt;
-///   opt.subgoals = subgoalFunction(scenario.params, subgoalParamsFor(scenario));
-///   StatusOr<local::SimulationResult> r = local::simulate(scenario, env, opt);
+///   sim::SimulateOptions opt;
+///   opt.subgoals = subgoalFunction(scenario.params, sim::subgoalParamsFor(scenario));
+///   StatusOr<sim::SimulationResult> r = sim::simulate(scenario, env, opt);
 
 #include <string>
 #include <vector>
@@ -41,8 +42,7 @@
 #include "adit/fusion/genetic_trust_region.hpp"
 #include "adit/local/local_planner.hpp"
 #include "adit/local/params.hpp"
-#include "adit/local/scenario.hpp"
-#include "adit/local/simulator.hpp"
+#include "adit/local/subgoal.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
@@ -102,7 +102,7 @@ SubgoalChoice selectSubgoal(const SubgoalQuery& q, const local::LocalParams& loc
 /// the query with the break point line_b as target; the pick's `kind` is the outcome's name.
 /// kInvalidInput: no point (steer at the break point).
 ///
-/// The pick's `aim` (what local::simulate() and the Navigator hand to LocalPlanner::setSubgoal)
+/// The pick's `aim` (what sim::simulate() and the Navigator hand to LocalPlanner::setSubgoal)
 /// is the sub-goal's bearing from the robot at the break point's distance (at least the
 /// sub-goal's own). Interpretation: in the paper the robot moves to the sub-goal within the
 /// period, at 3/5 to 1 v_max; the local step's speed instead grows with the force, and an
@@ -116,10 +116,7 @@ local::SubgoalPick pickSubgoal(const local::RobotState& state, const map::Vec3& 
                                const map::DistanceField* field, const local::LocalParams& local,
                                const SubgoalParams& params);
 
-/// The selector as local::simulate() calls it (SimulateOptions::subgoals).
+/// The selector as sim::simulate() calls it (sim::SimulateOptions::subgoals).
 local::SubgoalFn subgoalFunction(const local::LocalParams& local, const SubgoalParams& params);
-/// The selector's parameters for a scenario: t0 = `subgoal_period`, the optimiser's seed =
-/// `seed`, the rest the defaults.
-SubgoalParams subgoalParamsFor(const local::Scenario& scenario);
 
 }  // namespace adit::fusion

@@ -7,10 +7,10 @@
 #include <limits>
 #include <unistd.h>
 
-#include "adit/local/scenario.hpp"
-#include "adit/local/simulator.hpp"
+#include "adit/sim/scenario.hpp"
+#include "adit/sim/simulator.hpp"
 
-namespace adit::local {
+namespace adit::sim {
 namespace {
 
 const char* kGood = R"(start: [0, 0, 0]
@@ -29,7 +29,7 @@ seed: 1
 TEST(Scenario, ParsesTheIssueExample) {
   StatusOr<Scenario> s = parseScenario(kGood, "good.yaml");
   ASSERT_TRUE(s.ok()) << s.status().message();
-  EXPECT_EQ(s->params.method, Method::kTian2016);
+  EXPECT_EQ(s->params.method, local::Method::kTian2016);
   EXPECT_EQ(s->expected_path.size(), 4u);
   EXPECT_EQ(s->params.tian2016.k_l, 0.2);
   EXPECT_EQ(s->params.monitor.window_s, 5.0);
@@ -200,7 +200,7 @@ TEST(Scenario, SubgoalErrorsNameTheField) {
   EXPECT_NE(s->validate().message().find("subgoal_period"), std::string::npos);
 }
 
-// local::simulate() has no selector of its own (it lives in adit::fusion): it says so instead
+// sim::simulate() has no selector of its own (it lives in adit::fusion): it says so instead
 // of silently steering at the break points.
 TEST(Scenario, SimulateRefusesSubgoalsWithoutASelector) {
   StatusOr<Scenario> s = parseScenario(std::string(kGood) + "subgoals: ga_trust_region\n", "good.yaml");
@@ -218,9 +218,9 @@ TEST(Scenario, MissingFileIsNamed) {
 }
 
 }  // namespace
-}  // namespace adit::local
+}  // namespace adit::sim
 
-namespace adit::local {
+namespace adit::sim {
 namespace {
 
 // Timeouts and stuck runs sorted by what they would need: the time budget (the route given last
@@ -246,4 +246,4 @@ TEST(EndCause, SortsTimeoutsAndStuckRuns) {
 }
 
 }  // namespace
-}  // namespace adit::local
+}  // namespace adit::sim

@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 /// @file
-/// A simulation scenario: the YAML schema of `adit simulate` as a struct, and its loader. The
-/// schema is fixed; fields marked "extension" are additions.
+/// A simulation scenario: the YAML schema of `adit simulate` as a struct, and its loader. It is
+/// adit::sim's, not the local planner's: a scenario describes a whole run (the true world, its
+/// events, the navigator's options), of which LocalParams are one part. The schema is fixed;
+/// fields marked "extension" are additions.
 ///
 ///   map: ../district.bt          # optional: relative to this file (else to the working directory)
 ///   start: [0, 0, 0]
@@ -21,13 +23,13 @@
 ///   seed: 1
 ///
 /// Navigated runs: a planned expected path, a sensor and roof falls (run by
-/// adit::fusion::simulateNavigated, not by simulate() below):
+/// simulateNavigated() of navigated_simulation.hpp, not by simulate() of simulator.hpp):
 ///
 ///   expected_path: plan          # plan it with the global layer on the scenario's map
 ///   robot: {sensor_range: 8}     # rock within this range of the robot is sensed [m]
 ///   events: [{t: 10, type: roof_fall, center: [90, 20, -3], radius: 3}]
 ///   subgoals: ga_trust_region    # none (default) | ga_trust_region: per-period sub-goals (Tian 2016
-///                                # §2.3), chosen by adit::fusion (local::simulate gets the selector
+///                                # §2.3), chosen by adit::fusion (simulate gets the selector
 ///                                # through SimulateOptions; the navigated runs choose it themselves)
 ///   subgoal_period: 1.0          # extension: t0 [s], a multiple of dt (default 1)
 ///
@@ -54,7 +56,9 @@
 #include "adit/map/types.hpp"
 #include "adit/status.hpp"
 
-namespace adit::local {
+namespace adit::sim {
+
+using map::Vec3;
 
 struct NamedObstacle {
   std::string name;
@@ -72,7 +76,7 @@ struct ScenarioEvent {
 
 /// How the robot picks what it steers at. kNone: the current break point of the
 /// expected path; kGaTrustRegion: every subgoal_period_s the point of the annulus around the robot
-/// that minimises the potential (adit::fusion::selectSubgoal; local does not depend on fusion).
+/// that minimises the potential (adit::fusion::selectSubgoal).
 enum class SubgoalMode { kNone, kGaTrustRegion };
 /// "none" | "ga_trust_region".
 const char* subgoalModeName(SubgoalMode m);
@@ -94,10 +98,10 @@ struct Scenario {
   Vec3 start = Vec3::Zero();
   Vec3 goal = Vec3::Zero();
   map::Polyline expected_path;  ///< never empty after loading: [start, goal] by default
-  std::vector<StaticSphere> static_obstacles;
+  std::vector<local::StaticSphere> static_obstacles;
   std::vector<NamedObstacle> moving_obstacles;
   ParamsPreset preset = ParamsPreset::kDefault;  ///< `preset`
-  LocalParams params;       ///< `preset` of `method` with `params` and `robot` applied
+  local::LocalParams params;  ///< `preset` of `method` with `params` and `robot` applied
   double dt_s = 0.1;
   double t_max_s = 300.0;
   std::uint64_t seed = 1;
@@ -118,4 +122,4 @@ StatusOr<Scenario> loadScenario(const std::string& path);
 /// The same from text; `file` names it in messages and locates a relative `map`.
 StatusOr<Scenario> parseScenario(const std::string& text, const std::string& file);
 
-}  // namespace adit::local
+}  // namespace adit::sim

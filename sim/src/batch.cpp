@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "adit/fusion/batch.hpp"
+#include "adit/sim/batch.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -11,12 +11,12 @@
 #include <random>
 #include <vector>
 
-#include "adit/fusion/navigated_simulation.hpp"
 #include "adit/global/global_planner_params.hpp"
 #include "adit/global/roadway_graph.hpp"
 #include "adit/map/distance_field.hpp"
+#include "adit/sim/navigated_simulation.hpp"
 
-namespace adit::fusion {
+namespace adit::sim {
 
 namespace {
 
@@ -70,7 +70,7 @@ class Drawer {
 // The goal moved off the axis toward the floor or a rib (BatchParams::near_rock_goal_share),
 // from a stream of its own: the other draws of the run are not shifted. Last of the draws, so
 // that t_max and the roof fall's time stay those of the axis goal.
-void moveGoalNearRock(local::Scenario& sc, const Vec3& along, const local::Environment& truth, const BatchParams& params,
+void moveGoalNearRock(Scenario& sc, const Vec3& along, const Environment& truth, const BatchParams& params,
                       std::uint64_t run_seed) {
   std::mt19937_64 rng(batchRunSeed(run_seed ^ 0x474F414C4E454152ull, 0));  // "GOALNEAR"
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -97,7 +97,7 @@ void moveGoalNearRock(local::Scenario& sc, const Vec3& along, const local::Envir
   }
   const double d = (g - sc.start).norm();
   if (d < params.min_separation_m || d > params.max_separation_m) return;
-  for (const local::ScenarioEvent& e : sc.events)
+  for (const ScenarioEvent& e : sc.events)
     if ((g - e.center).norm() < e.radius_m + r + 1.0) return;
   sc.goal = g;
 }
@@ -186,8 +186,8 @@ double BatchRoadways::widthAt(const Vec3& p) const {
   return width;
 }
 
-StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const map::SurveyNetwork& survey,
-                                            const local::Environment& truth, const BatchParams& params, int index) {
+StatusOr<Scenario> makeBatchScenario(const Scenario& base, const map::SurveyNetwork& survey,
+                                            const Environment& truth, const BatchParams& params, int index) {
   return makeBatchScenario(base, BatchRoadways::fromSurvey(survey), truth, params, index);
 }
 
@@ -218,8 +218,8 @@ std::string jsonNumber(double x) {
 
 StatusOr<BatchRobot> robotFromJson(const std::string& robot_json) {
   // JSON is YAML: the robot mapping goes through the scenario reader, in a scenario of its own.
-  StatusOr<local::Scenario> sc =
-      local::parseScenario("start: [0, 0, 0]\ngoal: [1, 0, 0]\nmethod: tian2016\nrobot: " + robot_json + "\n", "robot");
+  StatusOr<Scenario> sc =
+      parseScenario("start: [0, 0, 0]\ngoal: [1, 0, 0]\nmethod: tian2016\nrobot: " + robot_json + "\n", "robot");
   if (!sc.ok()) {
     // "robot:3:9: robot.height: ..." -> "robot.height: ...": the caller says where the mapping is.
     std::string m = sc.status().message();
@@ -229,8 +229,8 @@ StatusOr<BatchRobot> robotFromJson(const std::string& robot_json) {
   return BatchRobot{sc->params.robot, sc->sensor_range_m};
 }
 
-StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const BatchRoadways& roadways,
-                                            const local::Environment& truth, const BatchParams& params, int index) {
+StatusOr<Scenario> makeBatchScenario(const Scenario& base, const BatchRoadways& roadways,
+                                            const Environment& truth, const BatchParams& params, int index) {
   ADIT_RETURN_IF_ERROR(params.validate());
   if (index < 0) return invalidArgument("batch: run index must be >= 0 (got " + std::to_string(index) + ")");
   if (!truth.field()) return invalidArgument(base.file + ": map: a batch needs a map");
@@ -240,7 +240,7 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const B
                            (roadways.source == "survey" ? "the survey has no roadway" : "the map has no passage for the robot"));
   const std::uint64_t run_seed = batchRunSeed(params.seed, index);
   Drawer draw(segs, roadways.lift, run_seed);
-  local::Scenario sc = base;
+  Scenario sc = base;
   if (!params.robot_json.empty()) {
     ADIT_ASSIGN_OR_RETURN(const BatchRobot robot, robotFromJson(params.robot_json));
     sc.params.robot = robot.limits;
@@ -293,7 +293,7 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const B
       const RoadwayPoint p = draw.point();
       const double speed = draw.uniform(params.vehicle_speed_min_mps, params.vehicle_speed_max_mps) * (draw.integer(0, 1) ? 1.0 : -1.0);
       if ((p.position - sc.start).norm() < 10.0 || !roomy(p.position)) continue;
-      local::NamedObstacle o;
+      NamedObstacle o;
       o.name = "vehicle-" + std::to_string(v + 1);
       o.obstacle.shape = map::RobotShape::sphere(params.vehicle_radius_m);
       o.obstacle.position = p.position;
@@ -313,7 +313,7 @@ StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const B
     for (int k = 0; k < kMaxDraws; ++k) {
       const Vec3 c = draw.point().position;
       if (!box.contains(c) || (c - sc.start).norm() < keep_off || (c - sc.goal).norm() < keep_off) continue;
-      local::ScenarioEvent e;
+      ScenarioEvent e;
       e.t_s = draw.uniform(2.0, 2.0 + 0.5 * dist / v_max);
       e.center = c;
       e.radius_m = params.roof_fall_radius_m;
@@ -430,7 +430,7 @@ double roadwayWidthAt(const map::SurveyNetwork& survey, const map::Vec3& p) {
   return BatchRoadways::fromSurvey(survey).widthAt(p);
 }
 
-BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index,
+BatchRunResult runBatchScenario(const Scenario& scenario, const Environment& truth, int index,
                                 const map::World* believed) {
   BatchRunResult out;
   out.index = index;
@@ -448,8 +448,8 @@ BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::En
     out.message = n.status().message();
     return out;
   }
-  const local::SimulationResult& r = n->run;
-  out.outcome = local::outcomeName(r.outcome);
+  const SimulationResult& r = n->run;
+  out.outcome = outcomeName(r.outcome);
   out.message = r.message;
   out.arrival_time_s = r.arrival_time_s;
   out.path_length_m = r.path_length_m;
@@ -476,7 +476,7 @@ std::string batchCsvRow(const BatchRunResult& r) {
          number(r.step_p50_us) + "," + number(r.step_p99_us) + "," + std::to_string(r.collisions) + "," +
          number(r.final_goal_distance_m) + "," + number(r.arrival_tolerance_m) + "," + std::to_string(r.vehicles) +
          "," + (r.roof_fall ? "1" : "0") + "," + number(r.separation_m) + "," + number(r.robot_radius_m) + "," +
-         number(r.robot_speed_mps) + "," + number(r.roadway_width_m) + "," + local::endCauseName(r.end_cause);
+         number(r.robot_speed_mps) + "," + number(r.roadway_width_m) + "," + endCauseName(r.end_cause);
 }
 
 namespace {
@@ -544,10 +544,10 @@ StatusOr<BatchRunResult> parseBatchCsvRow(std::string_view line) {
   r.index = int(index);
   ADIT_ASSIGN_OR_RETURN(r.seed, csvInteger(f[1], 1, std::numeric_limits<std::uint64_t>::max()));
   bool known = f[2] == "error";
-  for (local::Outcome o : {local::Outcome::kArrived, local::Outcome::kCollision, local::Outcome::kStuck,
-                           local::Outcome::kTimeout, local::Outcome::kNoRoute, local::Outcome::kHitByFall,
-                           local::Outcome::kHitByMover})
-    known = known || f[2] == local::outcomeName(o);
+  for (Outcome o : {Outcome::kArrived, Outcome::kCollision, Outcome::kStuck,
+                           Outcome::kTimeout, Outcome::kNoRoute, Outcome::kHitByFall,
+                           Outcome::kHitByMover})
+    known = known || f[2] == outcomeName(o);
   if (!known) return invalidArgument(columnError(2, f[2], "is not an outcome (arrived, collision, stuck, timeout, no_route, hit_by_fall, hit_by_mover, error)"));
   r.outcome = std::string(f[2]);
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
@@ -570,14 +570,14 @@ StatusOr<BatchRunResult> parseBatchCsvRow(std::string_view line) {
   ADIT_ASSIGN_OR_RETURN(r.robot_radius_m, csvNumber(f[15], 15, 0.0, kLength));
   ADIT_ASSIGN_OR_RETURN(r.robot_speed_mps, csvNumber(f[16], 16, 0.0, kLength));
   ADIT_ASSIGN_OR_RETURN(r.roadway_width_m, csvNumber(f[17], 17, 0.0, kLength));
-  const std::optional<local::EndCause> cause = local::endCauseFromName(f[18]);
+  const std::optional<EndCause> cause = endCauseFromName(f[18]);
   if (!cause)
     return invalidArgument(columnError(18, f[18], "is not an end cause (empty, route_outlasts_t_max, short_of_goal, en_route)"));
   r.end_cause = *cause;
   const bool needs_cause = r.outcome == "timeout" || r.outcome == "stuck";
-  if (needs_cause != (r.end_cause != local::EndCause::kNone))
+  if (needs_cause != (r.end_cause != EndCause::kNone))
     return invalidArgument(columnError(18, f[18], needs_cause ? "is empty for a timeout or stuck run" : "is given for an outcome that has none"));
   return r;
 }
 
-}  // namespace adit::fusion
+}  // namespace adit::sim

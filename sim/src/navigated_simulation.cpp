@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "adit/fusion/navigated_simulation.hpp"
+#include "adit/sim/navigated_simulation.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -12,14 +12,17 @@
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
 #include "adit/map/occupancy_map.hpp"
+#include "escape_record.hpp"
 
-namespace adit::fusion {
+namespace adit::sim {
 
 namespace {
 
-using local::Outcome;
-using local::Scenario;
-using local::ScenarioEvent;
+using fusion::Navigator;
+using fusion::NavigatorCycle;
+using fusion::NavigatorParams;
+using fusion::NavigatorStatus;
+using fusion::SensorScan;
 
 Eigen::Isometry3d at(const Vec3& p) {
   Eigen::Isometry3d x = Eigen::Isometry3d::Identity();
@@ -53,10 +56,10 @@ bool inBall(const Vec3& p, const ScenarioEvent& e) { return (p - e.center).norm(
 // free roadway outside the ball.
 // The first contact was with a fall that landed within the robot's stopping distance, before
 // the robot could have stopped: the fall nearest to where the robot was then.
-bool fallLandedOnRobot(const std::vector<Fall>& falls, const local::SimulationResult& res) {
+bool fallLandedOnRobot(const std::vector<Fall>& falls, const SimulationResult& res) {
   const double t = res.first_collision_t_s;
-  const local::TrajectorySample* at = nullptr;
-  for (const local::TrajectorySample& s : res.trajectory)
+  const TrajectorySample* at = nullptr;
+  for (const TrajectorySample& s : res.trajectory)
     if (s.t_s >= t - 1e-9) {
       at = &s;
       break;
@@ -129,11 +132,11 @@ void sense(std::vector<Fall>& falls, const map::OccupancyMap& truth, const Vec3&
 
 }  // namespace
 
-StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::Environment& truth,
+StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const Environment& truth,
                                          const NavigatedOptions& options) {
   const auto wall0 = std::chrono::steady_clock::now();
   ADIT_RETURN_IF_ERROR(scenario.validate());
-  ADIT_ASSIGN_OR_RETURN(const Scenario sc, local::placeOnFloor(scenario, truth));
+  ADIT_ASSIGN_OR_RETURN(const Scenario sc, placeOnFloor(scenario, truth));
   if (!sc.map_path || !truth.map() || !truth.checker())
     return invalidArgument(sc.file + ": map: the navigator needs a map to plan on");
   if (!sc.static_obstacles.empty())
@@ -141,9 +144,9 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
   const double r = sc.params.robot.radius_m;
   const map::RobotShape robot = map::RobotShape::sphere(r);
   const bool ground = sc.params.robot.ground();
-  const double yaw0 = ground ? local::startYaw(sc) : 0.0;
+  const double yaw0 = ground ? startYaw(sc) : 0.0;
   auto rockDistance = [&](const Vec3& p) {
-    if (ground) return local::bodyRockClearance(sc, truth, p, yaw0);
+    if (ground) return bodyRockClearance(sc, truth, p, yaw0);
     const map::ShapeDistance d = truth.checker()->distance(robot, at(p), 10.0);
     return d.collision ? 0.0 : d.distance_m;
   };
@@ -175,14 +178,14 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
   // only as a last resort, far beyond them.
   np.global.time_budget_s = 60.0;
   np.global.max_unsolved_iterations = 100000;
-  np.subgoals = sc.subgoal_mode == local::SubgoalMode::kGaTrustRegion;
+  np.subgoals = sc.subgoal_mode == SubgoalMode::kGaTrustRegion;
   np.subgoal = subgoalParamsFor(sc);
   ADIT_ASSIGN_OR_RETURN(Navigator nav, Navigator::create(std::move(*believed), np, sc.goal));
 
   NavigatedRun out;
   const auto plan0 = std::chrono::steady_clock::now();
   out.setup_time_s = std::chrono::duration<double>(plan0 - wall0).count();
-  local::SimulationResult& res = out.run;
+  SimulationResult& res = out.run;
   res.arrival_tolerance_m = sc.params.monitor.arrival_tolerance_m;
   if (sc.plan_expected_path) {
     if (Status s = nav.plan(sc.start); !s.ok()) {
@@ -228,7 +231,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
   double t = 0.0;
   res.trajectory.push_back({0.0, state.position, state.velocity, local::StepStatus::kFollowing, state.position, state.yaw});
   NavigatorStatus last = NavigatorStatus::kDriving;
-  int escapes_before = 0;  // the previous cycle's StepCommand::escapes
+  EscapeRecord escapes;
   for (std::size_t k = 0; k < max_steps; ++k) {
     // The true world changes; the robot senses what of it is in range.
     while (next_event < sc.events.size() && sc.events[next_event].t_s <= t + 1e-9) {
@@ -262,9 +265,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
       cycle_us.push_back(c.cycle_time_s * 1e6);
       out.max_cycle_time_s = std::max(out.max_cycle_time_s, c.cycle_time_s);
     }
-    if (c.command.escapes > escapes_before) res.escape_times_s.push_back(t);
-    escapes_before = c.command.escapes;
-    res.escapes = std::max(res.escapes, c.command.escapes);
+    escapes.add(c.command.escapes, t, res);
     last = c.status;
     // The operator holding or driving the robot is not an end.
     const bool by_hand = c.status == NavigatorStatus::kPaused || c.status == NavigatorStatus::kManual;
@@ -274,7 +275,7 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
     }
     // The robot follows the set-points; the referee samples the period against the true world:
     // the map, and the roof falls that have happened.
-    local::refereePeriod(sc, truth, c.command, t, state, res,
+    refereePeriod(sc, truth, c.command, t, state, res,
                          [&](const Vec3& p, double, double& d, std::string& what) {
                            for (const Fall& f : falls) {
                              const double df = std::max(0.0, (p - f.event.center).norm() - f.event.radius_m - r);
@@ -288,15 +289,15 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
   }
   // The goal the navigator had at the end: the scenario's unless an operator gave another.
   res.final_goal_distance_m = (state.position - nav.goal()).norm();
-  res.step_time_p50_us = local::stepTimePercentile(cycle_us, 0.5);
-  res.step_time_p99_us = local::stepTimePercentile(cycle_us, 0.99);
+  res.step_time_p50_us = stepTimePercentile(cycle_us, 0.5);
+  res.step_time_p99_us = stepTimePercentile(cycle_us, 0.99);
   out.replans = nav.replans();
   res.subgoals = nav.subgoalStats();
   out.events = nav.events();
   out.final_path = nav.expectedPath();
   out.end_time_s = t;
   // The verdict is the referee's.
-  if (local::collisionVerdict(res)) {
+  if (collisionVerdict(res)) {
     if (res.first_collision_with == "roof fall" && fallLandedOnRobot(falls, res)) {
       res.outcome = Outcome::kHitByFall;
       std::ostringstream os;
@@ -318,10 +319,10 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const local::
   }
   // The last expected path was made at the last path change (the start's plan otherwise).
   const double path_made_at = out.path_changes.empty() ? 0.0 : out.path_changes.back().t_s;
-  res.end_cause = local::endCause(sc, res.outcome, res.final_goal_distance_m, path_made_at, out.final_path.length());
+  res.end_cause = endCause(sc, res.outcome, res.final_goal_distance_m, path_made_at, out.final_path.length());
   if (observer) observer->finished(t, nav, state, res);
   out.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   return out;
 }
 
-}  // namespace adit::fusion
+}  // namespace adit::sim

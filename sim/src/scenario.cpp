@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "adit/local/scenario.hpp"
+#include "adit/sim/scenario.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -12,8 +12,19 @@
 
 #include "adit/map/map_io.hpp"
 
-namespace adit::local {
+namespace adit::sim {
 
+using local::DriveType;
+using local::Footprint;
+using local::LocalParams;
+using local::Method;
+using local::RobotLimits;
+using local::RobotMode;
+using local::StaticSphere;
+using local::parseDriveType;
+using local::parseFootprint;
+using local::parseMethod;
+using local::parseRobotMode;
 using map::allFinite;
 
 namespace {
@@ -455,4 +466,4 @@ StatusOr<Scenario> loadScenario(const std::string& path) {
   return parseScenario(text, path);
 }
 
-}  // namespace adit::local
+}  // namespace adit::sim

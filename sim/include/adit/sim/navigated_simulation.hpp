@@ -4,11 +4,11 @@
 /// The scenario simulator for runs that need the Navigator: `expected_path: plan`,
 /// `robot.sensor_range` and `events` (roof falls). It keeps two worlds apart:
 ///
-/// - the TRUE world: the scenario's map as loaded into the local::Environment, plus every roof
+/// - the TRUE world: the scenario's map as loaded into the Environment, plus every roof
 ///   fall that has happened (a ball of rock). The referee measures the robot's sphere against it:
 ///   against the map exactly (CollisionChecker, FCL), against a fall ball in closed form, against
 ///   moving obstacles with map::obstacleDistance, sub-sampled within each period as
-///   local::simulate() does;
+///   simulate() does;
 /// - the BELIEVED world: the Navigator's own map::World (loaded separately, or the copy() of
 ///   NavigatedOptions::believed, so it shares no octree with the true one). It learns a fall only
 ///   through the sensor: every period the
@@ -20,13 +20,13 @@
 /// A run ends in arrival, collision, no_route (the navigator found every roadway sealed and
 /// stopped), stuck, or t_max.
 ///
-///   StatusOr<local::Scenario> sc = local::loadScenario("maps/scenarios/district_rescue.yaml");
+///   StatusOr<Scenario> sc = loadScenario("maps/scenarios/district_rescue.yaml");
 ///   StatusOr<map::World> world = map::World::load(*sc->map_path);   // loaded once
-///   StatusOr<local::Environment> truth = local::Environment::borrow(*world);
+///   StatusOr<Environment> truth = Environment::borrow(*world);
 ///   NavigatedOptions options;
 ///   options.believed = &*world;                                  // the robot starts from its copy
 ///   StatusOr<NavigatedRun> run = simulateNavigated(*sc, *truth, options);
-///   std::cout << run->replans << " replans, " << local::outcomeName(run->run.outcome) << "\n";
+///   std::cout << run->replans << " replans, " << outcomeName(run->run.outcome) << "\n";
 
 #include <limits>
 #include <optional>
@@ -36,11 +36,11 @@
 #include "adit/fusion/navigator.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
-#include "adit/local/scenario.hpp"
-#include "adit/local/simulator.hpp"
+#include "adit/sim/scenario.hpp"
+#include "adit/sim/simulator.hpp"
 #include "adit/status.hpp"
 
-namespace adit::fusion {
+namespace adit::sim {
 
 /// Sensor range when the scenario gives none [m].
 inline constexpr double kDefaultSensorRangeM = 10.0;
@@ -48,9 +48,9 @@ inline constexpr double kDefaultSensorRangeM = 10.0;
 struct NavigatedRun {
   /// Outcome (kNoRoute included), trajectory, clearances; step_time_* are the navigator's cycle
   /// times in cycles that did not replan.
-  local::SimulationResult run;
+  SimulationResult run;
   int replans = 0;
-  std::vector<NavigatorEvent> events;  ///< the navigator's decisions
+  std::vector<fusion::NavigatorEvent> events;  ///< the navigator's decisions
   map::Polyline initial_path;          ///< the expected path at t = 0
   map::Polyline final_path;            ///< the expected path at the end
   double max_replan_time_s = 0.0;
@@ -60,7 +60,7 @@ struct NavigatedRun {
   double min_fall_clearance_m = std::numeric_limits<double>::infinity();
   /// `expected_path: plan` with refinement: the initial path before (initial_path is after) and
   /// after the break-point refinement, with its time.
-  std::optional<PlanRefinement> refinement;
+  std::optional<fusion::PlanRefinement> refinement;
   /// Each expected path the run changed to after the start (a replan's, an operator's), with the
   /// time of the cycle that made it: a replay draws each from its time on (initial_path before).
   struct PathChange {
@@ -92,20 +92,20 @@ class NavigatedObserver {
  public:
   virtual ~NavigatedObserver() = default;
   /// The expected path the run starts with (after plan() or the scenario's path).
-  virtual void started(const Navigator& nav, const map::Polyline& path) = 0;
+  virtual void started(const fusion::Navigator& nav, const map::Polyline& path) = 0;
   /// Before the cycle at `t_s`: the place to give the navigator operator commands.
-  virtual void beforeCycle(double t_s, Navigator& nav, const local::RobotState& state) = 0;
+  virtual void beforeCycle(double t_s, fusion::Navigator& nav, const local::RobotState& state) = 0;
   /// A roof fall happened in the true world at its `t_s`.
-  virtual void roofFall(const local::ScenarioEvent& event) = 0;
+  virtual void roofFall(const ScenarioEvent& event) = 0;
   /// After the cycle at `t_s` and the robot's move: `state` is at `t_s + dt`. `scan` is what the
   /// sensor returned this period, `tracks` the moving obstacles it tracked; `result` the referee's
   /// account so far (collisions).
-  virtual void afterCycle(double t_s, const Navigator& nav, const NavigatorCycle& cycle, const local::RobotState& state,
-                          const SensorScan& scan, const std::vector<map::MovingObstacle>& tracks,
-                          const local::SimulationResult& result) = 0;
+  virtual void afterCycle(double t_s, const fusion::Navigator& nav, const fusion::NavigatorCycle& cycle, const local::RobotState& state,
+                          const fusion::SensorScan& scan, const std::vector<map::MovingObstacle>& tracks,
+                          const SimulationResult& result) = 0;
   /// The run is over: the verdict is in `result` (outcome), the robot at `state`.
-  virtual void finished(double t_s, const Navigator& nav, const local::RobotState& state,
-                        const local::SimulationResult& result) = 0;
+  virtual void finished(double t_s, const fusion::Navigator& nav, const local::RobotState& state,
+                        const SimulationResult& result) = 0;
 };
 
 /// How the navigator treats a planned expected path (`expected_path: plan`; a given one is never
@@ -124,9 +124,9 @@ struct NavigatedOptions {
 };
 
 /// Runs the scenario (its map is required: the navigator plans on it). Errors: those of
-/// local::simulate() for bad input, a scenario without a map, static_obstacles (not supported by
+/// simulate() for bad input, a scenario without a map, static_obstacles (not supported by
 /// the navigator).
-StatusOr<NavigatedRun> simulateNavigated(const local::Scenario& scenario, const local::Environment& truth,
+StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const Environment& truth,
                                          const NavigatedOptions& options = {});
 
-}  // namespace adit::fusion
+}  // namespace adit::sim

@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "adit/fusion/batch.hpp"
 #include "adit/map/distance_field.hpp"
+#include "adit/sim/batch.hpp"
 
-namespace adit::fusion {
+namespace adit::sim {
 namespace {
 
 const std::string kDistrict = std::string(ADIT_MAPS_DIR) + "/district.yaml";
@@ -19,20 +19,20 @@ const std::string kDistrict = std::string(ADIT_MAPS_DIR) + "/district.yaml";
 class BatchTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    StatusOr<local::Scenario> sc = local::parseScenario(
+    StatusOr<sim::Scenario> sc = sim::parseScenario(
         "map: " + kDistrict +
             "\nstart: [0, 0, 0]\ngoal: [1, 0, 0]\nexpected_path: plan\n"
             "robot: {radius: 0.4, v_max: 1.0, a_max: 0.5, sensor_range: 8}\nmethod: tian2016\n"
             "params: {rho0_m: 1.0}\ndt: 0.1\n",
         "batch_test");
     ASSERT_TRUE(sc.ok()) << sc.status().toString();
-    base_ = new local::Scenario(*sc);
+    base_ = new sim::Scenario(*sc);
     StatusOr<map::SurveyNetwork> net = map::loadSurvey(kDistrict);
     ASSERT_TRUE(net.ok()) << net.status().toString();
     survey_ = new map::SurveyNetwork(*net);
-    StatusOr<local::Environment> env = local::Environment::load(*base_);
+    StatusOr<sim::Environment> env = sim::Environment::load(*base_);
     ASSERT_TRUE(env.ok()) << env.status().toString();
-    truth_ = new local::Environment(std::move(*env));
+    truth_ = new sim::Environment(std::move(*env));
   }
   static void TearDownTestSuite() {
     delete truth_;
@@ -46,13 +46,13 @@ class BatchTest : public ::testing::Test {
     p.t_max_s = 60.0;
     return p;
   }
-  static local::Scenario* base_;
+  static sim::Scenario* base_;
   static map::SurveyNetwork* survey_;
-  static local::Environment* truth_;
+  static sim::Environment* truth_;
 };
-local::Scenario* BatchTest::base_ = nullptr;
+sim::Scenario* BatchTest::base_ = nullptr;
 map::SurveyNetwork* BatchTest::survey_ = nullptr;
-local::Environment* BatchTest::truth_ = nullptr;
+sim::Environment* BatchTest::truth_ = nullptr;
 
 TEST(BatchSeed, DependsOnSeedAndIndexOnly) {
   EXPECT_EQ(batchRunSeed(7, 3), batchRunSeed(7, 3));
@@ -72,17 +72,17 @@ TEST(BatchParamsTest, RefusesBadValues) {
 
 TEST_F(BatchTest, ScenariosAreDrawnOnTheRoadwaysAndDoNotDependOnOrder) {
   const BatchParams p = shortRuns();
-  std::vector<local::Scenario> forward;
+  std::vector<sim::Scenario> forward;
   for (int i = 0; i < 20; ++i) {
-    StatusOr<local::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, i);
+    StatusOr<sim::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, i);
     ASSERT_TRUE(sc.ok()) << sc.status().toString();
     forward.push_back(*sc);
   }
   int falls = 0, vehicles = 0;
   for (int i = 19; i >= 0; --i) {
-    StatusOr<local::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, i);
+    StatusOr<sim::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, i);
     ASSERT_TRUE(sc.ok());
-    const local::Scenario& f = forward[std::size_t(i)];
+    const sim::Scenario& f = forward[std::size_t(i)];
     EXPECT_EQ(sc->start, f.start);
     EXPECT_EQ(sc->goal, f.goal);
     EXPECT_EQ(sc->seed, f.seed);
@@ -113,8 +113,8 @@ TEST_F(BatchTest, NearRockGoalsMoveOnlyTheGoal) {
   const double r = base_->params.robot.radius_m, margin = 0.2;
   int moved = 0;
   for (int i = 0; i < 20; ++i) {
-    StatusOr<local::Scenario> a = makeBatchScenario(*base_, *survey_, *truth_, none, i);
-    StatusOr<local::Scenario> b = makeBatchScenario(*base_, *survey_, *truth_, all, i);
+    StatusOr<sim::Scenario> a = makeBatchScenario(*base_, *survey_, *truth_, none, i);
+    StatusOr<sim::Scenario> b = makeBatchScenario(*base_, *survey_, *truth_, all, i);
     ASSERT_TRUE(a.ok() && b.ok());
     EXPECT_EQ(a->start, b->start);
     EXPECT_EQ(a->t_max_s, b->t_max_s);
@@ -145,12 +145,12 @@ TEST_F(BatchTest, RunsAreHonestAndIndependentOfOrder) {
   constexpr int kRuns = 2;
   std::vector<BatchRunResult> forward, backward(kRuns);
   for (int i = 0; i < kRuns; ++i) {
-    StatusOr<local::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, i);
+    StatusOr<sim::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, i);
     ASSERT_TRUE(sc.ok());
     forward.push_back(runBatchScenario(*sc, *truth_, i));
   }
   for (int i = kRuns - 1; i >= 0; --i) {
-    StatusOr<local::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, i);
+    StatusOr<sim::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, i);
     ASSERT_TRUE(sc.ok());
     backward[std::size_t(i)] = runBatchScenario(*sc, *truth_, i);
   }
@@ -168,7 +168,7 @@ TEST_F(BatchTest, RunsAreHonestAndIndependentOfOrder) {
     // The CSV row has the header's 19 columns and reads back as the run, to its 3 decimals.
     const std::string row = batchCsvRow(a);
     EXPECT_EQ(std::count(row.begin(), row.end(), ','), 18) << row;
-    EXPECT_EQ(a.end_cause != local::EndCause::kNone, a.outcome == "timeout" || a.outcome == "stuck") << row;
+    EXPECT_EQ(a.end_cause != sim::EndCause::kNone, a.outcome == "timeout" || a.outcome == "stuck") << row;
     StatusOr<BatchRunResult> back = parseBatchCsvRow(row);
     ASSERT_TRUE(back.ok()) << back.status().message() << "\n" << row;
     EXPECT_EQ(batchCsvRow(*back), row);
@@ -192,17 +192,17 @@ TEST_F(BatchTest, AFirstEscapePursuesThePathThroughAGapBesideARoofFall) {
   BatchParams p;
   p.seed = 1;
   for (const int index : {1823, 1911}) {
-    StatusOr<local::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, index);
+    StatusOr<sim::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, p, index);
     ASSERT_TRUE(sc.ok()) << sc.status().message();
     ASSERT_FALSE(sc->events.empty()) << "scenario " << index << " has its roof fall";
     const BatchRunResult with = runBatchScenario(*sc, *truth_, index);
     EXPECT_EQ(with.outcome, "arrived") << index << ": " << with.message;
     EXPECT_EQ(with.collisions, 0) << index;
-    local::Scenario field_only = *sc;
+    sim::Scenario field_only = *sc;
     field_only.params.pursuit.escape_run_m = 0.0;
     const BatchRunResult without = runBatchScenario(field_only, *truth_, index);
     EXPECT_EQ(without.outcome, "stuck") << index << ": " << without.message;
-    EXPECT_EQ(without.end_cause, local::EndCause::kEnRoute) << index;
+    EXPECT_EQ(without.end_cause, sim::EndCause::kEnRoute) << index;
   }
 }
 
@@ -216,11 +216,11 @@ TEST(BatchCsvRow, RefusesWhatARunCannotHaveWritten) {
   EXPECT_DOUBLE_EQ(r->arrival_time_s, 12.5);
   EXPECT_TRUE(r->roof_fall);
   EXPECT_DOUBLE_EQ(r->roadway_width_m, 4.0);
-  EXPECT_EQ(r->end_cause, local::EndCause::kNone);
+  EXPECT_EQ(r->end_cause, sim::EndCause::kNone);
   // Empty where a run writes none: a timeout has no arrival time, a run no clearance sample.
   EXPECT_EQ(parseBatchCsvRow("3,42,stuck,,30.250,,1,1.200,15.000,0,2.000,0.500,2,0,25.000,0.400,1.000,4.000,short_of_goal")
                 ->end_cause,
-            local::EndCause::kShortOfGoal);
+            sim::EndCause::kShortOfGoal);
   EXPECT_TRUE(std::isnan(parseBatchCsvRow("3,42,timeout,,30.250,,1,1.200,15.000,0,,0.500,2,0,25.000,0.400,1.000,4.000,en_route")
                              ->arrival_time_s));
   const std::pair<const char*, const char*> bad[] = {
@@ -299,7 +299,7 @@ TEST_F(BatchTest, GeneratorRobotReplacesTheBaseRobot) {
   EXPECT_EQ(again->robot_json, p->robot_json);
   BatchParams q = shortRuns();
   q.robot_json = p->robot_json;
-  StatusOr<local::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, q, 3);
+  StatusOr<sim::Scenario> sc = makeBatchScenario(*base_, *survey_, *truth_, q, 3);
   ASSERT_TRUE(sc.ok()) << sc.status().toString();
   const local::RobotLimits& r = sc->params.robot;
   EXPECT_TRUE(r.ground());
@@ -309,7 +309,7 @@ TEST_F(BatchTest, GeneratorRobotReplacesTheBaseRobot) {
   EXPECT_DOUBLE_EQ(r.v_max_mps, 0.8);
   EXPECT_EQ(sc->sensor_range_m, base_->sensor_range_m) << "no sensor_range given: the base's";
   // Start and goal are drawn as without it (its own draws come after).
-  StatusOr<local::Scenario> plain = makeBatchScenario(*base_, *survey_, *truth_, shortRuns(), 3);
+  StatusOr<sim::Scenario> plain = makeBatchScenario(*base_, *survey_, *truth_, shortRuns(), 3);
   ASSERT_TRUE(plain.ok());
   EXPECT_EQ(sc->start, plain->start);
 
@@ -337,9 +337,9 @@ TEST_F(BatchTest, RobotRangesAreDrawnPerScenario) {
   std::vector<double> radii;
   int same_draws = 0;
   for (int i = 0; i < 10; ++i) {
-    StatusOr<local::Scenario> a = makeBatchScenario(*base_, *survey_, *truth_, p, i);
-    StatusOr<local::Scenario> b = makeBatchScenario(*base_, *survey_, *truth_, p, i);
-    StatusOr<local::Scenario> plain = makeBatchScenario(*base_, *survey_, *truth_, shortRuns(), i);
+    StatusOr<sim::Scenario> a = makeBatchScenario(*base_, *survey_, *truth_, p, i);
+    StatusOr<sim::Scenario> b = makeBatchScenario(*base_, *survey_, *truth_, p, i);
+    StatusOr<sim::Scenario> plain = makeBatchScenario(*base_, *survey_, *truth_, shortRuns(), i);
     ASSERT_TRUE(a.ok() && b.ok() && plain.ok());
     const local::RobotLimits& r = a->params.robot;
     EXPECT_GE(r.radius_m, 0.3);
@@ -373,23 +373,23 @@ TEST_F(BatchTest, RoadwayWidthIsTheNearestRoadwaysSection) {
 }
 
 }  // namespace
-}  // namespace adit::fusion
+}  // namespace adit::sim
 
-namespace adit::fusion {
+namespace adit::sim {
 namespace {
 
 // A map without a survey (the bundled district as an octree): starts and goals are drawn on the
 // passages of its free-space roadway graph, with the robot's room, the same for the same seed.
 TEST(BatchOnAnyMap, StartsAndGoalsComeFromTheFreeSpaceGraph) {
   const std::string bt = std::string(ADIT_MAPS_DIR) + "/district.bt";
-  StatusOr<local::Scenario> sc = local::parseScenario(
+  StatusOr<sim::Scenario> sc = sim::parseScenario(
       "map: " + bt +
           "\nstart: [0, 0, 0]\ngoal: [1, 0, 0]\nexpected_path: plan\n"
           "robot: {radius: 0.4, v_max: 1.0, a_max: 0.5, sensor_range: 8}\nmethod: tian2016\n"
           "params: {rho0_m: 1.0}\ndt: 0.1\n",
       "batch_any_map");
   ASSERT_TRUE(sc.ok()) << sc.status().toString();
-  StatusOr<local::Environment> env = local::Environment::load(*sc);
+  StatusOr<sim::Environment> env = sim::Environment::load(*sc);
   ASSERT_TRUE(env.ok()) << env.status().toString();
   StatusOr<BatchRoadways> roadways = BatchRoadways::fromFreeSpace(*env->map(), *env->field(), 0.8);
   ASSERT_TRUE(roadways.ok()) << roadways.status().toString();
@@ -400,8 +400,8 @@ TEST(BatchOnAnyMap, StartsAndGoalsComeFromTheFreeSpaceGraph) {
   BatchParams p;
   p.seed = 5;
   for (int index = 0; index < 8; ++index) {
-    StatusOr<local::Scenario> a = makeBatchScenario(*sc, *roadways, *env, p, index);
-    StatusOr<local::Scenario> b = makeBatchScenario(*sc, *roadways, *env, p, index);
+    StatusOr<sim::Scenario> a = makeBatchScenario(*sc, *roadways, *env, p, index);
+    StatusOr<sim::Scenario> b = makeBatchScenario(*sc, *roadways, *env, p, index);
     ASSERT_TRUE(a.ok()) << a.status().toString();
     ASSERT_TRUE(b.ok());
     EXPECT_EQ(a->start, b->start);
@@ -413,4 +413,4 @@ TEST(BatchOnAnyMap, StartsAndGoalsComeFromTheFreeSpaceGraph) {
 }
 
 }  // namespace
-}  // namespace adit::fusion
+}  // namespace adit::sim

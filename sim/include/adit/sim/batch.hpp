@@ -16,7 +16,7 @@
 /// process-global random generator, so two plans on two threads at once are not deterministic
 /// (global_planner.hpp). `adit simulate --batch --jobs J` forks J workers.
 ///
-///   StatusOr<local::Scenario> sc = makeBatchScenario(base, *survey, truth, params, 17);
+///   StatusOr<Scenario> sc = makeBatchScenario(base, *survey, truth, params, 17);
 ///   BatchRunResult r = runBatchScenario(*sc, truth, 17, params.seed);
 
 #include <cstdint>
@@ -25,13 +25,13 @@
 #include <string>
 #include <string_view>
 
-#include "adit/fusion/navigated_simulation.hpp"
-#include "adit/local/scenario.hpp"
-#include "adit/local/simulator.hpp"
 #include "adit/map/survey_network.hpp"
+#include "adit/sim/navigated_simulation.hpp"
+#include "adit/sim/scenario.hpp"
+#include "adit/sim/simulator.hpp"
 #include "adit/status.hpp"
 
-namespace adit::fusion {
+namespace adit::sim {
 
 struct BatchParams {
   std::uint64_t seed = 1;
@@ -95,13 +95,13 @@ struct BatchRoadways {
 /// Scenario `index` of the batch: `base` gives the map, robot, method, params and dt; the rest is
 /// drawn. `truth` is the map loaded for `base` (start and goal must have the robot's clearance).
 /// Errors: bad params, a map without roadways, no admissible start/goal pair in 1000 draws.
-StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const BatchRoadways& roadways,
-                                            const local::Environment& truth, const BatchParams& params, int index);
+StatusOr<Scenario> makeBatchScenario(const Scenario& base, const BatchRoadways& roadways, const Environment& truth,
+                                     const BatchParams& params, int index);
 /// The same on a survey's roadways.
-StatusOr<local::Scenario> makeBatchScenario(const local::Scenario& base, const map::SurveyNetwork& survey,
-                                            const local::Environment& truth, const BatchParams& params, int index);
+StatusOr<Scenario> makeBatchScenario(const Scenario& base, const map::SurveyNetwork& survey,
+                                     const Environment& truth, const BatchParams& params, int index);
 
-/// One row of the table. outcome is local::outcomeName() or "error" (message says why).
+/// One row of the table. outcome is outcomeName() or "error" (message says why).
 struct BatchRunResult {
   int index = 0;
   std::uint64_t seed = 0;
@@ -116,7 +116,7 @@ struct BatchRunResult {
   double step_p99_us = 0.0;
   double final_goal_distance_m = 0.0;
   double arrival_tolerance_m = 0.5;
-  local::EndCause end_cause = local::EndCause::kNone;  ///< timeout and stuck: why (local::EndCause)
+  EndCause end_cause = EndCause::kNone;  ///< timeout and stuck: why (EndCause)
   // The scenario's features (for outcome rates by feature; not in the CSV): 0 for an "error"
   // row whose scenario could not be drawn.
   int vehicles = 0;
@@ -149,25 +149,25 @@ StatusOr<BatchParams> parseBatchParams(const std::string& yaml_text, const std::
                                        const BatchParams& defaults = {});
 
 /// `believed`, if given, is the scenario map preloaded (NavigatedOptions::believed); the row is the same.
-BatchRunResult runBatchScenario(const local::Scenario& scenario, const local::Environment& truth, int index,
+BatchRunResult runBatchScenario(const Scenario& scenario, const Environment& truth, int index,
                                 const map::World* believed = nullptr);
 
 /// `index,seed,outcome,arrival_time,path_length,min_clearance,replans,step_p50_us,step_p99_us,`
 /// `collisions,final_goal_distance,arrival_tolerance,vehicles,roof_fall,separation,robot_radius,`
 /// `robot_speed,roadway_width,end_cause`: the first nine as before, then what a campaign's
 /// statistics are computed from (so that they can be recomputed from the rows alone); end_cause is
-/// local::endCauseName() (empty unless the outcome is timeout or stuck).
+/// endCauseName() (empty unless the outcome is timeout or stuck).
 const char* batchCsvHeader();
 /// One CSV line (no newline); numbers with 3 decimals, empty fields for NaN / infinite values.
 /// Timing columns vary between runs of the same seed; the others do not. The message is not a
 /// column (free text).
 std::string batchCsvRow(const BatchRunResult& r);
 /// The inverse of batchCsvRow() for untrusted text: exactly the header's columns; integers in
-/// range (seed: any uint64); outcome a local::outcomeName() or "error"; end_cause a
-/// local::endCauseName(), given exactly for timeout and stuck rows; numbers finite and within
+/// range (seed: any uint64); outcome an outcomeName() or "error"; end_cause an
+/// endCauseName(), given exactly for timeout and stuck rows; numbers finite and within
 /// bounds no run reaches (lengths and times below 1e9, step times below 1e12 us), empty only
 /// where batchCsvRow() writes an empty field (arrival_time, min_clearance, final_goal_distance).
 /// Errors name the column and the text. Allocation-bounded: fields are views.
 StatusOr<BatchRunResult> parseBatchCsvRow(std::string_view line);
 
-}  // namespace adit::fusion
+}  // namespace adit::sim

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "adit/local/simulator.hpp"
+#include "adit/sim/simulator.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -15,9 +15,19 @@
 #include "adit/map/occupancy_map.hpp"
 #include "adit/map/rock_points.hpp"
 #include "adit/map/world.hpp"
+#include "escape_record.hpp"
 
-namespace adit::local {
+namespace adit::sim {
 
+using local::LocalPlanner;
+using local::RobotLimits;
+using local::RobotState;
+using local::StaticSphere;
+using local::StepCommand;
+using local::StepStatus;
+using local::SubgoalPick;
+using local::SubgoalRequest;
+using local::World;
 using map::allFinite;
 
 // ---- Environment ------------------------------------------------------------------------------
@@ -410,23 +420,12 @@ bool collisionVerdict(SimulationResult& res) {
   return true;
 }
 
-void SubgoalStats::add(const std::string& kind, double us) {
-  time_mean_us += (us - time_mean_us) / double(++periods);
-  time_max_us = std::max(time_max_us, us);
-  for (auto& [k, n] : by_kind)
-    if (k == kind) {
-      ++n;
-      return;
-    }
-  by_kind.emplace_back(kind, 1);
-}
-
 StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment& env, const SimulateOptions& options) {
   ADIT_RETURN_IF_ERROR(scenario.validate());
   ADIT_ASSIGN_OR_RETURN(const Scenario sc, placeOnFloor(scenario, env));
   if (sc.needsNavigator())
     return invalidArgument(sc.file + ": expected_path: plan, robot.sensor_range and events need the navigator "
-                           "(adit::fusion::simulateNavigated)");
+                           "(adit::simulateNavigated)");
   const bool select_subgoals = sc.subgoal_mode != SubgoalMode::kNone;
   if (select_subgoals && !options.subgoals)
     return invalidArgument(sc.file + ": subgoals: " + subgoalModeName(sc.subgoal_mode) +
@@ -481,7 +480,7 @@ StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment&
   const auto period_steps = std::size_t(std::llround(sc.subgoal_period_s / sc.dt_s));
   std::size_t next_selection = 0, selected_segment = 0;
   std::optional<Vec3> subgoal;  // in force
-  int escapes_before = 0;       // the previous period's StepCommand::escapes
+  EscapeRecord escapes;
 
   for (std::size_t k = 0; k < max_steps; ++k) {
     for (std::size_t i = 0; i < nm; ++i) {
@@ -514,9 +513,7 @@ StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment&
     const auto t1 = std::chrono::steady_clock::now();
     step_us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     ++res.steps;
-    if (c.escapes > escapes_before) res.escape_times_s.push_back(t);
-    escapes_before = c.escapes;
-    res.escapes = std::max(res.escapes, c.escapes);
+    escapes.add(c.escapes, t, res);
     last = c.status;
     if (c.status == StepStatus::kArrived) break;
     if (c.status == StepStatus::kStuck || c.status == StepStatus::kRefused) {
@@ -548,4 +545,11 @@ StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment&
   return res;
 }
 
-}  // namespace adit::local
+fusion::SubgoalParams subgoalParamsFor(const Scenario& scenario) {
+  fusion::SubgoalParams p;
+  p.t0_s = scenario.subgoal_period_s;
+  p.optimizer.seed = scenario.seed;
+  return p;
+}
+
+}  // namespace adit::sim

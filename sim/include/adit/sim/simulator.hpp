@@ -7,7 +7,9 @@
 /// against rock (CollisionChecker, exact), static spheres and moving obstacles (FCL through
 /// map::obstacleDistance, at their true positions), sub-sampled within each period finely enough
 /// that nothing can pass through the robot between samples (a quarter of the smallest radius of
-/// relative motion per sample). A run that collides is never "arrived".
+/// relative motion per sample). A run that collides is never "arrived". The referee's period
+/// (refereePeriod) and its verdicts are shared with the navigated runs (navigated_simulation.hpp),
+/// so that both kinds of run are judged alike; the Environment is the true world of either.
 ///
 ///   StatusOr<Scenario> sc = loadScenario("maps/scenarios/tian2016_straight.yaml");
 ///   StatusOr<Environment> env = Environment::load(*sc);        // map + distance field, if any
@@ -23,9 +25,11 @@
 #include <string>
 #include <vector>
 
+#include "adit/fusion/subgoal_selector.hpp"
 #include "adit/local/local_planner.hpp"
-#include "adit/local/scenario.hpp"
+#include "adit/local/subgoal.hpp"
 #include "adit/map/types.hpp"
+#include "adit/sim/scenario.hpp"
 #include "adit/status.hpp"
 
 namespace adit::map {
@@ -33,7 +37,7 @@ class OccupancyMap;
 class World;
 }  // namespace adit::map
 
-namespace adit::local {
+namespace adit::sim {
 
 /// The static world of a scenario: its map, distance field and collision checker (all absent for
 /// open space). Movable; the pointers handed out stay valid.
@@ -92,43 +96,12 @@ struct TrajectorySample {
   double t_s = 0.0;
   Vec3 position = Vec3::Zero();
   Vec3 velocity = Vec3::Zero();
-  StepStatus status = StepStatus::kFollowing;
+  local::StepStatus status = local::StepStatus::kFollowing;
   /// What the robot steered at during the period that ended here: with sub-goals, the selected
   /// sub-goal (SubgoalPick::point) in force; otherwise StepCommand::sub_goal (the break point, or
   /// an escape's virtual goal). The start for t = 0.
   Vec3 sub_goal = Vec3::Zero();
   double yaw = 0.0;  ///< ground mode: heading [rad]
-};
-
-/// What the sub-goal selector sees at the start of a period (`subgoals: ga_trust_region`).
-/// References are valid for the call only.
-struct SubgoalRequest {
-  double t_s = 0.0;
-  const RobotState* state = nullptr;
-  Vec3 segment_a = Vec3::Zero();  ///< the expected path's current segment (line field)
-  Vec3 segment_b = Vec3::Zero();  ///< its end: the break point (or the goal) the selection aims at
-  const std::vector<map::MovingObstacle>* moving = nullptr;  ///< as sensed now (t = 0 is now)
-  const std::vector<StaticSphere>* static_obstacles = nullptr;
-  const map::DistanceField* field = nullptr;  ///< rock; null in open space
-};
-/// The selector's answer: the sub-goal, the point the attraction is to pull toward
-/// (LocalPlanner::setSubgoal) and a short name of how it was found ("optimized", "straight", ...:
-/// counted in SubgoalStats). No point: keep steering at the break point.
-struct SubgoalPick {
-  std::optional<Vec3> point;
-  Vec3 aim = Vec3::Zero();
-  std::string kind;
-};
-/// Called once per period; may allocate (it runs outside the allocation-free step()).
-using SubgoalFn = std::function<SubgoalPick(const SubgoalRequest&)>;
-
-/// How the per-period selection went over a run.
-struct SubgoalStats {
-  int periods = 0;                                    ///< selections made
-  std::vector<std::pair<std::string, int>> by_kind;   ///< SubgoalPick::kind → count, first-seen order
-  double time_mean_us = 0.0;                          ///< wall time per selection
-  double time_max_us = 0.0;
-  void add(const std::string& kind, double us);
 };
 
 /// Closest approach of the robot's surface to one moving obstacle's.
@@ -163,17 +136,17 @@ struct SimulationResult {
   EndCause end_cause = EndCause::kNone;      ///< timeout and stuck: why (see EndCause)
   std::vector<TrajectorySample> trajectory;  ///< one per period, from t = 0
   std::vector<ClosestApproach> closest;      ///< one per moving obstacle
-  SubgoalStats subgoals;                     ///< empty unless the scenario selects sub-goals
+  local::SubgoalStats subgoals;              ///< empty unless the scenario selects sub-goals
   bool arrived() const { return outcome == Outcome::kArrived; }
 };
 
-/// The referee's part of one period, shared with the navigator's runs (adit::fusion): the robot
+/// The referee's part of one period, shared with the navigator's runs (simulateNavigated): the robot
 /// moves from `state` under `acceleration` for sc.dt_s from time t_s; the period is sub-sampled
 /// against rock, static and moving obstacles and `extra` (which may lower the distance `d` and
 /// name `what`, e.g. a roof fall); `result` gains clearances, closest approaches, collisions and
 /// path length (the caller appends the trajectory sample).
 using ExtraDistanceFn = std::function<void(const Vec3& p, double t_s, double& d, std::string& what)>;
-void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acceleration, double t_s, RobotState& state, SimulationResult& result, const ExtraDistanceFn& extra = {});
+void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acceleration, double t_s, local::RobotState& state, SimulationResult& result, const ExtraDistanceFn& extra = {});
 /// The same for a whole command: a ground robot also turns at cmd.yaw_rate. In ground mode the
 /// robot drives on the floor: each sub-sample's height is half the robot's height above the floor
 /// under it (found from the last floor, climbing at most max_step), its pitch and roll follow the
@@ -182,7 +155,7 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& accel
 /// from max_step plus one voxel above the floor to its height) is checked exactly with FCL.
 /// Floor contact is no collision; rock in the body, a step higher than max_step (the body runs
 /// into it) or no floor within a metre under the robot ("a drop") is.
-void refereePeriod(const Scenario& sc, const Environment& env, const StepCommand& cmd, double t_s, RobotState& state,
+void refereePeriod(const Scenario& sc, const Environment& env, const local::StepCommand& cmd, double t_s, local::RobotState& state,
                    SimulationResult& result, const ExtraDistanceFn& extra = {});
 /// Ground mode: the scenario with its start, goal and expected path's points put on the floor,
 /// half the robot's height above the floor under each (searched down at most 5 m); the error
@@ -202,14 +175,19 @@ double stepTimePercentile(std::vector<double> values, double q);
 struct SimulateOptions {
   /// The sub-goal selector for `subgoals: ga_trust_region` (adit::fusion::subgoalFunction), called
   /// at the start of every subgoal_period_s and when the robot moves on to the next segment.
-  SubgoalFn subgoals;
+  local::SubgoalFn subgoals;
 };
 
 /// Runs the scenario to arrival, a stuck verdict, or t_max. Errors: a scenario that fails
 /// validate(), a start or goal inside rock or overlapping an obstacle, a scenario that
-/// needsNavigator() (run those with adit::fusion::simulateNavigated), `subgoals: ga_trust_region`
+/// needsNavigator() (run those with simulateNavigated(), navigated_simulation.hpp), `subgoals: ga_trust_region`
 /// without options.subgoals.
 StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment& environment,
                                     const SimulateOptions& options = {});
 
-}  // namespace adit::local
+/// The sub-goal selector's parameters for a scenario: t0 = `subgoal_period`, the optimiser's
+/// seed = `seed`, the rest the defaults (what SimulateOptions::subgoals and the navigated runs
+/// select with).
+fusion::SubgoalParams subgoalParamsFor(const Scenario& scenario);
+
+}  // namespace adit::sim
