@@ -51,8 +51,8 @@ void addMapArgs(CLI::App* cmd, MapArgs* a) {
       ->check(CLI::IsMember({"rock", "free"}));
   cmd->add_flag("-q,--quiet", a->quiet, "No progress output");
   cmd->add_option("--max-memory", a->max_memory,
-                  maxMemoryHelp("loading, the distance field, the roadway graph; 4G for a scan or mesh import's "
-                                "working grid"));
+                  maxMemoryHelp("loading, the distance field and the roadway graph (a scan or mesh import's "
+                                "working grid: 4G unless given)"));
   cmd->add_option("--crop", a->crop,
                   "Only the part of the map inside xmin,ymin,zmin,xmax,ymax,zmax (metres); a survey is cut "
                   "before it is voxelized");
