@@ -8,7 +8,7 @@
 // last, so a shard with a JSON is complete. Merging adds integers: the result does not depend
 // on the order of the shards, nor on M or --jobs. Merge believes no number in a shard's JSON: it
 // recomputes them from the CSV's rows, checked against the digest the JSON records
-// (common/campaign_shard.hpp).
+// (adit/sim/campaign.hpp).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -91,7 +91,7 @@ int runShard(const CampaignArgs& a) {
   if (a.max_separation_given) bp.max_separation_m = a.max_separation;
   if (Status s = bp.validate(); !s.ok()) return report(s);
   const auto wall0 = std::chrono::steady_clock::now();
-  CampaignIdentity id;
+  sim::CampaignIdentity id;
   id.map = a.map;
   id.seed = a.seed;
   id.scenarios = a.scenarios;
@@ -114,7 +114,7 @@ int runShard(const CampaignArgs& a) {
   if (!std::filesystem::is_directory(a.out))
     return report(invalidArgument(a.out + ": --out: cannot create the directory" + (ec ? ": " + ec.message() : "")));
   // The shard's files are written at its end: an unwritable directory is said now, not after the run.
-  if (Status s = checkOutputPath(a.out + "/" + shardName(k, m, ".json"), "--out"); !s.ok()) return report(s);
+  if (Status s = checkOutputPath(a.out + "/" + sim::shardName(k, m, ".json"), "--out"); !s.ok()) return report(s);
   std::vector<int> indices;
   for (int i = k; i < a.scenarios; i += m) indices.push_back(i);
   if (!a.quiet)
@@ -126,7 +126,7 @@ int runShard(const CampaignArgs& a) {
   if (!runs.ok()) return report(runs.status());
   // The statistics are computed from the rows as written (3 decimals), the way merge recomputes
   // them, so that a shard's JSON and its CSV agree exactly.
-  CampaignStats stats;
+  sim::CampaignStats stats;
   Json failures = Json::array();
   std::string csv = std::string(sim::batchCsvHeader()) + "\n";
   for (const sim::BatchRunResult& r : *runs) {
@@ -138,14 +138,14 @@ int runShard(const CampaignArgs& a) {
     written->message = r.message;
     if (Status s = stats.add(*written); !s.ok()) return report(s);
     csv += line + "\n";
-    if (isFailure(*written)) failures.push_back(failureEntry(*written));
+    if (sim::isFailure(*written)) failures.push_back(sim::failureEntry(*written));
   }
-  const std::string base = (std::filesystem::path(a.out) / shardName(k, m, "")).string();
+  const std::string base = (std::filesystem::path(a.out) / sim::shardName(k, m, "")).string();
   if (Status s = writeText(base + ".csv", csv); !s.ok()) return report(s);
   Json j;
-  j["campaign"] = campaignIdentityJson(id);
+  j["campaign"] = sim::campaignIdentityJson(id);
   j["shard"] = {{"index", k}, {"count", m}, {"indices", "i mod " + std::to_string(m) + " == " + std::to_string(k)},
-                {"csv", shardName(k, m, ".csv")}, {"csv_sha256", map::sha256Hex(csv)}};
+                {"csv", sim::shardName(k, m, ".csv")}, {"csv_sha256", map::sha256Hex(csv)}};
   j["stats"] = stats.toJson();
   j["failures"] = failures;
   j["jobs"] = std::min<int>(a.jobs, int(indices.size()));
@@ -163,20 +163,20 @@ int runShard(const CampaignArgs& a) {
 struct ShardFile {
   std::string path, dir;
   nlohmann::json json;
-  CampaignIdentity id;
+  sim::CampaignIdentity id;
   int k = 0;
 };
 
 // The identity fields that make two shards parts of one campaign (the map path may differ
 // between machines; its content may not).
-std::vector<std::string> identityDifferences(const CampaignIdentity& a, const CampaignIdentity& b) {
+std::vector<std::string> identityDifferences(const sim::CampaignIdentity& a, const sim::CampaignIdentity& b) {
   std::vector<std::string> d;
   if (a.map_hash != b.map_hash) d.push_back("map content (" + b.map_hash + " vs " + a.map_hash + ")");
   if (a.seed != b.seed) d.push_back("seed (" + std::to_string(b.seed) + " vs " + std::to_string(a.seed) + ")");
   if (a.scenarios != b.scenarios)
     d.push_back("scenarios (" + std::to_string(b.scenarios) + " vs " + std::to_string(a.scenarios) + ")");
   if (a.shards != b.shards) d.push_back("shards (" + std::to_string(b.shards) + " vs " + std::to_string(a.shards) + ")");
-  if (campaignIdentityJson(a)["generator"] != campaignIdentityJson(b)["generator"]) d.push_back("generator ranges");
+  if (sim::campaignIdentityJson(a)["generator"] != sim::campaignIdentityJson(b)["generator"]) d.push_back("generator ranges");
   if (a.adit_version != b.adit_version) d.push_back("adit version (" + b.adit_version + " vs " + a.adit_version + ")");
   return d;
 }
@@ -288,7 +288,7 @@ int merge(const CampaignArgs& a) {
       problems.push_back(f + ": not JSON");
       continue;
     }
-    StatusOr<CampaignIdentity> id = campaignIdentityFromJson(s.json, f);
+    StatusOr<sim::CampaignIdentity> id = sim::campaignIdentityFromJson(s.json, f);
     if (!id.ok()) {
       problems.push_back(id.status().message());
       continue;
@@ -321,16 +321,16 @@ int merge(const CampaignArgs& a) {
       problems.push_back(s.path + ": duplicate of shard " + std::to_string(s.k) + " (also " + it->second->path + ")");
   }
   if (!shards.empty() && problems.empty()) {
-    const CampaignIdentity& id = shards.front().id;
+    const sim::CampaignIdentity& id = shards.front().id;
     std::string missing;
     for (int k = 0; k < id.shards; ++k)
-      if (!by_k.count(k)) missing += (missing.empty() ? "" : ", ") + shardName(k, id.shards, ".json");
+      if (!by_k.count(k)) missing += (missing.empty() ? "" : ", ") + sim::shardName(k, id.shards, ".json");
     if (!missing.empty()) problems.push_back("missing shards of the campaign of " + shards.front().path + ": " + missing);
   }
   // Nothing in a shard's JSON is believed: its CSV must have the recorded digest, its rows must
   // be this shard's scenarios of this campaign, and the statistics and failures are recomputed
-  // from them and must be what the JSON says (common/campaign_shard.hpp).
-  CampaignStats total;
+  // from them and must be what the JSON says (adit/sim/campaign.hpp).
+  sim::CampaignStats total;
   std::vector<std::pair<int, Json>> failures;
   std::vector<std::pair<int, std::string>> rows;
   for (const auto& [k, s] : by_k) {
@@ -340,9 +340,9 @@ int merge(const CampaignArgs& a) {
       problems.push_back(s->path + ": no shard.csv_sha256 (written by an adit before 0.1 of this format: run the shard again)");
       continue;
     }
-    const std::string csv_path = (std::filesystem::path(s->dir) / shardName(k, s->id.shards, ".csv")).string();
+    const std::string csv_path = (std::filesystem::path(s->dir) / sim::shardName(k, s->id.shards, ".csv")).string();
     StatusOr<std::string> text =
-        map::readFile(csv_path, maxShardCsvBytes(shardScenarioCount(k, s->id.shards, s->id.scenarios)));
+        map::readFile(csv_path, sim::maxShardCsvBytes(sim::shardScenarioCount(k, s->id.shards, s->id.scenarios)));
     if (!text.ok()) {
       problems.push_back(text.status().message());
       continue;
@@ -353,12 +353,12 @@ int merge(const CampaignArgs& a) {
                          ": the rows were changed since the shard was written");
       continue;
     }
-    StatusOr<ShardRows> read = readShardRows(*text, csv_path, s->id, k);
+    StatusOr<sim::ShardRows> read = sim::readShardRows(*text, csv_path, s->id, k);
     if (!read.ok()) {
       problems.push_back(read.status().message());
       continue;
     }
-    StatusOr<std::vector<Json>> listed = checkShardSummary(s->json, *read, s->path);
+    StatusOr<std::vector<Json>> listed = sim::checkShardSummary(s->json, *read, s->path);
     if (!listed.ok()) {
       problems.push_back(listed.status().message());
       continue;
@@ -387,13 +387,13 @@ int merge(const CampaignArgs& a) {
     std::fprintf(stderr, "adit: error: refusing to merge (%zu problem%s)\n", problems.size(), problems.size() == 1 ? "" : "s");
     return kExitBadInput;
   }
-  const CampaignIdentity& id = shards.front().id;
+  const sim::CampaignIdentity& id = shards.front().id;
   std::sort(failures.begin(), failures.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
   Json failure_list = Json::array();
   for (auto& f : failures) failure_list.push_back(std::move(f.second));
-  CampaignIdentity whole = id;
+  sim::CampaignIdentity whole = id;
   Json j;
-  j["campaign"] = campaignIdentityJson(whole);
+  j["campaign"] = sim::campaignIdentityJson(whole);
   Json inputs = Json::array();
   for (const auto& [k, s] : by_k) inputs.push_back(s->path);
   j["shard_files"] = inputs;

@@ -265,7 +265,7 @@ StatusOr<sim::Scenario> replayScenario(const std::string& spec, const std::strin
   ADIT_ASSIGN_OR_RETURN(const std::string text, map::readFile(shard));
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   if (j.is_discarded()) return invalidArgument(shard + ": not JSON");
-  ADIT_ASSIGN_OR_RETURN(const CampaignIdentity id, campaignIdentityFromJson(j, shard));
+  ADIT_ASSIGN_OR_RETURN(const sim::CampaignIdentity id, sim::campaignIdentityFromJson(j, shard));
   if (index >= id.scenarios)
     return invalidArgument("--replay " + spec + ": the campaign has scenarios 0.." + std::to_string(id.scenarios - 1));
   // The identity keeps the map as `campaign run` was given it (shards on other machines agree on

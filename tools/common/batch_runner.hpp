@@ -9,7 +9,7 @@
 /// so they share it copy-on-write. A run's row depends only on (seed, index, generator), never
 /// on the worker that ran it, so any split of the indices gives the same rows.
 ///
-/// A campaign's identity (CampaignIdentity, common/campaign_shard.hpp) is written into every
+/// A campaign's identity (sim::CampaignIdentity, adit/sim/campaign.hpp) is written into every
 /// shard's JSON and is enough to rebuild any scenario (replayScenario()).
 ///
 ///   ADIT_ASSIGN_OR_RETURN(BatchSetup setup, loadBatchSetup("", "maps/district.yaml"));
@@ -27,7 +27,7 @@
 #include "adit/sim/scenario.hpp"
 #include "adit/sim/simulator.hpp"
 #include "adit/status.hpp"
-#include "common/campaign_shard.hpp"
+#include "adit/sim/campaign.hpp"
 #include "common/progress.hpp"
 
 namespace adit::tools {

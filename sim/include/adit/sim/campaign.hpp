@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #pragma once
 /// @file
-/// A campaign shard's files and why `adit campaign merge` can trust them. Shard K of M writes
+/// The campaign model: a campaign's identity, its statistics that merge by exact addition, and a
+/// shard's files and why `adit campaign merge` can trust them. Shard K of M writes
 /// `shard-K-of-M.csv` (a row per scenario, sim::batchCsvRow()) and `shard-K-of-M.json` (the
 /// campaign's identity, the SHA-256 of the CSV's bytes, the statistics and the failures). Merge
 /// believes none of the JSON's numbers: it checks the CSV against the recorded digest, parses
@@ -30,7 +31,7 @@
 #include "adit/sim/batch.hpp"
 #include "adit/status.hpp"
 
-namespace adit::tools {
+namespace adit::sim {
 
 /// Which campaign a shard belongs to.
 struct CampaignIdentity {
@@ -112,4 +113,4 @@ StatusOr<ShardRows> readShardRows(const std::string& csv_text, const std::string
 StatusOr<std::vector<nlohmann::ordered_json>> checkShardSummary(const nlohmann::json& shard_json,
                                                                 const ShardRows& rows, const std::string& json_path);
 
-}  // namespace adit::tools
+}  // namespace adit::sim

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: BSD-3-Clause
-#include "common/campaign_shard.hpp"
+#include "adit/sim/campaign.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <limits>
 #include <unordered_set>
 
-namespace adit::tools {
+namespace adit::sim {
 
 namespace {
 
@@ -309,4 +309,4 @@ StatusOr<std::vector<nlohmann::ordered_json>> checkShardSummary(const nlohmann::
   return out;
 }
 
-}  // namespace adit::tools
+}  // namespace adit::sim
