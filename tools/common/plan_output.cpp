@@ -131,6 +131,10 @@ nlohmann::ordered_json planJson(const global::GlobalPlanResult& r, const PlanRef
   j["first_path_time"] = us(r.first_solution_time_s);
   j["break_points"] = r.path.size() >= 2 ? r.path.size() - 2 : 0;
   j["time_limited"] = r.time_limited;
+  j["iterations"] = r.iterations;
+  // Where a found path came from: the search, or the route's own axis, shortened (the search found
+  // none within the budget, or a longer one: common on routes of kilometres).
+  if (r.solved()) j["path_source"] = r.from_route_axis ? "route_axis" : "search";
   if (refinement) {
     j["before"] = {{"length", mm(refinement->length_m)},
                    {"min_clearance", mm(refinement->min_clearance_m)},
