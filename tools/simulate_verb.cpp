@@ -733,10 +733,10 @@ int run(const SimulateArgs& a) {
   // The run keeps a record of every period (trajectory, then its JSON): refused up front when
   // that cannot fit, instead of growing until the kernel kills the process (t_max 10^6 s at
   // dt 0.1 reached 8.7 GB: 870 B a period, rounded up here).
+  const StatusOr<std::uint64_t> budget = memoryBudgetOf(a.max_memory);  // the record's and the map's
+  if (!budget.ok()) return report(budget.status());
   {
     constexpr double kRecordBytesPerPeriod = 1024.0;
-    StatusOr<std::uint64_t> budget = memoryBudgetOf(a.max_memory);
-    if (!budget.ok()) return report(budget.status());
     const double periods = std::ceil(sc->t_max_s / sc->dt_s) + 1.0;
     char count[32];
     std::snprintf(count, sizeof count, "%.0f", periods);
@@ -756,9 +756,7 @@ int run(const SimulateArgs& a) {
   std::optional<map::World> world;
   StatusOr<Environment> env = Environment::openSpace();
   if (sc->map_path) {
-    const StatusOr<std::uint64_t> budget = memoryBudgetOf(a.max_memory);  // checked above
-    StatusOr<map::World> w =
-        loadWorld(*sc->map_path, map::UnknownPolicy::kRock, a.quiet, a.no_cache, budget.ok() ? *budget : 0);
+    StatusOr<map::World> w = loadWorld(*sc->map_path, map::UnknownPolicy::kRock, a.quiet, a.no_cache, *budget);
     if (!w.ok()) return report(w.status());
     world.emplace(std::move(w).value());
     env = Environment::borrow(*world);

@@ -1027,7 +1027,7 @@ void LocalPlanner::giveWayToMovers(Cycle& c) {
       for (std::size_t i = 0; i < std::min(c.moving_count, reachable_.capacity()); ++i) reachable_.push_back(i);
     }
   }
-  if (reachable_.empty() || !(P.monitor.safety_horizon_s > 0.0)) return;
+  if (reachable_.empty()) return;  // also without a horizon: nothing was listed
   // Last line of defence against moving obstacles: the field's velocity must not lead into one
   // within the horizon (the robot turning toward it at a_max and holding it, the obstacles under
   // constant acceleration). Otherwise the first clear of: brake, either side, back off; if none

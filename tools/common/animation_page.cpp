@@ -455,11 +455,14 @@ const char* kMainScript = R"JS(
   }
   // The movers' routes still ahead of frame f, dashed, only when the viewer asks (the "ahead"
   // box): a replay shows what had happened by t, and the robot never knew where a mover would go.
-  var aheadBox = $('ahead');
+  var aheadBox = $('ahead'), tracksInked = false;
   function drawTracks(f, u) {
+    var want = aheadBox && aheadBox.checked && f >= 0;
+    if (!want && !tracksInked) return;  // unticked: nothing to clear, every frame
     tracks.setTransform(1, 0, 0, 1, 0, 0);
     tracks.clearRect(0, 0, V.w, V.h);
-    if (!aheadBox || !aheadBox.checked || f < 0) return;
+    tracksInked = want;
+    if (!want) return;
     tracks.save();
     clipToMap(tracks);
     tracks.lineCap = 'round'; tracks.lineJoin = 'round';
