@@ -189,6 +189,78 @@ double clearanceLowerBound(const DistanceField& field, const Vec3& p) {
   return (v - site).norm() - kHalfSqrt3 * res - (p - v).norm();
 }
 
+// A lower bound on the distance from the posed shape to rock from a few field reads, for the
+// queries that only ask whether the shape clears rock by some margin. The bounding ball of a body
+// that stands over its floor (a ground robot, the global planner's checks of it) reaches the
+// floor, so the bound at the origin decides nothing there and every such query scanned the
+// surface rock of its whole box. Instead the shape's local box is split, where needed, into cells
+// whose balls (about the cell's centre, radius half its diagonal) cover it: a cell is settled when
+// clearanceLowerBound(centre) - radius exceeds `need`, left out when it misses the shape, and
+// otherwise halved along its edges longer than about 1.5 voxels, down to cells of that size. A
+// body far from rock is settled by its first ball, one over a floor by a few dozen small ones
+// along its underside. Returns a value > `need` when every cell is settled (a lower bound on the
+// distance), else the first cell's that was not (the caller then does the exact search).
+double coveredLowerBound(const DistanceField& field, const RobotShape& shape, const Eigen::Isometry3d& pose,
+                         double need) {
+  Vec3 half;
+  switch (shape.type) {
+    case ShapeType::kSphere: return -kInf;  // the bound at the origin is already the best one
+    case ShapeType::kBox: half = 0.5 * shape.size; break;
+    case ShapeType::kCylinder: half = Vec3(shape.radius, shape.radius, 0.5 * shape.length); break;
+    case ShapeType::kCapsule: half = Vec3(shape.radius, shape.radius, 0.5 * shape.length + shape.radius); break;
+    default: return -kInf;
+  }
+  // Cells of 1.5 voxels have balls of about 1.3 voxels, which a 0.2 m map's roadway floor clears
+  // under a body lifted a safety margin above it; smaller cells would only cost reads.
+  const double smallest = 1.5 * field.resolution();
+  const double half_len = 0.5 * shape.length;
+  struct Cell {
+    Vec3 lo, hi;
+  };
+  // Depth-first; each split pushes at most 8 cells, and a cell is split at most
+  // log2(extent / smallest) + 1 times per axis: 64 levels of 8 is far more than any shape needs.
+  constexpr int kStack = 512;
+  Cell stack[kStack];
+  int top = 0;
+  stack[top++] = {-half, half};
+  double least = kInf;
+  while (top > 0) {
+    const Cell c = stack[--top];
+    if (shape.type != ShapeType::kBox) {
+      // The cell's gap to the shape's axis (cylinder: the z axis; capsule: its segment).
+      const double gx = std::max({c.lo.x(), -c.hi.x(), 0.0}), gy = std::max({c.lo.y(), -c.hi.y(), 0.0});
+      const double gz =
+          shape.type == ShapeType::kCapsule ? std::max({c.lo.z() - half_len, -half_len - c.hi.z(), 0.0}) : 0.0;
+      if (gx * gx + gy * gy + gz * gz > shape.radius * shape.radius) continue;  // misses the shape
+    }
+    const Vec3 size = c.hi - c.lo;
+    const double lb = clearanceLowerBound(field, pose * (0.5 * (c.lo + c.hi))) - 0.5 * size.norm();
+    if (lb > need) {
+      least = std::min(least, lb);
+      continue;
+    }
+    bool split[3];
+    int parts = 1;
+    for (int a = 0; a < 3; ++a) {
+      split[a] = size[a] > smallest;
+      parts *= split[a] ? 2 : 1;
+    }
+    if (parts == 1 || top + parts > kStack) return lb;
+    const Vec3 mid = 0.5 * (c.lo + c.hi);
+    for (int m = 0; m < 8; ++m) {
+      if (((m & 1) && !split[0]) || ((m & 2) && !split[1]) || ((m & 4) && !split[2])) continue;
+      Cell child = c;
+      for (int a = 0; a < 3; ++a) {
+        if (!split[a]) continue;
+        if (m & (1 << a)) child.lo[a] = mid[a];
+        else child.hi[a] = mid[a];
+      }
+      stack[top++] = child;
+    }
+  }
+  return least;
+}
+
 bool inCollisionImpl(const DistanceField& field, const RobotShape& shape, const Eigen::Isometry3d& pose) {
   if (!validateQuery(shape, pose).ok()) return true;
   const Vec3 origin = pose.translation();
@@ -196,6 +268,7 @@ bool inCollisionImpl(const DistanceField& field, const RobotShape& shape, const 
   // The bounding ball is clear of rock: no FCL needed.
   const double clearance_lb = clearanceLowerBound(field, origin);
   if (clearance_lb > shape.boundingRadius()) return false;
+  if (coveredLowerBound(field, shape, pose, 0.0) > 0.0) return false;
 
   const Aabb box = shapeAabb(shape, pose);
   const CubeLowerBound bound(shape, pose, box, field.resolution());
@@ -224,6 +297,14 @@ ShapeDistance distanceImpl(const DistanceField& field, const RobotShape& shape, 
   if (clearance_lb - radius > max_d) {
     ShapeDistance r;
     r.distance_m = clearance_lb - radius;
+    r.exact = false;
+    return r;
+  }
+  // The same from the balls that cover the shape: what the search below would end with when it
+  // finds nothing within max_d.
+  if (std::isfinite(max_d) && coveredLowerBound(field, shape, pose, max_d) > max_d) {
+    ShapeDistance r;
+    r.distance_m = max_d;
     r.exact = false;
     return r;
   }

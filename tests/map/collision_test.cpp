@@ -341,6 +341,57 @@ TEST(CollisionChecker, FarFromRockAnswersFromTheFieldAlone) {
   EXPECT_LE(full.candidates_checked, 4);
 }
 
+// A body standing over its floor: its bounding ball reaches the floor, so the bound at the origin
+// decides nothing, but the balls that cover it clear the floor and settle the query without a
+// single FCL call. The referee's contact check of a tracked robot's box 0.3 m over the floor
+// (max_d 0), the global planner's margin check of the cylinder around it lifted 0.5 m (max_d =
+// its 0.1 m margin), a capsule lying 0.3 m over the floor. Beside a rib the same query still
+// gives the exact distance.
+TEST(CollisionChecker, ABodyOverItsFloorIsSettledByItsCoveringBalls) {
+  const World w(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 8.0, 0.2));  // floor z = 0
+  const Eigen::Matrix3d yawed = Eigen::AngleAxisd(0.5, Vec3::UnitZ()).toRotationMatrix();
+  struct Body {
+    RobotShape shape;
+    double bottom;  // gap from the floor to the body's underside
+    double half_z;  // half its height as posed
+    Eigen::Matrix3d lie;
+    double max_d;
+  };
+  const Eigen::Matrix3d upright = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d lying = Eigen::AngleAxisd(0.5 * 3.14159265358979, Vec3::UnitX()).toRotationMatrix();
+  for (const Body& b : {Body{RobotShape::box({1.0, 0.7, 0.3}), 0.3, 0.15, upright, 0.0},
+                        Body{RobotShape::cylinder(0.61, 0.6), 0.5, 0.3, upright, 0.1},
+                        Body{RobotShape::capsule(0.3, 0.6), 0.3, 0.3, lying, 0.0}}) {
+    for (const Eigen::Matrix3d& yaw : {upright, yawed}) {
+      const Eigen::Matrix3d rot = yaw * b.lie;
+      const Eigen::Isometry3d pose = poseAt({4.0, 0.0, b.bottom + b.half_z}, Eigen::Quaterniond(rot));
+      SCOPED_TRACE(b.shape.name());
+      // Its bounding ball alone needs the surface scan and FCL.
+      EXPECT_GT(w.checker.distance(RobotShape::sphere(b.shape.boundingRadius()), pose, b.max_d).candidates_checked, 0);
+      const double truth = w.oracle.nearest(b.shape, pose).distance;
+      EXPECT_NEAR(truth, b.bottom, 1e-6);
+      const ShapeDistance d = w.checker.distance(b.shape, pose, b.max_d);
+      EXPECT_FALSE(d.collision);
+      EXPECT_FALSE(d.exact);
+      EXPECT_EQ(d.candidates_checked, 0);
+      EXPECT_GE(d.distance_m, b.max_d);
+      EXPECT_LE(d.distance_m, truth);
+      EXPECT_FALSE(w.checker.inCollision(b.shape, pose));
+      // Beside the rib (y = 2), 5 cm off it: exact, as before.
+      Eigen::Isometry3d rib = pose;
+      rib.translation().y() = 2.0 - 0.05 - (b.shape.type == ShapeType::kBox ? 0.5 * b.shape.size.y()
+                                           : b.shape.type == ShapeType::kCapsule ? 0.5 * b.shape.length + b.shape.radius
+                                                                                 : b.shape.radius);
+      if (yaw.isIdentity()) {
+        const ShapeDistance e = w.checker.distance(b.shape, rib, 0.1);
+        EXPECT_TRUE(e.exact);
+        EXPECT_NEAR(e.distance_m, w.oracle.nearest(b.shape, rib).distance, kGjkTolerance_m);
+        EXPECT_NEAR(e.distance_m, 0.05, 1e-6);
+      }
+    }
+  }
+}
+
 TEST(CollisionChecker, SeesFieldUpdatesAfterSetVoxels) {
   OccupancyMap map = test::voxelizeOrFail(test::straightRoadway(CrossSection::rectangle(4.0, 3.0), 8.0, 0.2));
   StatusOr<DistanceField> field = DistanceField::build(map);
