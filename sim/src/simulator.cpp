@@ -133,8 +133,8 @@ class Referee {
       robot_ = r.footprint.box ? map::RobotShape::box(Vec3(r.footprint.length_m, r.footprint.width_m, tall))
                                : map::RobotShape::cylinder(r.footprint.radius_m, tall);
       if (env.field())
-        band_.reserve(env.field()->resolution(), kClearanceReachM + r.footprint.circumradius(), r.max_step_m,
-                      std::tan(r.max_slope_deg * 3.14159265358979323846 / 180.0), r.height_m);
+        band_ = &bandCache(env.field()->resolution(), kClearanceReachM + r.footprint.circumradius(), r.max_step_m,
+                           std::tan(r.max_slope_deg * 3.14159265358979323846 / 180.0), r.height_m);
     }
   }
 
@@ -150,7 +150,7 @@ class Referee {
     if (!env_.field()) return kClearanceReachM;
     map::BandScan scan;
     map::rockInBand(*env_.field(), centre, kClearanceReachM + r.footprint.circumradius(), floor, r.max_step_m,
-                    std::tan(r.max_slope_deg * 3.14159265358979323846 / 180.0), r.height_m, scan, 1u << 16, &band_);
+                    std::tan(r.max_slope_deg * 3.14159265358979323846 / 180.0), r.height_m, scan, 1u << 16, band_);
     const double c = std::cos(yaw), s = std::sin(yaw);
     double best = kClearanceReachM;
     for (int b = 0; b < map::BandScan::kBins; ++b) {
@@ -166,6 +166,21 @@ class Referee {
     if (!env_.checker()) return std::numeric_limits<double>::infinity();
     const map::ShapeDistance d = env_.checker()->distance(robot_, x, 10.0);
     return d.collision ? 0.0 : d.distance_m;
+  }
+  // Ground mode: what a period's sub-sample needs of the rock. The body's exact distance to rock
+  // is the gap over the floor it drives on whenever nothing is nearer, and the run reports the
+  // band's clearance instead (groundClearance), so the distance counts only for contact and for
+  // whether something else (`nearer_than`: a roof fall) is nearer than the rock. Returns 0 on
+  // contact, the exact distance when it is below `nearer_than`, and infinity otherwise: farther
+  // than anything it is compared with. Bodies clear of rock are settled from a few field reads
+  // (CollisionChecker's covering bound) instead of the surface scan of their box.
+  double groundRockDistance(const Eigen::Isometry3d& x, double nearer_than) const {
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    if (!env_.checker()) return kInf;
+    if (!(nearer_than < kInf)) return env_.checker()->inCollision(robot_, x) ? 0.0 : kInf;
+    const map::ShapeDistance d = env_.checker()->distance(robot_, x, std::min(nearer_than, 10.0));
+    if (d.collision) return 0.0;
+    return d.exact ? d.distance_m : kInf;
   }
   double rockDistance(const Vec3& p) const { return rockDistance(pose(p)); }
   double staticDistance(const Eigen::Isometry3d& x, std::size_t i) const {
@@ -246,7 +261,23 @@ class Referee {
   const Environment& env_;
   map::RobotShape robot_;
   double bottom_ = 0.0, tall_ = 0.0;
-  mutable map::BandCache band_;  // groundClearance()'s reads, kept from one period to the next
+  // groundClearance()'s reads, kept from one period to the next (a referee lives for one period;
+  // the cache per thread, re-sized when the robot or the field's resolution differs, and dropped
+  // by the cache itself when the field's content changes).
+  struct BandCacheSlot {
+    map::BandCache cache;
+    double args[5] = {0, 0, 0, 0, 0};
+  };
+  static map::BandCache& bandCache(double res, double radius, double step, double slope_tan, double height) {
+    thread_local BandCacheSlot slot;
+    const double args[5] = {res, radius, step, slope_tan, height};
+    if (!std::equal(args, args + 5, slot.args)) {
+      slot.cache.reserve(res, radius, step, slope_tan, height);
+      std::copy(args, args + 5, slot.args);
+    }
+    return slot.cache;
+  }
+  map::BandCache* band_ = nullptr;
 };
 
 }  // namespace
@@ -302,8 +333,13 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
       }
     }
     p_end = p;
+    // What `extra` (a roof fall) would lower the distance to, and its name; asked first, so that
+    // a ground robot's rock distance need only be exact below it.
+    double extra_d = std::numeric_limits<double>::infinity();
+    std::string extra_what = what;
+    if (extra) extra(p, t + tau, extra_d, extra_what);
     // Nearest thing to the robot at this instant, and what it is.
-    if (d > 0.0) d = referee.rockDistance(body);
+    if (d > 0.0) d = ground ? referee.groundRockDistance(body, extra_d) : referee.rockDistance(body);
     // What the run reports as its clearance: the same, but for a ground robot the rock is what
     // stands beside it, not the floor it drives on (read once a period: the band scan is the
     // costly part; contact is still judged on every sub-sample by the exact distance d).
@@ -312,9 +348,11 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
       reported = s == subs ? referee.groundClearance(p, yaw0 + yaw_rate * tau, floor)
                            : std::numeric_limits<double>::infinity();
     int mover = -1;
-    const double before_extra = d;
-    if (extra) extra(p, t + tau, d, what);
-    if (d < before_extra) reported = std::min(reported, d);
+    if (extra_d < d) {
+      d = extra_d;
+      what = extra_what;
+      reported = std::min(reported, d);
+    }
     for (std::size_t i = 0; i < sc.static_obstacles.size(); ++i) {
       const double ds = referee.staticDistance(body, i);
       reported = std::min(reported, ds);
