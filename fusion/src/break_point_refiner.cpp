@@ -98,8 +98,10 @@ bool segmentClear(const ClearanceFn& clearance, const Vec3& a, const Vec3& b, do
 // longest possible length needs, so the objective is continuous in z.
 class PathModel {
  public:
-  PathModel(const Polyline& input, const ClearanceFn& clearance, const BreakPointRefinerParams& p)
-      : input_(input.points), clearance_(clearance), p_(p), dim_(p.planar ? 2 : 3) {
+  PathModel(const Polyline& input, const ClearanceFn& clearance, const BreakPointRefinerParams& p,
+            const VertexPlacement& place)
+      : input_(input.points), clearance_(clearance), p_(p), place_(p.planar ? place : VertexPlacement()),
+        dim_(p.planar ? 2 : 3) {
     for (std::size_t i = 0; i + 1 < input_.size(); ++i)
       samples_.push_back(samplesFor((input_[i + 1] - input_[i]).norm() + 2 * p.move_radius_m, p.sample_step_m));
   }
@@ -114,7 +116,11 @@ class PathModel {
   }
   std::vector<Vec3> points(const VectorX& z) const {
     std::vector<Vec3> pts = input_;
-    for (std::size_t j = 0; j < interior(); ++j) pts[j + 1].head(dim_) = z.segment(int(j) * dim_, dim_);
+    for (std::size_t j = 0; j < interior(); ++j) {
+      pts[j + 1].head(dim_) = z.segment(int(j) * dim_, dim_);
+      // A vertex that has not moved keeps its height: the input stays the input exactly.
+      if (place_ && pts[j + 1] != input_[j + 1]) pts[j + 1] = place_(pts[j + 1]);
+    }
     return pts;
   }
 
@@ -131,8 +137,8 @@ class PathModel {
     for (int k = 0; k < n; ++k) sum += penalty(clearance_(a + (b - a) * ((k + 0.5) / n)));
     return len + p_.clearance_weight * sum * len / n;
   }
-  double value(const VectorX& z) const {
-    const std::vector<Vec3> pts = points(z);
+  double value(const VectorX& z) const { return valueOf(points(z)); }
+  double valueOf(const std::vector<Vec3>& pts) const {
     double u = 0;
     for (std::size_t i = 0; i + 1 < pts.size(); ++i) u += segmentCost(pts[i], pts[i + 1], i);
     return u;
@@ -185,6 +191,7 @@ class PathModel {
   std::vector<Vec3> input_;
   const ClearanceFn& clearance_;
   const BreakPointRefinerParams& p_;
+  VertexPlacement place_;
   int dim_;
   std::vector<int> samples_;
 };
@@ -213,7 +220,8 @@ PathQuality measurePath(const Polyline& path, const ClearanceFn& clearance, doub
 }
 
 BreakPointRefinement refineBreakPoints(const Polyline& path, const ClearanceFn& clearance,
-                                       const BreakPointRefinerParams& params, const SegmentCheck& extra_check) {
+                                       const BreakPointRefinerParams& params, const SegmentCheck& extra_check,
+                                       const VertexPlacement& place) {
   BreakPointRefinement r;
   r.path = path;
   auto refuse = [&](const std::string& why) {
@@ -234,7 +242,7 @@ BreakPointRefinement refineBreakPoints(const Polyline& path, const ClearanceFn& 
       return refuse("input segment " + std::to_string(i) + " " + fmt(path.points[i]) + "-" + fmt(path.points[i + 1]) +
                     " is not clear: " + why);
   }
-  const PathModel model(path, clearance, params);
+  const PathModel model(path, clearance, params, place);
   r.objective_before = r.objective_after = model.value(model.initial());
   r.after = r.before;
   r.outcome = RefineOutcome::kKeptInput;
@@ -259,32 +267,58 @@ BreakPointRefinement refineBreakPoints(const Polyline& path, const ClearanceFn& 
   } else if (!(o.value < r.objective_before)) {
     why << "the optimiser found nothing better (" << optimizationOutcomeName(o.outcome) << ")";
   } else {
-    // Never trust the optimiser's bookkeeping: every segment again, then the caller's check.
+    // Never trust the optimiser's bookkeeping: every segment again, then the caller's check. The
+    // ends of a segment that fails go back to where they were (the optimiser knows only the
+    // clearance, the caller's check also ground contact and slope along a segment), and the
+    // segments that changed are checked again, until all pass: at worst the input itself. What
+    // is kept must still lower the objective.
     Polyline out{model.points(o.z)};
-    bool ok = true;
-    for (std::size_t i = 0; ok && i + 1 < out.size(); ++i) {
-      std::string seg_why;
-      if (!segmentClear(clearance, out.points[i], out.points[i + 1], params.sample_step_m, params.min_clearance_m,
-                        &seg_why)) {
-        why << "refined segment " << i << " failed re-validation: " << seg_why;
-        ok = false;
-      } else if (extra_check) {
-        if (Status s = extra_check(out.points[i], out.points[i + 1]); !s.ok()) {
-          why << "refined segment " << i << " failed the caller's check: " << s.message();
-          ok = false;
-        }
+    const std::vector<Vec3>& in = path.points;
+    std::vector<bool> checked(out.size() - 1, false);
+    std::size_t restored = 0;
+    std::string first_failure;
+    for (bool again = true; again;) {
+      again = false;
+      std::vector<std::size_t> failed;
+      for (std::size_t i = 0; i + 1 < out.size(); ++i) {
+        if (checked[i]) continue;
+        checked[i] = true;
+        if (out.points[i] == in[i] && out.points[i + 1] == in[i + 1]) continue;  // the input's own
+        std::string seg_why;
+        if (!segmentClear(clearance, out.points[i], out.points[i + 1], params.sample_step_m, params.min_clearance_m,
+                          &seg_why))
+          seg_why = "failed re-validation: " + seg_why;
+        else if (extra_check)
+          if (Status s = extra_check(out.points[i], out.points[i + 1]); !s.ok()) seg_why = "failed the caller's check: " + s.message();
+        if (seg_why.empty()) continue;
+        if (first_failure.empty()) first_failure = "refined segment " + std::to_string(i) + " " + seg_why;
+        failed.push_back(i);
       }
+      for (std::size_t i : failed)
+        for (std::size_t v : {i, i + 1}) {
+          if (v == 0 || v + 1 == out.size() || out.points[v] == in[v]) continue;
+          out.points[v] = in[v];
+          ++restored;
+          again = true;
+          if (v > 0) checked[v - 1] = false;
+          if (v < checked.size()) checked[v] = false;
+        }
     }
+    const double value = model.valueOf(out.points);
+    const bool ok = value < r.objective_before;
+    if (!ok) why << first_failure << (restored ? " (and the rest alone is no better)" : "");
     if (ok) {
       r.outcome = RefineOutcome::kRefined;
       r.path = std::move(out);
       r.after = measurePath(r.path, clearance, params.sample_step_m);
-      r.objective_after = o.value;
+      r.objective_after = value;
       std::ostringstream m;
       m.precision(2);
       m << std::fixed << "refined " << r.before.break_points << " break points: length " << r.before.length_m << " -> "
         << r.after.length_m << " m, min clearance " << r.before.min_clearance_m << " -> " << r.after.min_clearance_m
-        << " m (" << optimizationOutcomeName(o.outcome) << ", " << o.iterations << " iterations)";
+        << " m (" << optimizationOutcomeName(o.outcome) << ", " << o.iterations << " iterations";
+      if (restored) m << "; " << restored << " kept where they were, " << first_failure;
+      m << ")";
       r.message = m.str();
       return r;
     }

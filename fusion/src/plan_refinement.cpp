@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
+#include <optional>
 
 namespace adit::fusion {
 
@@ -41,8 +43,23 @@ PlanRefinement refinePlan(const global::GlobalPlanner& planner, const map::Dista
   const SegmentCheck check = [&planner](const map::Vec3& p, const map::Vec3& q) {
     return planner.validatePath(map::Polyline{{p, q}});
   };
+  VertexPlacement place;
+  if (rp.planar) {
+    // A break point moved sideways stands on the floor there, as the planner's own do (the floor
+    // of a sloping roadway is another height a few metres on, and the planner's check allows the
+    // centre only a ground tolerance off it).
+    place = [&planner](const map::Vec3& p) {
+      const std::optional<map::Vec3> q = planner.standAt(p);
+      return q ? *q : map::Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+    };
+    // The measure above is the footprint's circumscribed circle against the ribs, wider than the
+    // body the planner's exact check accepted the path with: at a junction's corner a planned
+    // path comes nearer than the margin by it. The refined path need only be as clear by this
+    // measure as the planned one was; the planner's check re-validates it.
+    rp.min_clearance_m = std::min(rp.min_clearance_m, measurePath(r->path, clearance, rp.sample_step_m).min_clearance_m);
+  }
   const auto t0 = std::chrono::steady_clock::now();
-  BreakPointRefinement ref = refineBreakPoints(r->path, clearance, rp, check);
+  BreakPointRefinement ref = refineBreakPoints(r->path, clearance, rp, check, place);
   out.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   out.outcome = ref.outcome;
   out.message = ref.message;

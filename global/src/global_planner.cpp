@@ -712,6 +712,11 @@ Status GlobalPlanner::validatePath(const Polyline& path) const { return validate
 
 bool GlobalPlanner::stateValid(const Vec3& c) const { return impl_->validity->stateValid(c); }
 
+std::optional<Vec3> GlobalPlanner::standAt(const Vec3& c) const {
+  if (!map::allFinite(c)) return std::nullopt;
+  return snap(*impl_->validity, c, 0.5);
+}
+
 std::optional<Vec3> GlobalPlanner::backOff(const Vec3& c, double max_move_m) const {
   const RobotValidity& v = *impl_->validity;
   const map::DistanceField& f = *impl_->field;

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "adit/map/distance_field.hpp"
 #include "support/synthetic_roadway.hpp"
 
@@ -106,6 +108,51 @@ TEST(BreakPointRefiner, CallersCheckCanVetoTheResult) {
   EXPECT_EQ(r.outcome, RefineOutcome::kKeptInput);
   EXPECT_NE(r.message.find("vetoed"), std::string::npos) << r.message;
   EXPECT_EQ(r.path.points, b.centreline.points);
+}
+
+// The caller's check refuses only refined segments that start at the start and do not end at the
+// first break point as it was: that break point goes back, the other keeps its gain.
+TEST(BreakPointRefiner, CallersCheckOnOneSegmentKeepsTheRestRefined) {
+  const Bend& b = bend();
+  const BreakPointRefinerParams p = BreakPointRefinerParams::forField(b.field.resolution(), 0.2);
+  const std::vector<Vec3>& in = b.centreline.points;
+  int calls = 0;
+  const BreakPointRefinement r =
+      refineBreakPoints(b.centreline, fieldClearance(b.field, kRobotRadius), p, [&](const Vec3& a, const Vec3& e) {
+        ++calls;
+        return a == in[0] && e != in[1] ? invalidArgument("the first break point may not move") : Status();
+      });
+  ASSERT_EQ(r.outcome, RefineOutcome::kRefined) << r.message;
+  EXPECT_EQ(r.path.points[1], in[1]);
+  EXPECT_NE(r.path.points[2], in[2]);
+  EXPECT_LT(r.objective_after, r.objective_before);
+  EXPECT_NE(r.message.find("1 kept where they were"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("may not move"), std::string::npos) << r.message;
+  EXPECT_GT(calls, 1);
+}
+
+// Planar mode with a placement: every vertex that moved stands where the placement puts it (its
+// height from its x and y), the others keep theirs; no placement = the heights stay.
+TEST(BreakPointRefiner, PlacementGivesMovedVerticesTheirHeight) {
+  const Bend& b = bend();
+  BreakPointRefinerParams p = BreakPointRefinerParams::forField(b.field.resolution(), 0.2);
+  p.planar = true;
+  // Lifts every vertex it places by a centimetre: a moved vertex is where it says.
+  auto floor = [](const Vec3& q) { return Vec3(q.x(), q.y(), q.z() + 0.01); };
+  const BreakPointRefinement r =
+      refineBreakPoints(b.centreline, fieldClearance(b.field, kRobotRadius), p, {}, floor);
+  ASSERT_EQ(r.outcome, RefineOutcome::kRefined) << r.message;
+  for (std::size_t i = 0; i < r.path.size(); ++i) {
+    const Vec3 q = r.path.points[i];
+    if (q.head<2>() == b.centreline.points[i].head<2>()) EXPECT_EQ(q, b.centreline.points[i]);
+    else EXPECT_DOUBLE_EQ(q.z(), b.centreline.points[i].z() + 0.01) << "vertex " << i;
+  }
+  // A placement that finds no floor anywhere: nothing moves.
+  const BreakPointRefinement none = refineBreakPoints(
+      b.centreline, fieldClearance(b.field, kRobotRadius), p, {},
+      [](const Vec3&) { return Vec3::Constant(std::numeric_limits<double>::quiet_NaN()); });
+  EXPECT_EQ(none.outcome, RefineOutcome::kKeptInput) << none.message;
+  EXPECT_EQ(none.path.points, b.centreline.points);
 }
 
 }  // namespace

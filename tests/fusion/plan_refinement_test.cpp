@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include <cstdio>
 
 #include "adit/map/distance_field.hpp"
@@ -73,14 +75,27 @@ TEST(PlanRefinement, RefinesThePlannedPathInPlaceWithThePlannersCheck) {
   for (std::size_t i = 0; i < r.path.size(); ++i) EXPECT_EQ(again.path.points[i], r.path.points[i]);
 }
 
-TEST(PlanRefinement, GroundModeMovesBreakPointsOnlySideways) {
+// Ground mode: break points move sideways and stand on the floor where they land (the bend's floor
+// rises, so a point moved along it is at another height), as the planner's own do; the path stays
+// valid for the planner.
+TEST(PlanRefinement, GroundModeMovesBreakPointsSidewaysOntoTheFloor) {
   const global::GlobalPlanner g = planner(global::PlanMode::kGround);
   global::GlobalPlanResult r = g.plan(Vec3(1.4, 0.5, 0.5), Vec3(18.5, 10.8, 1.5));
   ASSERT_TRUE(r.solved()) << r.message;
   const PlanRefinement ref = refinePlan(g, bend().field, &r);
-  ASSERT_NE(ref.outcome, RefineOutcome::kInvalidInput) << ref.message;
+  ASSERT_EQ(ref.outcome, RefineOutcome::kRefined) << ref.message;
   ASSERT_EQ(r.path.size(), ref.before_path.size());
-  for (std::size_t i = 0; i < r.path.size(); ++i) EXPECT_EQ(r.path.points[i].z(), ref.before_path.points[i].z());
+  int moved = 0;
+  for (std::size_t i = 0; i < r.path.size(); ++i) {
+    const Vec3 p = r.path.points[i];
+    if (p == ref.before_path.points[i]) continue;
+    ++moved;
+    const std::optional<Vec3> stand = g.standAt(p);
+    ASSERT_TRUE(stand.has_value()) << "break point " << i << " has no floor";
+    EXPECT_NEAR((*stand - p).norm(), 0.0, 1e-9) << "break point " << i << " does not stand on the floor";
+  }
+  EXPECT_GT(moved, 0);
+  EXPECT_LT(ref.objective_after, ref.objective_before);
   const Status valid = g.validatePath(r.path);
   EXPECT_TRUE(valid.ok()) << valid.message();
 }

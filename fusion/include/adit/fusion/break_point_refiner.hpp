@@ -86,8 +86,14 @@ struct BreakPointRefinement {
 /// every segment of the result only (it may be slow). Empty = none.
 using SegmentCheck = std::function<Status(const map::Vec3&, const map::Vec3&)>;
 
+/// Planar mode: where a vertex moved to (x, y) stands, i.e. its height there (a ground robot on
+/// its floor: the floor rises and falls under a vertex that moves); a non-finite point where it
+/// cannot stand. Empty = the vertex keeps its height.
+using VertexPlacement = std::function<map::Vec3(const map::Vec3&)>;
+
 /// Never throws. The input's first and last points never move.
 BreakPointRefinement refineBreakPoints(const map::Polyline& path, const ClearanceFn& clearance,
-                                       const BreakPointRefinerParams& params, const SegmentCheck& extra_check = {});
+                                       const BreakPointRefinerParams& params, const SegmentCheck& extra_check = {},
+                                       const VertexPlacement& place = {});
 
 }  // namespace adit::fusion

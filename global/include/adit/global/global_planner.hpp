@@ -101,6 +101,11 @@ class GlobalPlanner {
   /// optimum and the tests ask this.
   bool stateValid(const map::Vec3& c) const;
 
+  /// Ground mode: where the robot stands over (c.x, c.y), its centre half its height above the
+  /// floor found searching down from half a metre above c (as the planner puts its own break
+  /// points); nullopt where there is no floor within reach or c is not finite. Flying: c.
+  std::optional<map::Vec3> standAt(const map::Vec3& c) const;
+
   /// A robot pressed inside the safety margin (after an evasive manoeuvre, or a fall beside it)
   /// is not in rock, but plan() refuses it as a start. This is the nearest pose it may stand at,
   /// reached from `c` by climbing the distance field in half-voxel steps (ground mode: kept on
