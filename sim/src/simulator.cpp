@@ -183,6 +183,18 @@ class Referee {
     return d.exact ? d.distance_m : kInf;
   }
   double rockDistance(const Vec3& p) const { return rockDistance(pose(p)); }
+  // Flying: the same, exact only below `compared`, the largest value it is compared with (the
+  // run's least clearance so far, a roof fall's distance): a distance beyond that changes nothing,
+  // and infinity stands for it. Most periods are then settled by the field's bound alone, without
+  // the surface scan. Up to 10 m it is what rockDistance() gives.
+  double rockDistanceBelow(const Eigen::Isometry3d& x, double compared) const {
+    constexpr double kReach = 10.0;
+    if (!(compared < kReach)) return rockDistance(x);
+    if (!env_.checker()) return std::numeric_limits<double>::infinity();
+    const map::ShapeDistance d = env_.checker()->distance(robot_, x, compared);
+    if (d.collision) return 0.0;
+    return d.exact ? d.distance_m : std::numeric_limits<double>::infinity();
+  }
   double staticDistance(const Eigen::Isometry3d& x, std::size_t i) const {
     const StaticSphere& s = sc_.static_obstacles[i];
     if (robot_.type == map::ShapeType::kSphere)
@@ -339,7 +351,9 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
     std::string extra_what = what;
     if (extra) extra(p, t + tau, extra_d, extra_what);
     // Nearest thing to the robot at this instant, and what it is.
-    if (d > 0.0) d = ground ? referee.groundRockDistance(body, extra_d) : referee.rockDistance(body);
+    if (d > 0.0)
+      d = ground ? referee.groundRockDistance(body, extra_d)
+                 : referee.rockDistanceBelow(body, std::max(res.min_clearance_m, std::isfinite(extra_d) ? extra_d : 0.0));
     // What the run reports as its clearance: the same, but for a ground robot the rock is what
     // stands beside it, not the floor it drives on (read once a period: the band scan is the
     // costly part; contact is still judged on every sub-sample by the exact distance d).
