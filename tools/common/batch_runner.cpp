@@ -147,7 +147,23 @@ StatusOr<std::vector<sim::BatchRunResult>> runBatchWorkers(const BatchSetup& set
     }
     files.push_back(f);
   }
-  // Workers pull positions in `indices` from a counter in shared memory, write one record per
+  // Longest first: a worker that draws a long run last keeps the other idle at the end (on 60
+  // district scenarios the runs take 0.1-4 s). A run's length goes with its start-goal distance
+  // and doubles with a roof fall (the detour); drawing the scenarios costs about 0.1 ms each.
+  // Records are written and read by index, so the order changes no row.
+  std::vector<std::pair<double, int>> by_cost;
+  by_cost.reserve(indices.size());
+  for (int k = 0; k < total; ++k) {
+    const StatusOr<sim::Scenario> sc =
+        sim::makeBatchScenario(setup.base, setup.roadways, setup.truth, params, indices[std::size_t(k)]);
+    const double cost = sc.ok() ? (sc->goal - sc->start).norm() * (sc->events.empty() ? 1.0 : 2.0) : 0.0;
+    by_cost.emplace_back(-cost, k);
+  }
+  std::stable_sort(by_cost.begin(), by_cost.end());
+  std::vector<int> order;
+  order.reserve(by_cost.size());
+  for (const auto& c : by_cost) order.push_back(c.second);
+  // Workers pull positions in `order` from a counter in shared memory, write one record per
   // run to their own file and one byte per run to the progress pipe. A worker dies with its
   // parent (PR_SET_PDEATHSIG): a killed shard leaves no worker computing rows nobody reads.
   auto* next = static_cast<std::atomic<int>*>(
@@ -179,7 +195,7 @@ StatusOr<std::vector<sim::BatchRunResult>> runBatchWorkers(const BatchSetup& set
       ::close(progress[0]);
       std::FILE* out = files[std::size_t(w)];
       for (int k = next->fetch_add(1); k < total; k = next->fetch_add(1)) {
-        const std::string rec = batchRecord(runOne(setup, params, indices[std::size_t(k)]));
+        const std::string rec = batchRecord(runOne(setup, params, indices[std::size_t(order[std::size_t(k)])]));
         std::fwrite(rec.data(), 1, rec.size(), out);
         std::fflush(out);
         const char one = '.';
