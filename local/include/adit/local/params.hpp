@@ -195,8 +195,8 @@ struct RobotLimits {
   double max_steer_deg = 30.0;    ///< ackermann: steering angle limit
   double wheelbase_m = 0.0;       ///< ackermann: 0 = 0.6 x the footprint's length (or diameter)
   bool ground() const { return mode == RobotMode::kGround; }
-  /// The bundled ground rescue's robot (maps/scenarios/district_rescue_ground.yaml): tracked, skid
-  /// steering, a 1.0 x 0.7 m box 0.6 m high; the other limits as the defaults.
+  /// The robot of the bundled rescue and inspection runs (maps/scenarios/district_rescue.yaml):
+  /// tracked, skid steering, a 1.0 x 0.7 m box 0.6 m high; the other limits as the defaults.
   static RobotLimits trackedRescue() {
     RobotLimits r;
     r.mode = RobotMode::kGround;
