@@ -217,14 +217,16 @@ double coveredLowerBound(const DistanceField& field, const RobotShape& shape, co
   struct Cell {
     Vec3 lo, hi;
   };
-  // Depth-first; each split pushes at most 8 cells, and a cell is split at most
-  // log2(extent / smallest) + 1 times per axis: 64 levels of 8 is far more than any shape needs.
-  constexpr int kStack = 512;
+  // Depth-first, so the stack holds at most seven cells per level of splitting (70 levels here).
+  // A shape huge for the map's resolution could settle cells for a long time: past kBudget cells
+  // the exact search decides, as it would without this bound (it has limits of its own).
+  constexpr int kStack = 512, kBudget = 4096;
   Cell stack[kStack];
-  int top = 0;
+  int top = 0, cells = 0;
   stack[top++] = {-half, half};
   double least = kInf;
   while (top > 0) {
+    if (++cells > kBudget) return -kInf;
     const Cell c = stack[--top];
     if (shape.type != ShapeType::kBox) {
       // The cell's gap to the shape's axis (cylinder: the z axis; capsule: its segment).

@@ -15,9 +15,11 @@
 /// Planar mode varies only x and y (ground robots, the papers' 2-D scenarios).
 ///
 /// The input is validated first (a vertex in rock or a blocked segment is refused with the segment
-/// named); the result is re-validated segment by segment (plus the caller's own check, e.g. the
-/// global planner's motion check) and is returned only if it is valid and its objective is lower;
-/// otherwise the input comes back unchanged and the message says why.
+/// named); every segment of the result that differs from the input's is re-validated (plus the
+/// caller's own check, e.g. the global planner's motion check). The ends of one that fails go back
+/// to where they were and the segments next to them are checked again, so a valid input gives a
+/// valid result; it is returned when its objective is lower, otherwise the input comes back
+/// unchanged, and the message says which segment failed and why.
 ///
 ///   BreakPointRefinerParams p = BreakPointRefinerParams::forField(field.resolution(), 0.2);
 ///   BreakPointRefinement r = refineBreakPoints(path, fieldClearance(field, 0.4), p);
