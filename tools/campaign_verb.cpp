@@ -167,20 +167,6 @@ struct ShardFile {
   int k = 0;
 };
 
-// The identity fields that make two shards parts of one campaign (the map path may differ
-// between machines; its content may not).
-std::vector<std::string> identityDifferences(const sim::CampaignIdentity& a, const sim::CampaignIdentity& b) {
-  std::vector<std::string> d;
-  if (a.map_hash != b.map_hash) d.push_back("map content (" + b.map_hash + " vs " + a.map_hash + ")");
-  if (a.seed != b.seed) d.push_back("seed (" + std::to_string(b.seed) + " vs " + std::to_string(a.seed) + ")");
-  if (a.scenarios != b.scenarios)
-    d.push_back("scenarios (" + std::to_string(b.scenarios) + " vs " + std::to_string(a.scenarios) + ")");
-  if (a.shards != b.shards) d.push_back("shards (" + std::to_string(b.shards) + " vs " + std::to_string(a.shards) + ")");
-  if (sim::campaignIdentityJson(a)["generator"] != sim::campaignIdentityJson(b)["generator"]) d.push_back("generator ranges");
-  if (a.adit_version != b.adit_version) d.push_back("adit version (" + b.adit_version + " vs " + a.adit_version + ")");
-  return d;
-}
-
 // The merged report as one offline page: outcome counts, success rate per feature bucket as
 // bars (HTML/CSS, no picture), and the failures with their replay commands.
 std::string reportPage(const Json& j) {
@@ -310,7 +296,7 @@ int merge(const CampaignArgs& a) {
   if (shards.empty() && problems.empty()) problems.push_back("no shard given");
   std::map<int, const ShardFile*> by_k;
   for (const ShardFile& s : shards) {
-    const std::vector<std::string> d = identityDifferences(shards.front().id, s.id);
+    const std::vector<std::string> d = sim::campaignIdentityDifferences(shards.front().id, s.id);
     if (!d.empty()) {
       std::string why;
       for (const std::string& x : d) why += (why.empty() ? "" : ", ") + x;

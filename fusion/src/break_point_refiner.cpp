@@ -300,8 +300,8 @@ BreakPointRefinement refineBreakPoints(const Polyline& path, const ClearanceFn& 
           out.points[v] = in[v];
           ++restored;
           again = true;
-          if (v > 0) checked[v - 1] = false;
-          if (v < checked.size()) checked[v] = false;
+          checked[v - 1] = false;  // v is interior: both its segments exist
+          checked[v] = false;
         }
     }
     const double value = model.valueOf(out.points);

@@ -124,6 +124,18 @@ StatusOr<CampaignIdentity> campaignIdentityFromJson(const nlohmann::json& j, con
   return id;
 }
 
+std::vector<std::string> campaignIdentityDifferences(const CampaignIdentity& a, const CampaignIdentity& b) {
+  std::vector<std::string> d;
+  if (a.map_hash != b.map_hash) d.push_back("map content (" + b.map_hash + " vs " + a.map_hash + ")");
+  if (a.seed != b.seed) d.push_back("seed (" + std::to_string(b.seed) + " vs " + std::to_string(a.seed) + ")");
+  if (a.scenarios != b.scenarios)
+    d.push_back("scenarios (" + std::to_string(b.scenarios) + " vs " + std::to_string(a.scenarios) + ")");
+  if (a.shards != b.shards) d.push_back("shards (" + std::to_string(b.shards) + " vs " + std::to_string(a.shards) + ")");
+  if (campaignIdentityJson(a)["generator"] != campaignIdentityJson(b)["generator"]) d.push_back("generator ranges");
+  if (a.adit_version != b.adit_version) d.push_back("adit version (" + b.adit_version + " vs " + a.adit_version + ")");
+  return d;
+}
+
 std::string shardName(int k, int m, const char* ext) {
   return "shard-" + std::to_string(k) + "-of-" + std::to_string(m) + ext;
 }

@@ -178,9 +178,13 @@ class Referee {
     constexpr double kInf = std::numeric_limits<double>::infinity();
     if (!env_.checker()) return kInf;
     if (!(nearer_than < kInf)) return env_.checker()->inCollision(robot_, x) ? 0.0 : kInf;
-    const map::ShapeDistance d = env_.checker()->distance(robot_, x, std::min(nearer_than, 10.0));
+    return rockDistanceWithin(x, std::min(nearer_than, 10.0));
+  }
+  // 0 on contact, the exact distance up to `cap`, infinity beyond it.
+  double rockDistanceWithin(const Eigen::Isometry3d& x, double cap) const {
+    const map::ShapeDistance d = env_.checker()->distance(robot_, x, cap);
     if (d.collision) return 0.0;
-    return d.exact ? d.distance_m : kInf;
+    return d.exact ? d.distance_m : std::numeric_limits<double>::infinity();
   }
   double rockDistance(const Vec3& p) const { return rockDistance(pose(p)); }
   // Flying: the same, exact only below `compared`, the largest value it is compared with (the
@@ -191,9 +195,7 @@ class Referee {
     constexpr double kReach = 10.0;
     if (!(compared < kReach)) return rockDistance(x);
     if (!env_.checker()) return std::numeric_limits<double>::infinity();
-    const map::ShapeDistance d = env_.checker()->distance(robot_, x, compared);
-    if (d.collision) return 0.0;
-    return d.exact ? d.distance_m : std::numeric_limits<double>::infinity();
+    return rockDistanceWithin(x, compared);
   }
   double staticDistance(const Eigen::Isometry3d& x, std::size_t i) const {
     const StaticSphere& s = sc_.static_obstacles[i];

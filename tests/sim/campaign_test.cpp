@@ -83,6 +83,21 @@ TEST(CampaignModel, IdentityRefusesFloatsWrapsAndMoreShardsThanScenarios) {
   EXPECT_FALSE(campaignIdentityFromJson(missing, "shard.json").ok());
 }
 
+// Two shards belong to one campaign when nothing but the map's path and the build differ.
+TEST(CampaignModel, IdentityDifferencesNameEachField) {
+  const CampaignIdentity a = identity();
+  CampaignIdentity b = a;
+  b.map = "elsewhere/district.yaml";
+  b.adit_commit = "another build";
+  EXPECT_TRUE(campaignIdentityDifferences(a, b).empty());
+  b.seed = a.seed + 1;
+  b.shards = a.shards + 1;
+  const std::vector<std::string> d = campaignIdentityDifferences(a, b);
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_EQ(d[0], "seed (" + std::to_string(b.seed) + " vs " + std::to_string(a.seed) + ")");
+  EXPECT_EQ(d[1], "shards (" + std::to_string(b.shards) + " vs " + std::to_string(a.shards) + ")");
+}
+
 TEST(CampaignModel, ShardsPartitionTheScenarios) {
   for (int n : {1, 7, 10, 1000})
     for (int m = 1; m <= std::min(n, 9); ++m) {

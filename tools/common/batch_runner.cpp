@@ -76,8 +76,9 @@ std::optional<sim::BatchRunResult> parseBatchRecord(const std::string& line) {
   return r;
 }
 
-sim::BatchRunResult runOne(const BatchSetup& setup, const sim::BatchParams& params, int index) {
-  StatusOr<sim::Scenario> sc = sim::makeBatchScenario(setup.base, setup.roadways, setup.truth, params, index);
+// Runs scenario `index`, drawn beforehand (`sc`: the scenario or why it could not be drawn).
+sim::BatchRunResult runOne(const BatchSetup& setup, const sim::BatchParams& params, int index,
+                           const StatusOr<sim::Scenario>& sc) {
   if (sc.ok()) {
     sim::BatchRunResult r = sim::runBatchScenario(*sc, setup.truth, index, &setup.believed);
     r.roadway_width_m = setup.roadways.widthAt(sc->start);
@@ -147,15 +148,18 @@ StatusOr<std::vector<sim::BatchRunResult>> runBatchWorkers(const BatchSetup& set
     }
     files.push_back(f);
   }
-  // Longest first: a worker that draws a long run last keeps the other idle at the end (on 60
-  // district scenarios the runs take 0.1-4 s). A run's length goes with its start-goal distance
-  // and doubles with a roof fall (the detour); drawing the scenarios costs about 0.1 ms each.
-  // Records are written and read by index, so the order changes no row.
+  // The scenarios are drawn here, once (about 0.1 ms each), and the workers inherit them. Longest
+  // first: a worker that draws a long run last keeps the other idle at the end (on 60 district
+  // scenarios the runs take 0.1-4 s). A run's length goes with its start-goal distance and
+  // doubles with a roof fall (the detour). Records are written and read by index, so the order
+  // changes no row.
+  std::vector<StatusOr<sim::Scenario>> drawn;
+  drawn.reserve(indices.size());
   std::vector<std::pair<double, int>> by_cost;
   by_cost.reserve(indices.size());
   for (int k = 0; k < total; ++k) {
-    const StatusOr<sim::Scenario> sc =
-        sim::makeBatchScenario(setup.base, setup.roadways, setup.truth, params, indices[std::size_t(k)]);
+    drawn.push_back(sim::makeBatchScenario(setup.base, setup.roadways, setup.truth, params, indices[std::size_t(k)]));
+    const StatusOr<sim::Scenario>& sc = drawn.back();
     const double cost = sc.ok() ? (sc->goal - sc->start).norm() * (sc->events.empty() ? 1.0 : 2.0) : 0.0;
     by_cost.emplace_back(-cost, k);
   }
@@ -195,7 +199,8 @@ StatusOr<std::vector<sim::BatchRunResult>> runBatchWorkers(const BatchSetup& set
       ::close(progress[0]);
       std::FILE* out = files[std::size_t(w)];
       for (int k = next->fetch_add(1); k < total; k = next->fetch_add(1)) {
-        const std::string rec = batchRecord(runOne(setup, params, indices[std::size_t(order[std::size_t(k)])]));
+        const std::size_t at = std::size_t(order[std::size_t(k)]);
+        const std::string rec = batchRecord(runOne(setup, params, indices[at], drawn[at]));
         std::fwrite(rec.data(), 1, rec.size(), out);
         std::fflush(out);
         const char one = '.';

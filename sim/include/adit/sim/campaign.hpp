@@ -52,6 +52,10 @@ nlohmann::ordered_json campaignIdentityJson(const CampaignIdentity& id);
 /// The inverse; errors name `file` and the missing or bad field. Integers must be integers in
 /// range (a seed is a uint64, N and M ints with 1 <= M <= N), never a float or a wrapped value.
 StatusOr<CampaignIdentity> campaignIdentityFromJson(const nlohmann::json& j, const std::string& file);
+/// What differs between two identities that makes their shards parts of different campaigns, one
+/// phrase per field ("seed (2 vs 1)", b's value first); empty when they are one campaign. The map
+/// path may differ between machines, its content may not; the commit is recorded, not compared.
+std::vector<std::string> campaignIdentityDifferences(const CampaignIdentity& a, const CampaignIdentity& b);
 
 /// "shard-K-of-M" + ext.
 std::string shardName(int k, int m, const char* ext);
