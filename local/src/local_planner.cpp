@@ -251,8 +251,8 @@ void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, cons
   // speed comes down (no further than braking at a_max allows).
   if (params_.envelope.enabled) {
     const double floor = stoppingFloor(q);
-    if ((R.drive == DriveType::kDifferential || R.drive == DriveType::kSkid) && std::abs(vf) > 1e-6 &&
-        !stoppingRunClear(q, v_new, dt, floor)) {
+    const bool tracks = R.drive == DriveType::kDifferential || R.drive == DriveType::kSkid;
+    if (tracks && std::abs(vf) > 1e-6 && !stoppingArcClear(q, v_new, w, dt, floor)) {
       // Braking while the heading swings toward rock curves the stopping run into it (a robot
       // turning out of a bend at speed): the yaw rate within reach whose run is clear, nearest
       // the wish, if there is one.
@@ -260,7 +260,7 @@ void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, cons
       for (int i = 0; i <= 8; ++i) {
         const double wi = w_lo + (w_hi - w_lo) * double(i) / 8.0, yaw_end = yaw + wi * dt;
         if (std::abs(wi - w) < best_cost &&
-            stoppingRunClear(q, onFloor(vf * Vec3(std::cos(yaw_end), std::sin(yaw_end), 0.0)), dt, floor)) {
+            stoppingArcClear(q, onFloor(vf * Vec3(std::cos(yaw_end), std::sin(yaw_end), 0.0)), wi, dt, floor)) {
           best = wi;
           best_cost = std::abs(wi - w);
         }
@@ -271,14 +271,17 @@ void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, cons
       else if (std::abs(vf0) > a_max * dt) w = std::clamp(0.0, w_lo, w_hi);
       v_new = onFloor(vf * Vec3(std::cos(yaw + w * dt), std::sin(yaw + w * dt), 0.0));
     }
-    if (!stoppingRunClear(q, v_new, dt, floor)) {
+    // Tracks keep turning as they brake (the yaw rate falls at alpha_max); a car's rate is its
+    // speed's, and slower it turns less.
+    const double w_run = tracks ? w : 0.0;
+    if (!stoppingArcClear(q, v_new, w_run, dt, floor)) {
       const double h0 = Vec3(v_new.x(), v_new.y(), 0.0).norm();
       const double slowest = std::max(0.0, std::abs(vf0) - a_max * dt);
       double lo = h0 > 1e-9 ? std::min(1.0, slowest / h0) : 0.0, hi = 1.0;
-      if (!stoppingRunClear(q, v_new * lo, dt, floor)) hi = lo;
+      if (!stoppingArcClear(q, v_new * lo, w_run, dt, floor)) hi = lo;
       for (int i = 0; i < 10 && hi > lo; ++i) {
         const double mid = 0.5 * (lo + hi);
-        (stoppingRunClear(q, v_new * mid, dt, floor) ? lo : hi) = mid;
+        (stoppingArcClear(q, v_new * mid, w_run, dt, floor) ? lo : hi) = mid;
       }
       v_new *= lo;
       vf *= lo;
@@ -553,6 +556,39 @@ bool LocalPlanner::stoppingRunClear(const Vec3& q, const Vec3& v, double dt, dou
   const int n = std::min(kMaxSightSamples, std::max(1, int(std::ceil(reach / step))));
   for (int k = 1; k <= n; ++k)
     if (world_.field->distance(probe(q + (end - q) * (double(k) / double(n)))) - rr < floor) return false;
+  return true;
+}
+
+bool LocalPlanner::stoppingArcClear(const Vec3& q, const Vec3& v, double w, double dt, double floor) const {
+  const double alpha = params_.robot.alpha_max_rps2, a_max = params_.robot.a_max_mps2, rr = params_.robot.radius_m;
+  const double turn_on = std::abs(w) > 0.0 ? w * std::abs(w) / (2.0 * alpha) : 0.0;  // heading change after the period
+  if (!world_.field || std::abs(turn_on) < 1e-3) return stoppingRunClear(q, v, dt, floor);
+  const double flat = std::hypot(v.x(), v.y());
+  if (flat < 1e-9) return stoppingRunClear(q, v, dt, floor);
+  const double speed = v.norm(), rise = v.z() / flat;
+  const double reach = speed * dt + speed * speed / (2.0 * a_max);
+  const double h0 = std::atan2(v.y(), v.x()), t_turn = std::abs(w) / alpha, sw = w > 0.0 ? 1.0 : -1.0;
+  // Travel direction after arc length s: straight through the period, then braking, the yaw
+  // rate falling from w to zero at alpha_max.
+  auto heading = [&](double s) {
+    const double s_brake = s - speed * dt;
+    if (s_brake <= 0.0) return h0;
+    const double t = (speed - std::sqrt(std::max(0.0, speed * speed - 2.0 * a_max * s_brake))) / a_max;
+    return t >= t_turn ? h0 + turn_on : h0 + w * t - sw * 0.5 * alpha * t * t;
+  };
+  const double step = 0.5 * world_.field->resolution();
+  const int n = std::min(kMaxSightSamples, std::max(1, int(std::ceil(reach / step))));
+  const double ds = reach / double(n), ds_flat = ds * flat / speed;
+  Vec3 p = q;
+  for (int k = 1; k <= n; ++k) {
+    const double h = heading((double(k) - 0.5) * ds);
+    p += Vec3(std::cos(h) * ds_flat, std::sin(h) * ds_flat, rise * ds_flat);
+    for (const StaticSphere& s : world_.static_obstacles) {
+      const double now = (q - s.center).norm() - s.radius - rr;
+      if ((p - s.center).norm() - s.radius - rr < std::min(floor, now - 1e-6)) return false;
+    }
+    if (world_.field->distance(probe(p)) - rr < floor) return false;
+  }
   return true;
 }
 

@@ -209,6 +209,10 @@ class LocalPlanner {
   /// The safety envelope's test: a period at `v`, then braking at a_max in a straight line,
   /// keeps the robot's sphere at least `floor` from rock and static obstacles.
   bool stoppingRunClear(const Vec3& q, const Vec3& v, double dt, double floor) const;
+  /// The same for a drive that turns at yaw rate `w` this period: it cannot stop turning at
+  /// once, so its braking run curves on while the rate is brought to zero at alpha_max (a robot
+  /// turning toward a rib as it brakes ends nearer the rib than the straight run says).
+  bool stoppingArcClear(const Vec3& q, const Vec3& v, double w, double dt, double floor) const;
   /// The clearance a stopping run must keep: half the envelope's reserve, or less than now when
   /// the robot is already nearer (a sensed fall, the first period).
   double stoppingFloor(const Vec3& q) const;
