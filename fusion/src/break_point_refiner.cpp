@@ -45,6 +45,7 @@ Status BreakPointRefinerParams::validate() const {
   if (!(clearance_weight >= 0) || !std::isfinite(clearance_weight)) return bad("clearance_weight", clearance_weight, ">= 0");
   if (!(rho0_m > 0) || !std::isfinite(rho0_m)) return bad("rho0_m", rho0_m, "> 0");
   if (!std::isfinite(min_clearance_m)) return bad("min_clearance_m", min_clearance_m, "finite");
+  if (!std::isfinite(clearance_slack_m)) return bad("clearance_slack_m", clearance_slack_m, "finite");
   if (!(sample_step_m > 0) || !std::isfinite(sample_step_m)) return bad("sample_step_m", sample_step_m, "> 0");
   if (!(move_radius_m > 0) || !std::isfinite(move_radius_m)) return bad("move_radius_m", move_radius_m, "> 0");
   return optimizer.validate();
@@ -72,16 +73,26 @@ std::string fmt(const Vec3& p) {
 
 // Every sample of a-b (at most `step` apart, both ends included) has clearance >= `need`; else
 // `why` names the first offending sample.
+// With slack >= 0 (see BreakPointRefinerParams::clearance_slack_m) the samples that a clear one
+// proves clear are skipped: the same answer and the same first offending sample.
 bool segmentClear(const ClearanceFn& clearance, const Vec3& a, const Vec3& b, double step, double need,
-                  std::string* why = nullptr) {
+                  std::string* why = nullptr, double slack = -1.0) {
   if (!map::allFinite(a) || !map::allFinite(b)) {
     if (why) *why = "a vertex is not finite";
     return false;
   }
-  const int n = samplesFor((b - a).norm(), step);
+  const double len = (b - a).norm();
+  const int n = samplesFor(len, step);
+  const double spacing = len / n;
   for (int k = 0; k <= n; ++k) {
     const Vec3 q = a + (b - a) * (double(k) / n);
     const double c = clearance(q);
+    if (c >= need && slack >= 0.0 && spacing > 0.0) {
+      // Samples within c - need - slack of q are clear (1e-9: rounding of the sample spacing).
+      const double proven = c - need - slack - 1e-9;
+      if (proven >= spacing) k += int(std::min(double(n), std::floor(proven / spacing)));
+      continue;
+    }
     if (!(c >= need)) {
       if (why) {
         std::ostringstream os;
@@ -183,7 +194,9 @@ class PathModel {
     if (!z.allFinite() || !withinMoveRadius(z)) return false;
     const std::vector<Vec3> pts = points(z);
     for (std::size_t i = 0; i + 1 < pts.size(); ++i)
-      if (!segmentClear(clearance_, pts[i], pts[i + 1], p_.sample_step_m, p_.min_clearance_m)) return false;
+      if (!segmentClear(clearance_, pts[i], pts[i + 1], p_.sample_step_m, p_.min_clearance_m, nullptr,
+                        p_.clearance_slack_m))
+        return false;
     return true;
   }
 
@@ -238,7 +251,8 @@ BreakPointRefinement refineBreakPoints(const Polyline& path, const ClearanceFn& 
   r.before = measurePath(path, clearance, params.sample_step_m);
   for (std::size_t i = 0; i + 1 < path.size(); ++i) {
     std::string why;
-    if (!segmentClear(clearance, path.points[i], path.points[i + 1], params.sample_step_m, params.min_clearance_m, &why))
+    if (!segmentClear(clearance, path.points[i], path.points[i + 1], params.sample_step_m, params.min_clearance_m, &why,
+                      params.clearance_slack_m))
       return refuse("input segment " + std::to_string(i) + " " + fmt(path.points[i]) + "-" + fmt(path.points[i + 1]) +
                     " is not clear: " + why);
   }
@@ -286,7 +300,7 @@ BreakPointRefinement refineBreakPoints(const Polyline& path, const ClearanceFn& 
         if (out.points[i] == in[i] && out.points[i + 1] == in[i + 1]) continue;  // the input's own
         std::string seg_why;
         if (!segmentClear(clearance, out.points[i], out.points[i + 1], params.sample_step_m, params.min_clearance_m,
-                          &seg_why))
+                          &seg_why, params.clearance_slack_m))
           seg_why = "failed re-validation: " + seg_why;
         else if (extra_check)
           if (Status s = extra_check(out.points[i], out.points[i + 1]); !s.ok()) seg_why = "failed the caller's check: " + s.message();

@@ -23,6 +23,8 @@ PlanRefinement refinePlan(const global::GlobalPlanner& planner, const map::Dista
   // Sample as finely as the planner's motion check, which re-validates every refined segment.
   rp.sample_step_m = std::min(res, params.motion_step_voxels * res);
   rp.clearance_weight = params.clearance_weight;
+  // The clearance below is the field's distance shifted: the field's error bound holds for it.
+  rp.clearance_slack_m = field.errorBound();
   // Ground mode: the centre sits half a body above the floor, so the field there sees the floor;
   // measure the ribs higher up, lifted as the planner's own clearance is (margin + two voxels),
   // and high enough that the floor (two voxels of quantisation under it) never binds: a low wide

@@ -62,6 +62,36 @@ TEST(BreakPointRefiner, BendGetsShorterAndStaysClear) {
   for (std::size_t i = 0; i < r.path.size(); ++i) EXPECT_EQ(again.path.points[i], r.path.points[i]);
 }
 
+// The field's proven error bound lets the feasibility scans skip samples a clear one proves
+// clear: the same refined path bit for bit, from fewer clearance reads.
+TEST(BreakPointRefiner, SkippingProvenClearSamplesChangesNothing) {
+  const Bend& b = bend();
+  BreakPointRefinerParams p = BreakPointRefinerParams::forField(b.field.resolution(), 0.2);
+  long reads = 0;
+  const ClearanceFn field_clearance = fieldClearance(b.field, kRobotRadius);
+  const ClearanceFn c = [&](const Vec3& q) {
+    ++reads;
+    return field_clearance(q);
+  };
+  const BreakPointRefinement every = refineBreakPoints(b.centreline, c, p);
+  const long every_reads = reads;
+  reads = 0;
+  p.clearance_slack_m = b.field.errorBound();
+  const BreakPointRefinement skipping = refineBreakPoints(b.centreline, c, p);
+  ASSERT_EQ(every.outcome, RefineOutcome::kRefined) << every.message;
+  EXPECT_EQ(skipping.outcome, every.outcome);
+  EXPECT_EQ(skipping.message, every.message);
+  ASSERT_EQ(skipping.path.size(), every.path.size());
+  for (std::size_t i = 0; i < every.path.size(); ++i) EXPECT_EQ(skipping.path.points[i], every.path.points[i]);
+  EXPECT_EQ(skipping.objective_after, every.objective_after);
+  EXPECT_LT(reads, every_reads);
+  std::printf("clearance reads: %ld every sample, %ld skipping proven ones (%.2fx)\n", every_reads, reads,
+              double(every_reads) / double(reads));
+  // A slack that is not finite is refused.
+  p.clearance_slack_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(refineBreakPoints(b.centreline, c, p).outcome, RefineOutcome::kInvalidInput);
+}
+
 TEST(BreakPointRefiner, PlanarModeKeepsHeights) {
   const Bend& b = bend();
   BreakPointRefinerParams p = BreakPointRefinerParams::forField(b.field.resolution(), 0.2);

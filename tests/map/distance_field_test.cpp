@@ -38,6 +38,7 @@ TEST_P(DistanceFieldOracle, MatchesBruteForceWithinHalfAVoxel) {
     EXPECT_NEAR(a.distance, b.distance, 0.5 * res) << c.name << " at " << p.transpose();
     max_err = std::max(max_err, std::abs(a.distance - b.distance));
     EXPECT_GE(a.distance + 1e-9, b.distance) << "field must never be closer than the nearest rock";
+    EXPECT_LE(a.distance, b.distance + df->errorBound()) << "beyond the proven bound at " << p.transpose();
     if (!a.in_rock) {
       ++free_points;
       if (a.distance > 1e-6) {

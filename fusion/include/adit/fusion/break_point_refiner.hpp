@@ -48,6 +48,10 @@ struct BreakPointRefinerParams {
   double sample_step_m = 0.2;     ///< longest distance between samples (the voxel size)
   double move_radius_m = 3.0;     ///< Ω: how far a vertex may move from its start
   bool planar = false;            ///< only x and y vary
+  /// When >= 0: the clearance function obeys c(q) >= c(p) - |p - q| - slack (a distance
+  /// field's does, with DistanceField::errorBound()), and the feasibility scans skip the samples
+  /// that this proves clear (the same answers, fewer reads). Negative: every sample is read.
+  double clearance_slack_m = -1.0;
   /// Fewer iterations and a smaller, shorter genetic search than the optimiser's defaults: the
   /// dimension is 2–3 per break point and every evaluation walks the whole path.
   GeneticTrustRegionParams optimizer = defaultOptimizer();

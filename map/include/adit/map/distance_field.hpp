@@ -91,6 +91,14 @@ class DistanceField {
   /// Distance, gradient and closest rock point. Never throws; NaN input gives in_rock = true.
   DistanceSample query(const Vec3& p) const noexcept;
   double distance(const Vec3& p) const noexcept { return query(p).distance; }
+  /// How far distance(p) may exceed the true distance to rock, proven rather than measured: the
+  /// voxel holding p (centre c, |p - c| <= sqrt(3)/2 voxel) is one of the 8 read, and its stored
+  /// site S is at least as near c as the centre of p's truly nearest rock voxel R, so
+  /// distance(p) <= |p - S| <= 2 |p - c| + |p - R| <= true + 3 sqrt(3)/2 voxels (|p - R| exceeds
+  /// the distance to R's cube by at most sqrt(3)/2 voxel). With the true distance 1-Lipschitz,
+  /// distance(q) >= distance(p) - |p - q| - errorBound(): a scan along a segment may skip every
+  /// sample that this proves clear.
+  double errorBound() const noexcept { return 2.598076211353316 * resolution(); }
   /// Free under the policy the field was built with (the voxel holding p).
   bool isFree(const Vec3& p) const noexcept;
   /// Centre of the nearest rock voxel to the voxel holding p (the stored feature transform).
