@@ -678,8 +678,11 @@ TEST_F(ServerTest, AnEstopGoesFirstIsAcknowledgedByTheRobotAndShownUntilReleased
   WsClient viewer(port(), "/ws/view");
   const Json snap = viewer.recvAny();
   ASSERT_EQ(snap["type"], "snapshot");
-  for (const Json& r : snap["robots"])
-    if (r["robot"] == "r-estop") EXPECT_EQ(r["estop"]["command_id"], id);
+  for (const Json& r : snap["robots"]) {
+    if (r["robot"] == "r-estop") {
+      EXPECT_EQ(r["estop"]["command_id"], id);
+    }
+  }
   // At its hello the robot gets the e-stop before the 64 commands issued ahead of it.
   WsClient robot(port(), "/ws/robot");
   robot.hello("r-estop");
