@@ -637,13 +637,15 @@ bool LocalPlanner::pursuitPoint(const Vec3& q, const map::Polyline& path, const 
     d *= std::max(1.0, d.norm()) / d.norm();
     const double run = d.norm();
     const int m = std::clamp(int(std::ceil(run / res)), 1, kMaxSightSamples);
+    // A floor one voxel higher is the quantisation of any slope, never a step (as the band's).
+    const double step_tol = std::max(R.max_step_m, res) + 0.5 * res;
     double prev = floor_z_;
     for (int k = 1; k <= m; ++k) {
       const double s = run * double(k) / double(m);
       const Vec3 p = q + d * (double(k) / double(m));
       const std::optional<double> f = map::floorBelow(
           *world_.field, Vec3(p.x(), p.y(), floor_z_ + s * tan_max + R.max_step_m + res), 2.0 * (s * tan_max + R.max_step_m + res));
-      if (!f || std::abs(*f - prev) > R.max_step_m + res * 0.5 || std::abs(*f - floor_z_) > s * tan_max + R.max_step_m + 0.5 * res)
+      if (!f || std::abs(*f - prev) > step_tol || std::abs(*f - floor_z_) > s * tan_max + R.max_step_m + 0.5 * res)
         return false;
       prev = *f;
     }
