@@ -639,10 +639,16 @@ Status writePage(const Scenario& sc, const Figure& fig, const SimulationResult& 
   AnimationPageInput in;
   in.title = sc.name + " (" + methodName(sc.params.method) + ")";
   in.robot_radius_m = sc.params.robot.radius_m;
+  const local::RobotLimits& robot = sc.params.robot;
+  if (robot.ground() && robot.footprint.box) {
+    in.robot_length_m = robot.footprint.length_m;
+    in.robot_width_m = robot.footprint.width_m;
+  }
   for (const NamedObstacle& m : sc.moving_obstacles)
     in.movers.push_back({m.name, m.obstacle.shape.boundingRadius(), kFigureMoving});
   for (const TrajectorySample& s : r.trajectory) {
     PageFrame f{s.t_s, s.position, stepStatusName(s.status), {}};
+    if (robot.ground()) f.yaw = s.yaw;
     for (const NamedObstacle& m : sc.moving_obstacles) f.movers.push_back(m.obstacle.positionAt(s.t_s));
     in.frames.push_back(std::move(f));
   }

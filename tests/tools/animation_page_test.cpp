@@ -12,8 +12,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -249,6 +251,40 @@ TEST_F(AnimationPageTest, FramesAreAllThereInOrderToTheMillimetre) {
   EXPECT_DOUBLE_EQ(d["view"]["ppm"].get<double>(), 10.0);
   EXPECT_DOUBLE_EQ(d["view"]["xmin"].get<double>(), -2.0);
   EXPECT_DOUBLE_EQ(d["view"]["ymax"].get<double>(), 8.0);
+}
+
+// A ground robot's box footprint travels with its heading per frame, unwrapped so that a turn
+// through +-pi interpolates the short way; a disc robot's page carries neither.
+TEST_F(AnimationPageTest, ABoxRobotCarriesItsFootprintAndHeading) {
+  AnimationPageInput in = sampleRun(40, 0);
+  ASSERT_FALSE(frameData(*animationPageHtml(png_, view_, in)).at("robot").contains("box"));
+  in.robot_length_m = 1.0;
+  in.robot_width_m = 0.7;
+  for (std::size_t i = 0; i < in.frames.size(); ++i) in.frames[i].yaw = std::remainder(2.9 + 0.05 * double(i), 6.283185307179586);
+  in.frames[3].yaw = std::numeric_limits<double>::quiet_NaN();  // not known: the last one held
+  const auto html = animationPageHtml(png_, view_, in);
+  ASSERT_TRUE(html.ok()) << html.status().toString();
+  const json d = frameData(*html);
+  EXPECT_EQ(d["robot"]["box"], json::array({1.0, 0.7}));
+  const auto yaw = undelta(d["robot"]["yaw"], 1000);
+  ASSERT_EQ(yaw.size(), in.frames.size());
+  for (std::size_t i = 1; i < yaw.size(); ++i) {
+    const double want = i == 3 ? 2.9 + 0.05 * 2 : 2.9 + 0.05 * double(i);
+    EXPECT_NEAR(yaw[i], want, 0.0015) << "frame " << i;
+  }
+  EXPECT_NE(html->find("1.00 &times; 0.70 m"), std::string::npos) << "the legend names the box";
+  // Bad footprints and headings are refused.
+  AnimationPageInput bad = in;
+  bad.robot_width_m = -0.7;
+  EXPECT_FALSE(validateAnimationPageInput(bad).ok());
+  bad = in;
+  bad.robot_length_m = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(validateAnimationPageInput(bad).ok());
+  bad = in;
+  bad.frames[5].yaw = -std::numeric_limits<double>::infinity();
+  const Status s = validateAnimationPageInput(bad);
+  EXPECT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("yaw"), std::string::npos) << s.message();
 }
 
 TEST_F(AnimationPageTest, StatusPerFrameIsStoredAsRuns) {

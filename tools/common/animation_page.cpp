@@ -190,7 +190,9 @@ json pathSeries(const std::vector<Vec3>& path) {
 
 json frameData(const TopViewInfo& view, const AnimationPageInput& in,
                std::vector<std::pair<std::string, std::uint32_t>>* statuses) {
-  DeltaSeries t(1000), rx(1000), ry(1000), rz(1000);
+  DeltaSeries t(1000), rx(1000), ry(1000), rz(1000), ryaw(1000);
+  const bool box = in.robot_length_m > 0.0 && in.robot_width_m > 0.0;
+  double last_yaw = 0.0;  // unwrapped, so that a turn through +-pi interpolates the short way
   std::vector<DeltaSeries> mx(in.movers.size(), DeltaSeries(1000)), my(in.movers.size(), DeltaSeries(1000));
   std::vector<long long> status_runs;  // frame index, status index, ...
   std::map<std::string, std::size_t> status_index;
@@ -207,6 +209,11 @@ json frameData(const TopViewInfo& view, const AnimationPageInput& in,
     rx.push(f.robot.x());
     ry.push(f.robot.y());
     rz.push(f.robot.z());
+    if (box) {
+      const double yaw = std::isfinite(f.yaw) ? f.yaw : last_yaw;
+      last_yaw = i == 0 ? yaw : last_yaw + std::remainder(yaw - last_yaw, 2.0 * 3.14159265358979323846);
+      ryaw.push(last_yaw);
+    }
     for (std::size_t m = 0; m < in.movers.size(); ++m) {
       mx[m].push(f.movers[m].x());
       my[m].push(f.movers[m].y());
@@ -233,6 +240,10 @@ json frameData(const TopViewInfo& view, const AnimationPageInput& in,
   d["trail_s"] = kTrailSeconds;
   d["t"] = t.toJson();
   d["robot"] = {{"r", in.robot_radius_m}, {"x", rx.toJson()}, {"y", ry.toJson()}, {"z", rz.toJson()}};
+  if (box) {
+    d["robot"]["box"] = {in.robot_length_m, in.robot_width_m};
+    d["robot"]["yaw"] = ryaw.toJson();
+  }
   json names = json::array(), colours = json::array();
   for (const auto& [name, colour] : *statuses) {
     names.push_back(name);
@@ -375,6 +386,7 @@ const char* kMainScript = R"JS(
   var T = undelta(D.t, 1000), n = T.length;
   var RX = undelta(D.robot.x, 1000), RY = undelta(D.robot.y, 1000), RZ = undelta(D.robot.z, 1000);
   var RC = cols(RX), RR = rows(RY), RKEEP = decimate(RC, RR);
+  var BOX = D.robot.box || null, RYAW = BOX ? undelta(D.robot.yaw, 1000) : null;
   var movers = D.movers.map(function (m) {
     var x = undelta(m.x, 1000), y = undelta(m.y, 1000);
     var c = cols(x), r = rows(y);
@@ -543,15 +555,30 @@ const char* kMainScript = R"JS(
     live.strokeStyle = rgba(ROBOT_TRAIL, 1 - (step + 0.5) / FADE_STEPS); live.stroke();
 
     var colour = D.status.colours[S[f]], r = Math.max(D.robot.r * V.ppm, 4 * K);
-    disc(live, cx, cy, r + 1.5 * K, '#ffffff', '#ffffff', 0);
-    disc(live, cx, cy, r, colour, '#1d2430', 1.5 * K);
+    if (BOX) {
+      // A ground robot's body: its box turned to its heading (canvas rows run south, so the
+      // angle's sign flips), a tick from the centre to the front edge.
+      var yaw = lerp(RYAW, f, u), hl = Math.max(BOX[0] * V.ppm / 2, 3 * K), hw = Math.max(BOX[1] * V.ppm / 2, 2 * K);
+      live.save(); live.translate(cx, cy); live.rotate(-yaw);
+      live.lineJoin = 'round';
+      live.lineWidth = 3 * K; live.strokeStyle = '#ffffff'; live.strokeRect(-hl, -hw, 2 * hl, 2 * hw);
+      live.fillStyle = colour; live.fillRect(-hl, -hw, 2 * hl, 2 * hw);
+      live.lineWidth = 1.5 * K; live.strokeStyle = '#1d2430'; live.strokeRect(-hl, -hw, 2 * hl, 2 * hw);
+      live.lineWidth = 2 * K; live.strokeStyle = '#ffffff';
+      live.beginPath(); live.moveTo(0, 0); live.lineTo(hl, 0); live.stroke();
+      live.restore();
+      r = Math.max(hl, hw);
+    } else {
+      disc(live, cx, cy, r + 1.5 * K, '#ffffff', '#ffffff', 0);
+      disc(live, cx, cy, r, colour, '#1d2430', 1.5 * K);
+    }
     if (r < 6 * K) {  // a robot of a few pixels on a large map: a ring to find it by
       live.beginPath(); live.arc(cx, cy, r + 5 * K, 0, 2 * Math.PI);
       live.lineWidth = 2 * K; live.strokeStyle = colour; live.stroke();
     }
     var a = u > 0 || f === 0 ? f : f - 1, b = Math.min(a + 1, n - 1);
     var dx = RC[b] - RC[a], dy = RR[b] - RR[a], len = Math.hypot(dx, dy);
-    if (len > 1e-9) {  // heading tick, from the centre to the rim
+    if (!BOX && len > 1e-9) {  // heading tick, from the centre to the rim
       live.lineWidth = 2 * K; live.strokeStyle = '#ffffff';
       live.beginPath(); live.moveTo(cx, cy);
       live.lineTo(cx + dx / len * r, cy + dy / len * r); live.stroke();
@@ -813,8 +840,12 @@ void appendSummaryRows(std::string& html, const AnimationPageInput& in) {
 void appendLegend(std::string& html, const AnimationPageInput& in,
                   const std::vector<std::pair<std::string, std::uint32_t>>& statuses) {
   html += "<div class=\"panel legend\"><h2>Legend</h2><ul>\n";
+  const bool box = in.robot_length_m > 0.0 && in.robot_width_m > 0.0;
   html += "<li><span class=\"sw\" style=\"background:" + cssColour(statuses.front().second) +
-          "\"></span>robot, r = " + fixed(in.robot_radius_m, 2) + " m (colour: status)</li>\n";
+          (box ? ";border-radius:2px;width:16px;height:11px" : "") + "\"></span>robot, " +
+          (box ? fixed(in.robot_length_m, 2) + " &times; " + fixed(in.robot_width_m, 2) + " m, turned to its heading"
+               : "r = " + fixed(in.robot_radius_m, 2) + " m") +
+          " (colour: status)</li>\n";
   html += "<li><span class=\"sw fade\" style=\"background:linear-gradient(90deg,rgba(46,134,222,0),#2E86DE)\"></span>"
           "trail, last " + fixed(kTrailSeconds, 0) + " s</li>\n";
   html += "<li><span class=\"sw line\" style=\"border-color:rgba(46,134,222,.4)\"></span>driven path</li>\n";
@@ -873,6 +904,10 @@ Status validateAnimationPageInput(const AnimationPageInput& in) {
   if (!(std::isfinite(in.robot_radius_m) && in.robot_radius_m > 0)) {
     return invalidArgument("animation page: robot radius " + num(in.robot_radius_m) + " m is not a positive number");
   }
+  for (const auto& [what, v] : {std::pair<const char*, double>{"length", in.robot_length_m}, {"width", in.robot_width_m}})
+    if (!(std::isfinite(v) && v >= 0 && v <= 1000.0))
+      return invalidArgument(std::string("animation page: robot box ") + what + " " + num(v) +
+                             " m is not a number from 0 (a disc) to 1000");
   for (std::size_t m = 0; m < in.movers.size(); ++m) {
     const PageMover& mv = in.movers[m];
     if (!(std::isfinite(mv.radius_m) && mv.radius_m > 0)) {
@@ -896,6 +931,8 @@ Status validateAnimationPageInput(const AnimationPageInput& in) {
                              num(in.frames[i - 1].t_s) + " s): frames must be in time order");
     }
     ADIT_RETURN_IF_ERROR(checkPoint(f.robot, frameName(in, i) + ": robot"));
+    if (std::isinf(f.yaw) || std::abs(f.yaw) > 1e6)
+      return invalidArgument(frameName(in, i) + ": robot yaw " + num(f.yaw) + " rad is not finite (NaN: not known)");
     if (f.movers.size() != in.movers.size()) {
       return invalidArgument(frameName(in, i) + " has " + std::to_string(f.movers.size()) +
                              " mover positions, expected " + std::to_string(in.movers.size()) +

@@ -44,6 +44,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -67,6 +68,9 @@ struct PageFrame {
   adit::map::Vec3 robot = adit::map::Vec3::Zero();
   std::string status;                  ///< e.g. "following"; shown beside the clock
   std::vector<adit::map::Vec3> movers;  ///< one per AnimationPageInput::movers, same order
+  /// The robot's heading [rad] (a ground robot's body), drawn when the input gives a box
+  /// footprint; NaN: not known (the page turns the box along the motion).
+  double yaw = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Something that happened during the run: one mark on the page's timeline (clicking it shows
@@ -95,6 +99,9 @@ struct PagePoint {
 struct AnimationPageInput {
   std::string title;
   double robot_radius_m = 0.3;
+  /// A ground robot's box footprint (length along its heading, width across): drawn as that
+  /// box, turned to each frame's yaw, instead of the disc of robot_radius_m. 0: a disc.
+  double robot_length_m = 0.0, robot_width_m = 0.0;
   std::vector<PageMover> movers;
   std::vector<PageFrame> frames;  ///< time-ordered, at least one
   /// The expected path at the first frame (drawn by the page, so that a replan can fade it); may
