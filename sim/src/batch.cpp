@@ -70,6 +70,19 @@ class Drawer {
 // The goal moved off the axis toward the floor or a rib (BatchParams::near_rock_goal_share),
 // from a stream of its own: the other draws of the run are not shifted. Last of the draws, so
 // that t_max and the roof fall's time stay those of the axis goal.
+// A ground robot's body on the floor under p clears rock by kBodyRoomM at every heading
+// (`everywhere`: it can turn on the spot, as at its start) or at one (it can stand there).
+constexpr double kBodyRoomM = 0.05;
+bool groundBodyFits(const Scenario& sc, const Environment& truth, const Vec3& p, bool everywhere) {
+  Scenario at = sc;
+  at.start = at.goal = p;
+  at.expected_path.points = {p};
+  const StatusOr<Scenario> placed = placeOnFloor(at, truth);
+  if (!placed.ok()) return false;
+  const BodyFit fit = bodyFit(*placed, truth, placed->start);
+  return (everywhere ? fit.least_m : fit.most_m) > kBodyRoomM;
+}
+
 void moveGoalNearRock(Scenario& sc, const Vec3& along, const Environment& truth, const BatchParams& params,
                       std::uint64_t run_seed) {
   std::mt19937_64 rng(batchRunSeed(run_seed ^ 0x474F414C4E454152ull, 0));  // "GOALNEAR"
@@ -94,6 +107,15 @@ void moveGoalNearRock(Scenario& sc, const Vec3& along, const Environment& truth,
     const Vec3 p = sc.goal + s * toward;
     if (!field.isFree(p) || field.distance(p) < target) break;
     g = p;
+  }
+  // A ground robot's body on the floor there (a real rib bulges at the floor, where the field at
+  // the drawn height does not see it): back toward the drawn goal until it fits at some heading.
+  if (sc.params.robot.ground()) {
+    const Vec3 back = sc.goal - g;
+    const int steps = int(std::ceil(back.norm() / kStep));
+    int k = 0;
+    while (k < steps && !groundBodyFits(sc, truth, g, false)) g += back / double(steps), ++k;
+    if (k == steps) return;
   }
   const double d = (g - sc.start).norm();
   if (d < params.min_separation_m || d > params.max_separation_m) return;
@@ -260,6 +282,10 @@ StatusOr<Scenario> makeBatchScenario(const Scenario& base, const BatchRoadways& 
   const double r = sc.params.robot.radius_m;
   const double v_max = sc.params.robot.v_max_mps;
   auto roomy = [&](const Vec3& p) { return truth.field()->isFree(p) && truth.field()->distance(p) > r + 0.4; };
+  // A ground robot's start lets it turn on the spot, and it can stand at its goal (a real mine's
+  // rib may bulge at the floor where the field at the drawn height sees room).
+  const bool ground = sc.params.robot.ground();
+  auto fitsAt = [&](const Vec3& p, bool everywhere) { return !ground || groundBodyFits(sc, truth, p, everywhere); };
 
   sc.name = "batch-" + std::to_string(index);
   sc.seed = run_seed;
@@ -274,6 +300,7 @@ StatusOr<Scenario> makeBatchScenario(const Scenario& base, const BatchRoadways& 
     const Vec3 s = sp.position, g = gp.position;
     const double d = (g - s).norm();
     if (d < params.min_separation_m || d > params.max_separation_m || !roomy(s) || !roomy(g)) continue;
+    if (!fitsAt(s, true) || !fitsAt(g, false)) continue;
     sc.start = s;
     sc.goal = g;
     goal_direction = gp.direction;

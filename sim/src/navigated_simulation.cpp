@@ -24,12 +24,6 @@ using fusion::NavigatorParams;
 using fusion::NavigatorStatus;
 using fusion::SensorScan;
 
-Eigen::Isometry3d at(const Vec3& p) {
-  Eigen::Isometry3d x = Eigen::Isometry3d::Identity();
-  x.translation() = p;
-  return x;
-}
-
 // A roof fall that has happened: its ball, and the voxels of its surface the robot has not
 // seen yet. Only the surface can ever be seen (every other fall voxel lies behind it), so the
 // believed map learns a shell: as good as the whole ball for planning.
@@ -142,23 +136,9 @@ StatusOr<NavigatedRun> simulateNavigated(const Scenario& scenario, const Environ
   if (!sc.static_obstacles.empty())
     return invalidArgument(sc.file + ": static_obstacles: not supported with the navigator (write them into the map)");
   const double r = sc.params.robot.radius_m;
-  const map::RobotShape robot = map::RobotShape::sphere(r);
   const bool ground = sc.params.robot.ground();
   const double yaw0 = ground ? startYaw(sc) : 0.0;
-  auto rockDistance = [&](const Vec3& p) {
-    if (ground) return bodyRockClearance(sc, truth, p, yaw0);
-    const map::ShapeDistance d = truth.checker()->distance(robot, at(p), 10.0);
-    return d.collision ? 0.0 : d.distance_m;
-  };
-  if (!truth.field()->isFree(sc.start) || rockDistance(sc.start) <= 0.0)
-    return invalidArgument(sc.file + ": start: the robot (radius " + std::to_string(r) + " m) overlaps rock");
-  if (!truth.field()->isFree(sc.goal)) return invalidArgument(sc.file + ": goal: inside rock");
-  if (rockDistance(sc.goal) <= 0.0) {
-    char why[160];
-    std::snprintf(why, sizeof why, "goal: the robot (radius %.2f m) does not fit there: its sphere overlaps rock "
-                  "(centre %.2f m from the nearest rock voxel)", r, truth.field()->distance(sc.goal));
-    return invalidArgument(sc.file + ": " + why);
-  }
+  ADIT_RETURN_IF_ERROR(checkRunEnds(sc, truth));
 
   // The believed world: its own copy of the map, sharing nothing with the true one.
   std::optional<map::World> believed;

@@ -450,6 +450,68 @@ double bodyRockClearance(const Scenario& sc, const Environment& env, const Vec3&
   return at.on_floor ? referee.rockDistance(at.body) : 0.0;
 }
 
+BodyFit bodyFit(const Scenario& sc, const Environment& env, const Vec3& p) {
+  BodyFit fit;
+  if (!sc.params.robot.ground()) {
+    fit.least_m = fit.most_m = bodyRockClearance(sc, env, p, 0.0);
+    return fit;
+  }
+  constexpr int kHeadings = 16;
+  fit.least_m = std::numeric_limits<double>::infinity();
+  fit.most_m = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k < kHeadings; ++k) {
+    const double yaw = 2.0 * 3.14159265358979323846 * double(k) / kHeadings;
+    const double c = bodyRockClearance(sc, env, p, yaw);
+    fit.least_m = std::min(fit.least_m, c);
+    if (c > fit.most_m) fit.most_m = c, fit.best_yaw = yaw;
+  }
+  return fit;
+}
+
+std::string robotBodyName(const local::RobotLimits& robot) {
+  char buf[96];
+  if (robot.ground() && robot.footprint.box)
+    std::snprintf(buf, sizeof buf, "the robot's %.2f x %.2f m body", robot.footprint.length_m, robot.footprint.width_m);
+  else if (robot.ground())
+    std::snprintf(buf, sizeof buf, "the robot's body (radius %.2f m)", robot.footprint.radius_m);
+  else
+    std::snprintf(buf, sizeof buf, "the robot (radius %.2f m)", robot.radius_m);
+  return buf;
+}
+
+Status checkRunEnds(const Scenario& sc, const Environment& env) {
+  const double r = sc.params.robot.radius_m;
+  const bool ground = sc.params.robot.ground();
+  if (env.field()) {
+    if (!env.field()->isFree(sc.start)) return invalidArgument(sc.file + ": start: inside rock");
+    if (!env.field()->isFree(sc.goal)) return invalidArgument(sc.file + ": goal: inside rock");
+  }
+  char why[200];
+  if (bodyRockClearance(sc, env, sc.start, ground ? startYaw(sc) : 0.0) <= 0.0) {
+    if (ground)
+      std::snprintf(why, sizeof why, "start: %s overlaps rock there, heading %.0f deg (on the floor under it)",
+                    robotBodyName(sc.params.robot).c_str(), startYaw(sc) * 180.0 / 3.14159265358979323846);
+    else
+      std::snprintf(why, sizeof why, "start: the robot (radius %f m) overlaps rock", r);
+    return invalidArgument(sc.file + ": " + why);
+  }
+  // A goal the robot cannot be at is refused before the run, not discovered as a stall by it. A
+  // ground robot need only stand there at some heading.
+  if (!env.field()) return Status();
+  if (ground) {
+    if (bodyFit(sc, env, sc.goal).most_m <= 0.0) {
+      std::snprintf(why, sizeof why, "goal: %s does not fit there at any heading (on the floor under it)",
+                    robotBodyName(sc.params.robot).c_str());
+      return invalidArgument(sc.file + ": " + why);
+    }
+  } else if (bodyRockClearance(sc, env, sc.goal, 0.0) <= 0.0) {
+    std::snprintf(why, sizeof why, "goal: the robot (radius %.2f m) does not fit there: its sphere overlaps rock "
+                  "(centre %.2f m from the nearest rock voxel)", r, env.field()->distance(sc.goal));
+    return invalidArgument(sc.file + ": " + why);
+  }
+  return Status();
+}
+
 double startYaw(const Scenario& sc) {
   const std::vector<Vec3>& pts = sc.expected_path.points;
   for (std::size_t i = 1; i < pts.size(); ++i) {
@@ -485,24 +547,9 @@ StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment&
     return invalidArgument(sc.file + ": subgoals: " + subgoalModeName(sc.subgoal_mode) +
                            " needs the selector of adit::fusion (SimulateOptions::subgoals)");
   const double r = sc.params.robot.radius_m;
-  if (env.field()) {
-    if (!env.field()->isFree(sc.start)) return invalidArgument(sc.file + ": start: inside rock");
-    if (!env.field()->isFree(sc.goal)) return invalidArgument(sc.file + ": goal: inside rock");
-  }
+  ADIT_RETURN_IF_ERROR(checkRunEnds(sc, env));
   Referee referee(sc, env);
   const double yaw0 = sc.params.robot.ground() ? startYaw(sc) : 0.0;
-  auto bodyAt = [&](const Vec3& p) {
-    return sc.params.robot.ground() ? referee.place(p, yaw0, p.z() - 0.5 * sc.params.robot.height_m).body : Referee::pose(p);
-  };
-  if (referee.rockDistance(bodyAt(sc.start)) <= 0.0)
-    return invalidArgument(sc.file + ": start: the robot (radius " + std::to_string(r) + " m) overlaps rock");
-  // A goal the robot cannot be at is refused before the run, not discovered as a stall by it.
-  if (env.field() && referee.rockDistance(bodyAt(sc.goal)) <= 0.0) {
-    char why[160];
-    std::snprintf(why, sizeof why, "goal: the robot (radius %.2f m) does not fit there: its sphere overlaps rock "
-                  "(centre %.2f m from the nearest rock voxel)", r, env.field()->distance(sc.goal));
-    return invalidArgument(sc.file + ": " + why);
-  }
 
   World world;
   world.field = env.field();

@@ -9,7 +9,10 @@
 #include <vector>
 
 #include "adit/map/distance_field.hpp"
+#include "adit/map/occupancy_map.hpp"
 #include "adit/sim/batch.hpp"
+#include "adit/sim/simulator.hpp"
+#include "support/synthetic_roadway.hpp"
 
 namespace adit::sim {
 namespace {
@@ -380,6 +383,54 @@ namespace {
 
 // A map without a survey (the bundled district as an octree): starts and goals are drawn on the
 // passages of its free-space roadway graph, with the robot's room, the same for the same seed.
+// A real rib bulges at the floor where the field at the drawn height (1.6 m) sees room: a bench
+// 0.4 m high and 1.0 m deep along the south rib of a 4.5 m roadway. A tracked robot's goals moved
+// toward that rib stand where its body fits on the floor at some heading, its starts where it can
+// turn on the spot; every scenario passes the run's own checks of its ends (before, a goal whose
+// body overlapped the bench ended the run as an error).
+TEST(BatchGroundRobot, GoalsNearABulgingRibLeaveTheBodyRoom) {
+  const map::SurveyNetwork net = test::straightRoadway(map::CrossSection::rectangle(4.5, 3.5), 60.0, 0.2);
+  map::OccupancyMap map = test::voxelizeOrFail(net);
+  std::vector<map::Vec3> bench;
+  for (double x = 0.1; x < 60.0; x += 0.2)
+    for (double y = -2.15; y < -1.3; y += 0.2)
+      for (double z = 0.1; z < 0.5; z += 0.2) bench.emplace_back(x, y, z);
+  ASSERT_TRUE(map.setVoxels(bench, map::VoxelState::kOccupied).ok());
+  StatusOr<map::DistanceField> field = map::DistanceField::build(map);
+  ASSERT_TRUE(field.ok());
+  StatusOr<Environment> env = Environment::borrow(map, *field);
+  ASSERT_TRUE(env.ok()) << env.status().toString();
+  Scenario base;
+  base.name = "bench";
+  base.file = "generated";
+  base.params = local::LocalParams::preset(local::Method::kTian2016);
+  base.start = map::Vec3(5, 0, 1.5);
+  base.goal = map::Vec3(50, 0, 1.5);
+  base.expected_path.points = {base.start, base.goal};
+  BatchParams p;
+  p.seed = 11;
+  p.min_separation_m = 10.0;
+  p.max_separation_m = 50.0;
+  p.max_moving_obstacles = 0;
+  p.roof_fall_probability = 0.0;
+  p.near_rock_goal_share = 1.0;
+  p.robot_json = "{\"mode\": \"ground\", \"drive\": \"skid\", \"footprint\": \"box:1.0,0.7\", \"height\": 0.6}";
+  const BatchRoadways roadways = BatchRoadways::fromSurvey(net);
+  int south = 0;
+  for (int index = 0; index < 24; ++index) {
+    StatusOr<Scenario> sc = makeBatchScenario(base, roadways, *env, p, index);
+    ASSERT_TRUE(sc.ok()) << sc.status().toString();
+    StatusOr<Scenario> placed = placeOnFloor(*sc, *env);
+    ASSERT_TRUE(placed.ok()) << placed.status().toString();
+    const Status ends = checkRunEnds(*placed, *env);
+    EXPECT_TRUE(ends.ok()) << "scenario " << index << ": " << ends.message();
+    EXPECT_GT(bodyFit(*placed, *env, placed->goal).most_m, 0.0) << index;
+    EXPECT_GT(bodyFit(*placed, *env, placed->start).least_m, 0.0) << index;
+    south += sc->goal.y() < -0.5;
+  }
+  EXPECT_GE(south, 4) << "no goal was moved toward the bench";
+}
+
 TEST(BatchOnAnyMap, StartsAndGoalsComeFromTheFreeSpaceGraph) {
   const std::string bt = std::string(ADIT_MAPS_DIR) + "/district.bt";
   StatusOr<sim::Scenario> sc = sim::parseScenario(

@@ -166,6 +166,20 @@ double startYaw(const Scenario& sc);
 /// The referee's clearance from the robot's body at `p` to rock [m], 0 on contact (ground mode:
 /// standing on the floor under p with heading `yaw`); infinity in open space.
 double bodyRockClearance(const Scenario& sc, const Environment& env, const Vec3& p, double yaw);
+/// How a ground robot's body fits at `p` over 16 headings (it can turn on the spot where every
+/// heading fits; it can stand there where one does): the least and the most of the referee's
+/// clearance, and the heading of the most. A flying robot's sphere has one clearance.
+struct BodyFit {
+  double least_m = 0.0, most_m = 0.0;
+  double best_yaw = 0.0;
+};
+BodyFit bodyFit(const Scenario& sc, const Environment& env, const Vec3& p);
+/// The checks before a run: start and goal free, the robot's body clear of rock at the start
+/// (ground: at its start heading) and at the goal (ground: at some heading); the error names the
+/// end and the body.
+Status checkRunEnds(const Scenario& sc, const Environment& env);
+/// "the robot's 1.00 x 0.70 m body" / "the robot (radius 0.40 m)", for messages.
+std::string robotBodyName(const local::RobotLimits& robot);
 /// Sets outcome kCollision and its message when the run collided; false otherwise.
 bool collisionVerdict(SimulationResult& result);
 /// The q-quantile (0..1, nearest rank) of per-step times, as the JSON's step_time_us reports it.
