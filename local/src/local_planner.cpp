@@ -169,6 +169,9 @@ void LocalPlanner::scanBand(const Vec3& q, double range) {
   floor_z_ = f ? *f : q.z() - 0.5 * r.height_m;
   map::rockInBand(*world_.field, q, range + r.radius_m, floor_z_, r.max_step_m,
                   std::tan(r.max_slope_deg * kPi / 180.0), r.height_m, band_, 1u << 16, &band_cache_);
+  band_centre_ = q;
+  band_nearest_ = std::numeric_limits<double>::infinity();
+  for (int b = 0; b < map::BandScan::kBins; ++b) band_nearest_ = std::min(band_nearest_, band_.distance[b]);
 }
 
 double LocalPlanner::slopeAhead(const Vec3& q, const Vec3& u) const {
@@ -536,8 +539,26 @@ Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt, const map
 }
 
 double LocalPlanner::stoppingFloor(const Vec3& q) const {
-  const double now = world_.field ? world_.field->distance(probe(q)) - params_.robot.radius_m : 0.0;
+  double now = world_.field ? world_.field->distance(probe(q)) - params_.robot.radius_m : 0.0;
+  if (ground_ && world_.field) {
+    // The band's rock, as near as it is now (a robot already nearer may not come nearer).
+    for (int b = 0; b < map::BandScan::kBins; ++b)
+      if (std::isfinite(band_.distance[b]))
+        now = std::min(now, std::hypot(q.x() - band_.point[b].x(), q.y() - band_.point[b].y()) - params_.robot.radius_m);
+  }
   return std::min(0.5 * params_.envelope.keep_m, now - 1e-6);
+}
+
+bool LocalPlanner::bandWithin(const Vec3& p, double floor) const {
+  const double rr = params_.robot.radius_m;
+  // Nothing of the band can be nearer p than its nearest point less the way from where it was seen.
+  const double moved = std::hypot(p.x() - band_centre_.x(), p.y() - band_centre_.y());
+  if (band_nearest_ - moved - rr >= floor) return false;
+  for (int b = 0; b < map::BandScan::kBins; ++b)
+    if (std::isfinite(band_.distance[b]) &&
+        std::hypot(p.x() - band_.point[b].x(), p.y() - band_.point[b].y()) - rr < floor)
+      return true;
+  return false;
 }
 
 bool LocalPlanner::stoppingRunClear(const Vec3& q, const Vec3& v, double dt, double floor) const {
@@ -554,8 +575,10 @@ bool LocalPlanner::stoppingRunClear(const Vec3& q, const Vec3& v, double dt, dou
     if ((nearestOnSegment(s.center, q, end) - s.center).norm() - s.radius - rr < std::min(floor, now - 1e-6)) return false;
   }
   const int n = std::min(kMaxSightSamples, std::max(1, int(std::ceil(reach / step))));
-  for (int k = 1; k <= n; ++k)
-    if (world_.field->distance(probe(q + (end - q) * (double(k) / double(n)))) - rr < floor) return false;
+  for (int k = 1; k <= n; ++k) {
+    const Vec3 p = q + (end - q) * (double(k) / double(n));
+    if (world_.field->distance(probe(p)) - rr < floor || (ground_ && bandWithin(p, floor))) return false;
+  }
   return true;
 }
 
@@ -587,7 +610,7 @@ bool LocalPlanner::stoppingArcClear(const Vec3& q, const Vec3& v, double w, doub
       const double now = (q - s.center).norm() - s.radius - rr;
       if ((p - s.center).norm() - s.radius - rr < std::min(floor, now - 1e-6)) return false;
     }
-    if (world_.field->distance(probe(p)) - rr < floor) return false;
+    if (world_.field->distance(probe(p)) - rr < floor || (ground_ && bandWithin(p, floor))) return false;
   }
   return true;
 }

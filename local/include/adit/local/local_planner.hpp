@@ -216,6 +216,10 @@ class LocalPlanner {
   /// The clearance a stopping run must keep: half the envelope's reserve, or less than now when
   /// the robot is already nearer (a sensed fall, the first period).
   double stoppingFloor(const Vec3& q) const;
+  /// Ground mode: the covering circle at p (horizontally) is nearer than `floor` to the band's
+  /// rock (a rib, a pillar, a floor rising at a rib's foot: what the body can hit, which the
+  /// lifted sphere of the field checks does not see below its equator).
+  bool bandWithin(const Vec3& p, double floor) const;
   double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving) const;
   // ---- ground mode
   // Where the field is read for a ground robot whose centre is at p: lifted so that the sphere
@@ -274,6 +278,8 @@ class LocalPlanner {
   double lift_ = 0.0;       // probe()'s offset
   double floor_z_ = 0.0;    // floor under the robot this period
   map::BandScan band_{};
+  Vec3 band_centre_ = Vec3::Zero();  // where band_ was scanned
+  double band_nearest_ = std::numeric_limits<double>::infinity();  // its nearest point's distance
   map::BandCache band_cache_;  // what the band scans read, sized at construction for their range
   double car_direction_ = 1.0;  // an Ackermann robot's turn about: +1 forward, -1 reverse
 };
