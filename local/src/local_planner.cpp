@@ -161,14 +161,25 @@ LocalPlanner::LocalPlanner(const LocalParams& params, World world) : params_(par
   }
 }
 
-void LocalPlanner::scanBand(const Vec3& q, double range) {
+void LocalPlanner::scanBand(const Vec3& q, double range, double speed) {
   const RobotLimits& r = params_.robot;
-  const double res = world_.field->resolution();
+  const double res = world_.field->resolution(), tan_max = std::tan(r.max_slope_deg * kPi / 180.0);
   const std::optional<double> f =
       map::floorBelow(*world_.field, q + Vec3(0, 0, r.max_step_m), 0.5 * r.height_m + r.max_step_m + 2.0 * res);
   floor_z_ = f ? *f : q.z() - 0.5 * r.height_m;
-  map::rockInBand(*world_.field, q, range + r.radius_m, floor_z_, r.max_step_m,
-                  std::tan(r.max_slope_deg * kPi / 180.0), r.height_m, band_, 1u << 16, &band_cache_);
+  // The body's underside stands max_step and a voxel above the floor's plane, fitted as the
+  // referee fits it (over 2.5 m about the robot, clamped to the slope limit): what rises above it
+  // under the body, or where the body gets to before it stops, is in the way.
+  // (Refitting it only every quarter metre, or from 5 x 5 samples, left a Koutzi run in contact.)
+  const map::FloorSlope plane = map::floorSlope(*world_.field, Vec3(q.x(), q.y(), floor_z_), 0.0,
+                                                std::max(2.5, r.radius_m), tan_max, r.max_step_m);
+  map::BandBody body;
+  body.grad_x = std::clamp(plane.along, -tan_max, tan_max);
+  body.grad_y = std::clamp(plane.across, -tan_max, tan_max);
+  body.reach = r.radius_m + speed * 0.1 + speed * speed / (2.0 * r.a_max_mps2);
+  body.clearance = r.max_step_m + res;
+  map::rockInBand(*world_.field, q, range + r.radius_m, floor_z_, r.max_step_m, tan_max, r.height_m, band_, 1u << 16,
+                  &band_cache_, &body);
   band_centre_ = q;
   band_nearest_ = std::numeric_limits<double>::infinity();
   for (int b = 0; b < map::BandScan::kBins; ++b) band_nearest_ = std::min(band_nearest_, band_.distance[b]);
@@ -372,7 +383,7 @@ void LocalPlanner::gatherObstacles(const Vec3& q, const Vec3& v, const Vec3& a, 
     // floor's plane, by rock that is in its way, never by the floor it drives on.
     const bool all_points = params_.method == Method::kWang2014 || params_.method == Method::kVff ||
                             params_.method == Method::kCvff;
-    scanBand(q, bandRange(params_));
+    scanBand(q, bandRange(params_), Vec3(v.x(), v.y(), 0.0).norm());
     int best = -1;
     for (int b = 0; b < map::BandScan::kBins; ++b) {
       if (!std::isfinite(band_.distance[b])) continue;

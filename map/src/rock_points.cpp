@@ -188,7 +188,7 @@ bool BandCache::reserve(double resolution, double radius, double max_step, doubl
 
 void rockInBand(const DistanceField& field, const Vec3& centre, double radius, double z_floor, double max_step,
                 double slope_tan, double height, BandScan& out, std::size_t max_window_columns,
-                BandCache* cache) noexcept {
+                BandCache* cache, const BandBody* body) noexcept {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   for (int b = 0; b < BandScan::kBins; ++b) out.distance[b] = kInf;
   out.truncated = false;
@@ -339,6 +339,9 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
       const Column c = column(cx, cy, s);
       bool way = c.blocked || !c.floor;
       const double dx = cx - centre.x(), dy = cy - centre.y();
+      if (!way && body && s <= body->reach &&
+          c.z - (z_floor + body->grad_x * dx + body->grad_y * dy) > body->clearance + 1e-9)
+        way = true;
       const double d = std::max(std::sqrt(dx * dx + dy * dy), 1e-9);
       if (!way && s >= baseline) {
         // A slope steeper than allowed: against the column a baseline nearer the robot (a voxel of

@@ -204,6 +204,49 @@ TEST(BandScan, ReserveRefusesWhatItCannotHold) {
 // reads one voxel or the other by rounding; the floor under it must not move by a voxel. Found on
 // the district: at x = 40.5 the floor top is -2.2 and floorBelow((40.5, 0, -1.6000000000000001))
 // said -2.4, so the ground planner found nowhere to stand there and blocked the roadway.
+// A floor that rises a voxel a column: a lump 0.4 m high and 0.4 m across its flank in a flat
+// room, and beside it a 10 degree ramp. Every one-column step and the metre's slope pass both, so
+// without the body's underside neither is in the way; with it (max_step and a voxel above the
+// floor's plane, within the reach) the lump is and the ramp, on its own tilted plane, is not.
+TEST(BandScan, TheBodysUndersideMeetsALumpButNotARamp) {
+  const double res = 0.2, tan15 = std::tan(15.0 * kPi / 180.0);
+  std::vector<Vec3> free, occupied;
+  for (double x = 0.1; x < 8.0; x += res)
+    for (double y = 0.1; y < 6.0; y += res) {
+      // The lump: a column one voxel up, five two voxels up, one one voxel up.
+      double f = (x > 3.2 && x < 3.4) || (x > 4.4 && x < 4.6) ? 0.2 : x > 3.4 && x < 4.4 ? 0.4 : 0.0;
+      if (y > 3.0) f = res * std::floor(std::tan(10.0 * kPi / 180.0) * std::max(0.0, x - 1.0) / res);  // the ramp
+      for (double z = -0.5; z < 2.6; z += res) (z < f ? occupied : free).emplace_back(x, y, z);
+    }
+  StatusOr<OccupancyMap> m = OccupancyMap::fromVoxels(res, free, occupied);
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  StatusOr<DistanceField> f = DistanceField::build(*m);
+  ASSERT_TRUE(f.ok());
+  auto nearestAhead = [&](const Vec3& at, const BandBody* body) {
+    BandScan scan;
+    rockInBand(*f, at, 2.0, 0.0, 0.1, tan15, 0.6, scan, 1u << 16, nullptr, body);
+    EXPECT_FALSE(scan.truncated);
+    return scan.distance[BandScan::kBins / 2];  // the bin starting at azimuth 0: +x
+  };
+  BandBody flat;
+  flat.reach = 1.5;
+  flat.clearance = 0.1 + res;
+  const Vec3 before_lump(2.7, 1.5, 0.3);
+  EXPECT_FALSE(std::isfinite(nearestAhead(before_lump, nullptr))) << "the lump's flank passes the column tests";
+  EXPECT_NEAR(nearestAhead(before_lump, &flat), 0.7, 1e-9) << "the underside meets the lump's top at x = 3.4";
+  flat.reach = 0.5;
+  EXPECT_FALSE(std::isfinite(nearestAhead(before_lump, &flat))) << "beyond the reach the lump is not checked";
+  // On the ramp, its plane: nothing in the way.
+  const Vec3 on_ramp(3.0, 4.5, res * std::floor(std::tan(10.0 * kPi / 180.0) * 2.0 / res) + 0.3);
+  BandBody tilted;
+  tilted.grad_x = std::tan(10.0 * kPi / 180.0);
+  tilted.reach = 1.5;
+  tilted.clearance = 0.1 + res;
+  BandScan scan;
+  rockInBand(*f, on_ramp, 1.5, on_ramp.z() - 0.3, 0.1, tan15, 0.6, scan, 1u << 16, nullptr, &tilted);
+  EXPECT_FALSE(std::isfinite(scan.distance[BandScan::kBins / 2])) << scan.distance[BandScan::kBins / 2];
+}
+
 TEST(FloorBelow, PointsOnVoxelFacesFindTheFloor) {
   for (double floor_z : {0.0, -2.2, 1.4}) {
     std::vector<Vec3> free, occupied;

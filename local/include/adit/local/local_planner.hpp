@@ -226,7 +226,9 @@ class LocalPlanner {
   // of radius_m stands max_step plus a voxel above the floor (the floor is not rock in the way).
   Vec3 probe(const Vec3& p) const { return p + Vec3(0, 0, lift_); }
   // The band scan (band_) around the robot at q, above the floor under it.
-  void scanBand(const Vec3& q, double range);
+  // `speed`: how far ahead the body's underside is checked against the floor's plane (the
+  // stopping run at that speed).
+  void scanBand(const Vec3& q, double range, double speed);
   // Floor slope (rise per metre) ahead of q along the unit horizontal direction u; 0 if unknown.
   double slopeAhead(const Vec3& q, const Vec3& u) const;
   // The drive's command from the holonomic set-point v_cmd (the wish, after the envelope's caps): heading error to yaw rate, forward

@@ -61,6 +61,16 @@ RockPointsResult rockSurfacePoints(const DistanceField& field, const Vec3& centr
 ///  - it has no floor within a metre below the robot's (a drop).
 /// Uses no allocation; visits at most `max_window_voxels` voxel columns (else nothing is written
 /// and the result is truncated).
+/// The body's underside, for rockInBand: within `reach` of the centre a column whose floor stands
+/// more than `clearance` above the floor's plane through the robot's floor (rise per metre
+/// grad_x, grad_y) is in the way, however gently it rises: the body standing on that plane meets
+/// it (a lump, a rib's foot curving up, each column a voxel above the last, passes every step and
+/// slope test between columns).
+struct BandBody {
+  double grad_x = 0.0, grad_y = 0.0;
+  double reach = 0.0;
+  double clearance = 0.0;
+};
 struct BandScan {
   static constexpr int kBins = 24;
   double distance[kBins];  ///< horizontal distance from the centre to the nearest such column's cube; inf: none
@@ -86,7 +96,7 @@ class BandCache {
 
  private:
   friend void rockInBand(const DistanceField&, const Vec3&, double, double, double, double, double, BandScan&,
-                         std::size_t, BandCache*) noexcept;
+                         std::size_t, BandCache*, const BandBody*) noexcept;
   struct Slot {
     std::int64_t i = 0, j = 0;  // the column's key (x, y), when valid
     std::int64_t k0 = 0;        // key of the lowest voxel its bits hold
@@ -101,7 +111,7 @@ class BandCache {
 
 void rockInBand(const DistanceField& field, const Vec3& centre, double radius, double z_floor, double max_step,
                 double slope_tan, double height, BandScan& out, std::size_t max_window_columns = 1u << 16,
-                BandCache* cache = nullptr) noexcept;
+                BandCache* cache = nullptr, const BandBody* body = nullptr) noexcept;
 
 /// Top of the floor under `p`: searching down from `p` in voxel steps for at most `depth` m, the
 /// height of the first rock voxel's top. None when `p` is not free or nothing is within `depth`.
