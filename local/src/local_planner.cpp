@@ -551,25 +551,24 @@ Vec3 LocalPlanner::capTowardRock(const Vec3& q, Vec3 v_des, double dt, const map
 
 double LocalPlanner::stoppingFloor(const Vec3& q) const {
   double now = world_.field ? world_.field->distance(probe(q)) - params_.robot.radius_m : 0.0;
-  if (ground_ && world_.field) {
-    // The band's rock, as near as it is now (a robot already nearer may not come nearer).
-    for (int b = 0; b < map::BandScan::kBins; ++b)
-      if (std::isfinite(band_.distance[b]))
-        now = std::min(now, std::hypot(q.x() - band_.point[b].x(), q.y() - band_.point[b].y()) - params_.robot.radius_m);
-  }
+  // The band's rock, as near as it is now (a robot already nearer may not come nearer).
+  if (ground_ && world_.field) now = std::min(now, bandClearance(q));
   return std::min(0.5 * params_.envelope.keep_m, now - 1e-6);
 }
 
+double LocalPlanner::bandClearance(const Vec3& p) const {
+  double least = std::numeric_limits<double>::infinity();
+  for (int b = 0; b < map::BandScan::kBins; ++b)
+    if (std::isfinite(band_.distance[b]))
+      least = std::min(least, std::hypot(p.x() - band_.point[b].x(), p.y() - band_.point[b].y()));
+  return least - params_.robot.radius_m;
+}
+
 bool LocalPlanner::bandWithin(const Vec3& p, double floor) const {
-  const double rr = params_.robot.radius_m;
   // Nothing of the band can be nearer p than its nearest point less the way from where it was seen.
   const double moved = std::hypot(p.x() - band_centre_.x(), p.y() - band_centre_.y());
-  if (band_nearest_ - moved - rr >= floor) return false;
-  for (int b = 0; b < map::BandScan::kBins; ++b)
-    if (std::isfinite(band_.distance[b]) &&
-        std::hypot(p.x() - band_.point[b].x(), p.y() - band_.point[b].y()) - rr < floor)
-      return true;
-  return false;
+  if (band_nearest_ - moved - params_.robot.radius_m >= floor) return false;
+  return bandClearance(p) < floor;
 }
 
 bool LocalPlanner::stoppingRunClear(const Vec3& q, const Vec3& v, double dt, double floor) const {
@@ -595,7 +594,7 @@ bool LocalPlanner::stoppingRunClear(const Vec3& q, const Vec3& v, double dt, dou
 
 bool LocalPlanner::stoppingArcClear(const Vec3& q, const Vec3& v, double w, double dt, double floor) const {
   const double alpha = params_.robot.alpha_max_rps2, a_max = params_.robot.a_max_mps2, rr = params_.robot.radius_m;
-  const double turn_on = std::abs(w) > 0.0 ? w * std::abs(w) / (2.0 * alpha) : 0.0;  // heading change after the period
+  const double turn_on = w * std::abs(w) / (2.0 * alpha);  // heading change after the period
   if (!world_.field || std::abs(turn_on) < 1e-3) return stoppingRunClear(q, v, dt, floor);
   const double flat = std::hypot(v.x(), v.y());
   if (flat < 1e-9) return stoppingRunClear(q, v, dt, floor);

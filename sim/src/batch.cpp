@@ -67,9 +67,6 @@ class Drawer {
   std::discrete_distribution<std::size_t> pick_;
 };
 
-// The goal moved off the axis toward the floor or a rib (BatchParams::near_rock_goal_share),
-// from a stream of its own: the other draws of the run are not shifted. Last of the draws, so
-// that t_max and the roof fall's time stay those of the axis goal.
 // A ground robot's body on the floor under p clears rock by kBodyRoomM at every heading
 // (`everywhere`: it can turn on the spot, as at its start) or at one (it can stand there).
 constexpr double kBodyRoomM = 0.05;
@@ -83,6 +80,9 @@ bool groundBodyFits(const Scenario& sc, const Environment& truth, const Vec3& p,
   return (everywhere ? fit.least_m : fit.most_m) > kBodyRoomM;
 }
 
+// The goal moved off the axis toward the floor or a rib (BatchParams::near_rock_goal_share),
+// from a stream of its own: the other draws of the run are not shifted. Last of the draws, so
+// that t_max and the roof fall's time stay those of the axis goal.
 void moveGoalNearRock(Scenario& sc, const Vec3& along, const Environment& truth, const BatchParams& params,
                       std::uint64_t run_seed) {
   std::mt19937_64 rng(batchRunSeed(run_seed ^ 0x474F414C4E454152ull, 0));  // "GOALNEAR"

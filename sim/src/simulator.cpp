@@ -443,27 +443,32 @@ StatusOr<Scenario> placeOnFloor(const Scenario& sc, const Environment& env) {
   return out;
 }
 
-double bodyRockClearance(const Scenario& sc, const Environment& env, const Vec3& p, double yaw) {
-  const Referee referee(sc, env);
+namespace {
+double bodyRockClearance(const Referee& referee, const Scenario& sc, const Vec3& p, double yaw) {
   if (!sc.params.robot.ground()) return referee.rockDistance(p);
   const Referee::Placed at = referee.place(p, yaw, p.z() - 0.5 * sc.params.robot.height_m);
   return at.on_floor ? referee.rockDistance(at.body) : 0.0;
 }
+}  // namespace
+
+double bodyRockClearance(const Scenario& sc, const Environment& env, const Vec3& p, double yaw) {
+  return bodyRockClearance(Referee(sc, env), sc, p, yaw);
+}
 
 BodyFit bodyFit(const Scenario& sc, const Environment& env, const Vec3& p) {
   BodyFit fit;
+  const Referee referee(sc, env);
   if (!sc.params.robot.ground()) {
-    fit.least_m = fit.most_m = bodyRockClearance(sc, env, p, 0.0);
+    fit.least_m = fit.most_m = bodyRockClearance(referee, sc, p, 0.0);
     return fit;
   }
   constexpr int kHeadings = 16;
   fit.least_m = std::numeric_limits<double>::infinity();
   fit.most_m = -std::numeric_limits<double>::infinity();
   for (int k = 0; k < kHeadings; ++k) {
-    const double yaw = 2.0 * 3.14159265358979323846 * double(k) / kHeadings;
-    const double c = bodyRockClearance(sc, env, p, yaw);
+    const double c = bodyRockClearance(referee, sc, p, 2.0 * 3.14159265358979323846 * double(k) / kHeadings);
     fit.least_m = std::min(fit.least_m, c);
-    if (c > fit.most_m) fit.most_m = c, fit.best_yaw = yaw;
+    fit.most_m = std::max(fit.most_m, c);
   }
   return fit;
 }
@@ -548,7 +553,6 @@ StatusOr<SimulationResult> simulate(const Scenario& scenario, const Environment&
                            " needs the selector of adit::fusion (SimulateOptions::subgoals)");
   const double r = sc.params.robot.radius_m;
   ADIT_RETURN_IF_ERROR(checkRunEnds(sc, env));
-  Referee referee(sc, env);
   const double yaw0 = sc.params.robot.ground() ? startYaw(sc) : 0.0;
 
   World world;

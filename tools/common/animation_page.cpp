@@ -191,7 +191,7 @@ json pathSeries(const std::vector<Vec3>& path) {
 json frameData(const TopViewInfo& view, const AnimationPageInput& in,
                std::vector<std::pair<std::string, std::uint32_t>>* statuses) {
   DeltaSeries t(1000), rx(1000), ry(1000), rz(1000), ryaw(1000);
-  const bool box = in.robot_length_m > 0.0 && in.robot_width_m > 0.0;
+  const bool box = in.boxRobot();
   double last_yaw = 0.0;  // unwrapped, so that a turn through +-pi interpolates the short way
   std::vector<DeltaSeries> mx(in.movers.size(), DeltaSeries(1000)), my(in.movers.size(), DeltaSeries(1000));
   std::vector<long long> status_runs;  // frame index, status index, ...
@@ -840,7 +840,7 @@ void appendSummaryRows(std::string& html, const AnimationPageInput& in) {
 void appendLegend(std::string& html, const AnimationPageInput& in,
                   const std::vector<std::pair<std::string, std::uint32_t>>& statuses) {
   html += "<div class=\"panel legend\"><h2>Legend</h2><ul>\n";
-  const bool box = in.robot_length_m > 0.0 && in.robot_width_m > 0.0;
+  const bool box = in.boxRobot();
   html += "<li><span class=\"sw\" style=\"background:" + cssColour(statuses.front().second) +
           (box ? ";border-radius:2px;width:16px;height:11px" : "") + "\"></span>robot, " +
           (box ? fixed(in.robot_length_m, 2) + " &times; " + fixed(in.robot_width_m, 2) + " m, turned to its heading"

@@ -102,6 +102,7 @@ struct AnimationPageInput {
   /// A ground robot's box footprint (length along its heading, width across): drawn as that
   /// box, turned to each frame's yaw, instead of the disc of robot_radius_m. 0: a disc.
   double robot_length_m = 0.0, robot_width_m = 0.0;
+  bool boxRobot() const { return robot_length_m > 0.0 && robot_width_m > 0.0; }
   std::vector<PageMover> movers;
   std::vector<PageFrame> frames;  ///< time-ordered, at least one
   /// The expected path at the first frame (drawn by the page, so that a replan can fade it); may

@@ -220,6 +220,8 @@ class LocalPlanner {
   /// rock (a rib, a pillar, a floor rising at a rib's foot: what the body can hit, which the
   /// lifted sphere of the field checks does not see below its equator).
   bool bandWithin(const Vec3& p, double floor) const;
+  /// Ground mode: the covering circle's horizontal clearance at p to the band's points.
+  double bandClearance(const Vec3& p) const;
   double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving) const;
   // ---- ground mode
   // Where the field is read for a ground robot whose centre is at p: lifted so that the sphere

@@ -168,10 +168,9 @@ double startYaw(const Scenario& sc);
 double bodyRockClearance(const Scenario& sc, const Environment& env, const Vec3& p, double yaw);
 /// How a ground robot's body fits at `p` over 16 headings (it can turn on the spot where every
 /// heading fits; it can stand there where one does): the least and the most of the referee's
-/// clearance, and the heading of the most. A flying robot's sphere has one clearance.
+/// clearance. A flying robot's sphere has one clearance.
 struct BodyFit {
   double least_m = 0.0, most_m = 0.0;
-  double best_yaw = 0.0;
 };
 BodyFit bodyFit(const Scenario& sc, const Environment& env, const Vec3& p);
 /// The checks before a run: start and goal free, the robot's body clear of rock at the start
