@@ -302,14 +302,15 @@ std::vector<Vec3> subdivide(const RobotValidity& v, const std::vector<Vec3>& p, 
   return out;
 }
 
-Status validatePoints(const RobotValidity& v, const std::vector<Vec3>& p);
+Status validatePoints(const RobotValidity& v, const std::vector<Vec3>& p, bool turns = true);
 
 // adit's own shortening of a valid path (a search's, or the route's axis): shortcuts and
 // break-point relaxation, each step's result kept only when every segment re-validates.
 std::vector<Vec3> polish(const RobotValidity& v, std::vector<Vec3> best) {
+  // A headed box's path may keep no more break points it cannot turn at than it had.
   auto accept = [&](std::vector<Vec3> candidate) {
     if (candidate.size() >= 2 && candidate.front() == best.front() && candidate.back() == best.back() &&
-        validatePoints(v, candidate).ok())
+        validatePoints(v, candidate, false).ok() && v.badTurns(candidate) <= v.badTurns(best))
       best = std::move(candidate);
   };
   accept(shortcut(v, best));
@@ -320,7 +321,7 @@ std::vector<Vec3> polish(const RobotValidity& v, std::vector<Vec3> best) {
   return best;
 }
 
-Status validatePoints(const RobotValidity& v, const std::vector<Vec3>& p) {
+Status validatePoints(const RobotValidity& v, const std::vector<Vec3>& p, bool turns) {
   if (p.empty()) return invalidArgument("empty path");
   if (p.size() == 1 && !v.stateValid(p[0])) return invalidArgument("the single point " + fmt(p[0]) + " is not valid");
   for (std::size_t i = 0; i + 1 < p.size(); ++i) {
@@ -332,6 +333,10 @@ Status validatePoints(const RobotValidity& v, const std::vector<Vec3>& p) {
     }
   }
   if (!v.pathSlopeValid(p)) return invalidArgument("the path climbs a floor steeper than the slope limit");
+  std::size_t at = 0;
+  if (turns && v.badTurns(p, &at) > 0)
+    return invalidArgument("the robot's box cannot turn at break point " + std::to_string(at) + " " + fmt(p[at]) +
+                           " from the heading of the segment before it to the one after it");
   return {};
 }
 
@@ -343,12 +348,17 @@ struct GlobalPlanner::Impl {
   map::CollisionChecker checker;
   GlobalPlannerParams params;
   std::unique_ptr<RobotValidity> validity;
+  // Ground mode, box robots: the second try, the box at its heading where its turning cylinder
+  // does not fit (null otherwise).
+  std::unique_ptr<RobotValidity> headed;
   RoadwayGraph graph;
   bool from_survey = false;
 
   Impl(const map::OccupancyMap& m, const map::DistanceField& f, map::CollisionChecker c, const GlobalPlannerParams& p)
       : map(&m), field(&f), checker(std::move(c)), params(p) {
     validity = std::make_unique<RobotValidity>(*field, checker, params);
+    if (params.mode == PlanMode::kGround && params.robot.type == map::ShapeType::kBox)
+      headed = std::make_unique<RobotValidity>(*field, checker, params, true);
   }
 
   // Ground mode: a survey roadway's cross-section is passable when the robot can stand somewhere
@@ -380,7 +390,7 @@ struct GlobalPlanner::Impl {
   }
 
   // Outcome for an unusable endpoint, or nullopt when it is fine; `p` is snapped in ground mode.
-  std::optional<GlobalPlanResult> checkEndpoint(Vec3* p, bool is_start) const {
+  std::optional<GlobalPlanResult> checkEndpoint(const RobotValidity& vr, Vec3* p, bool is_start) const {
     GlobalPlanResult r;
     const char* what = is_start ? "start" : "goal";
     auto fail = [&](GlobalPlanOutcome start_o, GlobalPlanOutcome goal_o, const std::string& why) {
@@ -399,22 +409,25 @@ struct GlobalPlanner::Impl {
         return fail(GlobalPlanOutcome::kStartUnknown, GlobalPlanOutcome::kGoalUnknown, "in unknown space (rock under --unknown rock)");
       return fail(GlobalPlanOutcome::kStartInRock, GlobalPlanOutcome::kGoalInRock, "in rock");
     }
-    if (validity->ground()) {
-      const std::optional<Vec3> q = validity->onFloor(*p, 50.0);
+    if (vr.ground()) {
+      const std::optional<Vec3> q = vr.onFloor(*p, 50.0);
       if (!q) return fail(GlobalPlanOutcome::kStartInRock, GlobalPlanOutcome::kGoalInRock, "no floor under it");
       *p = *q;
     }
-    if (!validity->stateValid(*p)) {
+    if (!vr.stateValid(*p)) {
       std::ostringstream m;
       m.precision(2);
-      m << std::fixed << "the robot (" << params.robot.name() << ") does not fit: clearance "
-        << validity->clearance(*p) << " m, needs " << params.safety_margin_m << " m";
+      m << std::fixed << "the robot (" << params.robot.name() << ") does not fit";
+      if (vr.headed()) m << " at any heading";
+      m << ": clearance " << vr.clearance(*p) << " m" << (vr.headed() ? " turning" : "") << ", needs "
+        << params.safety_margin_m << " m";
       return fail(GlobalPlanOutcome::kStartInRock, GlobalPlanOutcome::kGoalInRock, m.str());
     }
     return std::nullopt;
   }
 
   GlobalPlanResult plan(Vec3 start, Vec3 goal) const;
+  GlobalPlanResult planWith(const RobotValidity& vr, Vec3 start, Vec3 goal) const;
 };
 
 GlobalPlanner::GlobalPlanner(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -449,7 +462,33 @@ StatusOr<GlobalPlanner> GlobalPlanner::create(const map::OccupancyMap& map, cons
 
 GlobalPlanResult GlobalPlanner::plan(const Vec3& start, const Vec3& goal) const { return impl_->plan(start, goal); }
 
+// A ground box robot is planned first as its turning cylinder (a path it may turn on anywhere,
+// which leaves the local planner room); where that finds none, with the box at its heading.
 GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
+  GlobalPlanResult first = planWith(*validity, start, goal);
+  if (first.solved() || !headed) return first;
+  switch (first.outcome) {
+    case GlobalPlanOutcome::kStartUnknown:
+    case GlobalPlanOutcome::kGoalUnknown:
+    case GlobalPlanOutcome::kStartOutsideMap:
+    case GlobalPlanOutcome::kGoalOutsideMap:
+    case GlobalPlanOutcome::kError: return first;
+    default: break;
+  }
+  GlobalPlanResult second = planWith(*headed, start, goal);
+  const double spent = first.planning_time_s + second.planning_time_s;
+  if (!second.solved()) {
+    first.message += "; with the box at its heading: " + second.message;
+    first.planning_time_s = spent;
+    return first;
+  }
+  second.headed = true;
+  second.planning_time_s = spent;
+  second.message += "; its turning circle does not fit everywhere: the box is checked at the path's heading";
+  return second;
+}
+
+GlobalPlanResult GlobalPlanner::Impl::planWith(const RobotValidity& vr, Vec3 start, Vec3 goal) const {
   const Clock::time_point t0 = Clock::now();
   auto seconds = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
   GlobalPlanResult result;
@@ -459,8 +498,8 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     r.planning_time_s = seconds(t0, Clock::now());
     return r;
   };
-  if (std::optional<GlobalPlanResult> bad = checkEndpoint(&start, true)) return finish(*bad);
-  if (std::optional<GlobalPlanResult> bad = checkEndpoint(&goal, false)) return finish(*bad);
+  if (std::optional<GlobalPlanResult> bad = checkEndpoint(vr, &start, true)) return finish(*bad);
+  if (std::optional<GlobalPlanResult> bad = checkEndpoint(vr, &goal, false)) return finish(*bad);
 
   // Route on the roadway graph; the corridor is where OMPL may go.
   std::unique_ptr<Corridor> corridor;
@@ -468,7 +507,7 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
   const double res = field->resolution();
   if (params.use_roadway_graph) {
     EdgeFilter climbable;
-    if (validity->ground() && from_survey) {
+    if (vr.ground() && from_survey) {
       const double limit = params.max_slope_deg;
       climbable = [limit](const RoadwayEdge& e) { return e.max_slope_deg <= limit; };
     }
@@ -516,7 +555,7 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     space->setBounds(bounds);
     std::uint64_t sampler_seed = params.seed;
     const Corridor& corr = *corridor;
-    const RobotValidity& val = *validity;
+    const RobotValidity& val = vr;
     // The plain-OMPL baseline (whole box, flying) keeps OMPL's own uniform sampler.
     const bool plain = corr.isBox() && !val.ground();
     if (!plain)
@@ -630,7 +669,9 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
                                            : std::string("within the budget"));
         return finish(result);
       }
-      Status raw_ok = validatePoints(val, best);
+      // Segments only: a headed box's turns at the raw path's many break points are the
+      // simplification's to mend (checked below).
+      Status raw_ok = validatePoints(val, best, false);
       if (!raw_ok.ok()) {
         // OMPL checks motions one at a time; a chain of short ones can still climb too steeply.
         result.outcome = val.pathSlopeValid(best) ? GlobalPlanOutcome::kError : GlobalPlanOutcome::kNoPath;
@@ -643,9 +684,20 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
       simplifier.shortcutPath(work);
       const std::vector<Vec3> simplified = points(work);
       if (simplified.size() >= 2 && simplified.front() == best.front() && simplified.back() == best.back() &&
-          validatePoints(val, simplified).ok())
+          validatePoints(val, simplified, false).ok() && val.badTurns(simplified) <= val.badTurns(best))
         best = simplified;
       best = polish(val, best);
+      std::size_t turn_at = 0;
+      if (val.badTurns(best, &turn_at) > 0) {
+        if (axis_path.empty()) {
+          result.outcome = GlobalPlanOutcome::kNoPath;
+          result.message = "no path: the robot's box (" + params.robot.name() + ") cannot turn at " + fmt(best[turn_at]) +
+                           " from the heading it comes in at to the one it leaves at, on the path found";
+          return finish(result);
+        }
+        best = axis_path;  // valid, turns included
+        result.from_route_axis = true;
+      }
       result.path.points = best;
       if (!axis_path.empty() && map::Polyline{axis_path}.length() < map::Polyline{best}.length() - 1e-9) {
         result.path.points = axis_path;
@@ -660,18 +712,18 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
     return finish(result);
   }
 
-  if (validity->ground()) {
+  if (vr.ground()) {
     // Every break point exactly half the robot's height above its floor. A state within the
     // ground tolerance is valid (its body is checked standing on the floor), but the local layer
     // steers at the point itself, and one left below the floor's top lies in rock.
     std::vector<Vec3> on = result.path.points;
     bool all = true;
     for (Vec3& p : on) {
-      const std::optional<Vec3> q = snap(*validity, p, 0.3);
+      const std::optional<Vec3> q = snap(vr, p, 0.3);
       all = all && q.has_value();
       if (q) p = *q;
     }
-    if (all && validatePoints(*validity, on).ok()) result.path.points = std::move(on);
+    if (all && validatePoints(vr, on).ok()) result.path.points = std::move(on);
   }
   result.outcome = GlobalPlanOutcome::kExactSolution;
   result.length_m = result.path.length();
@@ -681,8 +733,9 @@ GlobalPlanResult GlobalPlanner::Impl::plan(Vec3 start, Vec3 goal) const {
   const std::vector<Vec3>& p = result.path.points;
   for (std::size_t i = 0; i + 1 < p.size(); ++i) {
     const int n = std::max(1, int(std::ceil((p[i + 1] - p[i]).norm() / res)));
+    const double yaw = std::atan2(p[i + 1].y() - p[i].y(), p[i + 1].x() - p[i].x());
     for (int k = 0; k < n + (i + 2 == p.size() ? 1 : 0); ++k) {
-      const double c = validity->clearance(p[i] + (p[i + 1] - p[i]) * (double(k) / n));
+      const double c = vr.clearance(p[i] + (p[i + 1] - p[i]) * (double(k) / n), yaw);
       sum += c;
       lowest = std::min(lowest, c);
       ++count;
@@ -708,7 +761,12 @@ int GlobalPlanner::mapChanged(const map::Aabb& changed) {
                                      impl_->sectionTest());
 }
 
-Status GlobalPlanner::validatePath(const Polyline& path) const { return validatePoints(*impl_->validity, path.points); }
+Status GlobalPlanner::validatePath(const Polyline& path) const {
+  // A box's path is valid when it is at its headings (which a path its turning cylinder keeps
+  // to always is); the reason given is the headed check's.
+  if (impl_->headed) return validatePoints(*impl_->headed, path.points);
+  return validatePoints(*impl_->validity, path.points);
+}
 
 bool GlobalPlanner::stateValid(const Vec3& c) const { return impl_->validity->stateValid(c); }
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace adit::global {
 
@@ -12,9 +13,23 @@ using map::RobotShape;
 using map::ShapeType;
 using map::Vec3;
 
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+// Headings a state is tried at (over half a turn: a box turned by pi is the same box), and the
+// largest step of a turn checked at a break point.
+constexpr int kStateHeadings = 16;
+constexpr double kTurnStep = 5.0 * kPi / 180.0;
+// Horizontal direction of a-b; NaN for a vertical (or null) move.
+double headingOf(const Vec3& a, const Vec3& b) {
+  const double dx = b.x() - a.x(), dy = b.y() - a.y();
+  return dx * dx + dy * dy > 1e-12 ? std::atan2(dy, dx) : std::numeric_limits<double>::quiet_NaN();
+}
+}  // namespace
+
 RobotValidity::RobotValidity(const map::DistanceField& field, const map::CollisionChecker& checker,
-                             const GlobalPlannerParams& params)
+                             const GlobalPlannerParams& params, bool headed)
     : field_(&field), checker_(&checker), params_(params) {
+  headed_ = headed && ground() && params.robot.type == ShapeType::kBox;
   res_ = field.resolution();
   step_ = params.motion_step_voxels * res_;
   const RobotShape& r = params.robot;
@@ -61,6 +76,53 @@ bool RobotValidity::bodyClear(const Vec3& c) const {
   return false;
 }
 
+bool RobotValidity::boxClearAt(const Vec3& c, double yaw) const {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = c;
+  pose.linear() = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+  const map::ShapeDistance d = checker_->distance(params_.robot, pose, params_.safety_margin_m);
+  if (d.collision) return false;
+  return !d.exact || d.distance_m >= params_.safety_margin_m;
+}
+
+bool RobotValidity::bodyClearHeaded(const Vec3& b, double yaw) const {
+  if (bodyClear(b)) return true;
+  if (!headed_) return false;
+  if (std::isfinite(yaw)) return boxClearAt(b, yaw);
+  for (int h = 0; h < kStateHeadings; ++h)
+    if (boxClearAt(b, kPi * h / kStateHeadings)) return true;
+  return false;
+}
+
+std::optional<Vec3> RobotValidity::bodyAt(const Vec3& p) const {
+  const std::optional<double> f = groundFloor(p);
+  if (!f) return std::nullopt;
+  return Vec3(p.x(), p.y(), *f + half_height_ + lift_);
+}
+
+int RobotValidity::badTurns(const std::vector<Vec3>& path, std::size_t* first) const {
+  if (!headed_) return 0;
+  int bad = 0;
+  double yaw_in = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t k = 0; k + 1 < path.size(); ++k) {
+    const double yaw_out = headingOf(path[k], path[k + 1]);
+    if (!std::isfinite(yaw_out)) continue;  // a vertical move keeps the heading
+    if (std::isfinite(yaw_in)) {
+      // The shorter turn modulo half a turn: the box may drive on backwards.
+      double d = std::remainder(yaw_out - yaw_in, kPi);
+      const std::optional<Vec3> b = bodyAt(path[k]);
+      bool ok = b.has_value();
+      if (ok && !bodyClear(*b)) {
+        const int n = std::max(1, int(std::ceil(std::abs(d) / kTurnStep)));
+        for (int i = 0; i <= n && ok; ++i) ok = boxClearAt(*b, yaw_in + d * i / n);
+      }
+      if (!ok && bad++ == 0 && first) *first = k;
+    }
+    yaw_in = yaw_out;
+  }
+  return bad;
+}
+
 std::optional<double> RobotValidity::floorBelow(const Vec3& c, double depth) const {
   return map::floorBelow(*field_, c, depth);
 }
@@ -73,8 +135,8 @@ std::optional<Vec3> RobotValidity::onFloor(const Vec3& c, double depth) const {
 
 bool RobotValidity::stateValid(const Vec3& c) const {
   if (!ground()) return bodyClear(c);
-  const std::optional<double> f = groundFloor(c);
-  return f && bodyClear(Vec3(c.x(), c.y(), *f + half_height_ + lift_));
+  const std::optional<Vec3> b = bodyAt(c);
+  return b && bodyClearHeaded(*b, std::numeric_limits<double>::quiet_NaN());
 }
 
 bool RobotValidity::motionValid(const Vec3& a, const Vec3& b) const { return motionValid(a, b, nullptr); }
@@ -88,6 +150,7 @@ bool RobotValidity::motionValid(const Vec3& a, const Vec3& b, double* last_valid
     return false;
   };
   const double run = (b - a).head<2>().norm();
+  const double yaw = headingOf(a, b);
   for (int k = 0; k <= n; ++k) {
     const Vec3 p = a + (b - a) * (double(k) / n);
     if (!ground()) {
@@ -95,7 +158,7 @@ bool RobotValidity::motionValid(const Vec3& a, const Vec3& b, double* last_valid
       continue;
     }
     const std::optional<double> f = groundFloor(p);
-    if (!f || !bodyClear(Vec3(p.x(), p.y(), *f + half_height_ + lift_))) return fail(k);
+    if (!f || !bodyClearHeaded(Vec3(p.x(), p.y(), *f + half_height_ + lift_), yaw)) return fail(k);
     if (!slope.add(run * double(k) / n, *f)) return fail(k);
   }
   // Segments shorter than the baseline: their own slope, once they span a few voxels.
@@ -160,6 +223,15 @@ double RobotValidity::clearance(const Vec3& c) const {
     }
   }
   return 0.0;
+}
+
+double RobotValidity::clearance(const Vec3& c, double yaw) const {
+  const double turning = clearance(c);
+  if (!headed_ || !std::isfinite(yaw)) return turning;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = c + Vec3(0, 0, lift_);
+  pose.linear() = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+  return std::max(turning, checker_->distance(params_.robot, pose).distance_m);
 }
 
 double RobotValidity::costFactor(const Vec3& c) const {

@@ -13,6 +13,12 @@
 // Ground mode: the state's z is the robot's centre, half_height above the floor. The body is
 // checked lifted by margin + two voxels so that the floor it stands on (quantised to voxels, one
 // voxel higher under part of the footprint on a slope) is not "rock in the way".
+//
+// Headed (ground mode, box robots): where the turning cylinder does not fit, a pose is still
+// valid when the box fits at the heading it moves along (a state: at some heading of 16 over half
+// a turn, the box being symmetric), and a break point when the box can turn there from the
+// heading of the segment before it to the one after it (the shorter way, modulo half a turn).
+// This is how a 0.7 m-wide tracked robot passes a 1.5 m gap its 1.2 m turning circle does not.
 #include <cmath>
 #include <optional>
 #include <vector>
@@ -26,8 +32,10 @@ namespace adit::global {
 
 class RobotValidity {
  public:
+  /// `headed`: check a box robot at its heading where its turning cylinder does not fit (ground
+  /// mode only; ignored otherwise).
   RobotValidity(const map::DistanceField& field, const map::CollisionChecker& checker,
-                const GlobalPlannerParams& params);
+                const GlobalPlannerParams& params, bool headed = false);
 
   /// Field distance needed at the robot's reference point (horizontal radius + margin + res/2).
   double requiredClearance() const { return required_; }
@@ -36,6 +44,7 @@ class RobotValidity {
   double lift() const { return ground() ? lift_ : 0.0; }
   double step() const { return step_; }
   bool ground() const { return params_.mode == PlanMode::kGround; }
+  bool headed() const { return headed_; }
 
   /// Fly: the body at `c` clears the rock. Ground: additionally c.z is within ground_tolerance_m
   /// of floor + half_height.
@@ -47,8 +56,14 @@ class RobotValidity {
   /// Ground mode: the floor slope along the whole path, over slope_baseline_m windows, is within
   /// max_slope_deg (a chain of short segments cannot sneak up a ramp). Always true when flying.
   bool pathSlopeValid(const std::vector<map::Vec3>& path) const;
+  /// Headed: the number of break points of `path` where the box cannot turn from the heading of
+  /// the segment before to the one after (0 when not headed); `first` gets the first one's index.
+  int badTurns(const std::vector<map::Vec3>& path, std::size_t* first = nullptr) const;
   /// Distance from the robot's surface to rock at `c` [m] (ground mode: at the lifted body).
   double clearance(const map::Vec3& c) const;
+  /// As clearance(c); headed, the box's at heading `yaw` where that is larger (it always is for
+  /// a box inside its turning cylinder).
+  double clearance(const map::Vec3& c, double yaw) const;
   /// Top of the floor under `c` (searching down from c.z at most `depth` m), if any.
   std::optional<double> floorBelow(const map::Vec3& c, double depth) const;
   /// Ground mode: `c` moved to half_height above the floor under it (searched from c.z down).
@@ -76,6 +91,12 @@ class RobotValidity {
     std::size_t tail_ = 0;
   };
   bool bodyClear(const map::Vec3& c) const;
+  /// The box turned to `yaw` about z at `c` is at least the margin from rock.
+  bool boxClearAt(const map::Vec3& c, double yaw) const;
+  /// Where the state's body is checked: on its floor, lifted; nullopt off the floor.
+  std::optional<map::Vec3> bodyAt(const map::Vec3& p) const;
+  /// The body at `b` (already lifted) is clear turned to `yaw`; NaN yaw: at some heading.
+  bool bodyClearHeaded(const map::Vec3& b, double yaw) const;
   /// Floor under p when p is at half-height above it (within the ground tolerance).
   std::optional<double> groundFloor(const map::Vec3& p) const;
   const map::DistanceField* field_;
@@ -83,6 +104,7 @@ class RobotValidity {
   GlobalPlannerParams params_;
   map::RobotShape checked_;  // the shape the checker sees (box -> its turning cylinder)
   double res_ = 0.1, required_ = 0.0, half_height_ = 0.0, step_ = 0.05, lift_ = 0.0;
+  bool headed_ = false;
 };
 
 }  // namespace adit::global

@@ -375,6 +375,115 @@ TEST(GlobalPlanner, GroundModeRefusesATooSteepRamp) {
   EXPECT_TRUE(r.solved()) << r.message;
 }
 
+// The tracked robot's body at heading `yaw` on the floor under `c`, grown by `grow`, is in free
+// voxels: its outline every 2 cm, at three heights from 5 cm above the floor to its top, read from
+// the map's voxels (not the planner's checker).
+bool boxFreeOnTheMap(const World& w, const Vec3& c, double yaw, double grow) {
+  const double res = w.map.resolution();
+  double z = c.z();
+  while (w.map.isFree({c.x(), c.y(), z})) z -= 0.25 * res;
+  const double floor = (std::floor(z / res) + 1) * res;
+  const double hx = 0.5 + grow, hy = 0.35 + grow, cs = std::cos(yaw), sn = std::sin(yaw);
+  for (const double h : {0.05, 0.3, 0.6}) {
+    for (double u = -hx; u <= hx + 1e-9; u += 0.02)
+      for (const double v : {-hy, hy})
+        for (const Vec3& q : {Vec3(u, v, 0), Vec3(v * hx / hy, u * hy / hx, 0)})
+          if (!w.map.isFree({c.x() + cs * q.x() - sn * q.y(), c.y() + sn * q.x() + cs * q.y(), floor + h})) return false;
+  }
+  return true;
+}
+
+// Every sample of every segment at the segment's heading, and every break point's turn (the
+// shorter way, modulo half a turn), with `grow` around the box.
+void expectBoxFollowsPath(const World& w, const map::Polyline& path, double grow) {
+  double yaw_in = std::nan("");
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
+    const Vec3 a = path.points[i], b = path.points[i + 1];
+    const double yaw = std::atan2(b.y() - a.y(), b.x() - a.x());
+    if (std::isfinite(yaw_in)) {
+      const double d = std::remainder(yaw - yaw_in, M_PI);
+      for (double t = 0; t <= 1.0; t += 0.05)
+        EXPECT_TRUE(boxFreeOnTheMap(w, a, yaw_in + t * d, grow)) << "turning at " << a.transpose();
+    }
+    const int n = std::max(1, int(std::ceil((b - a).norm() / 0.02)));
+    for (int k = 0; k <= n; ++k) {
+      const Vec3 c = a + (b - a) * (double(k) / n);
+      EXPECT_TRUE(boxFreeOnTheMap(w, c, yaw, grow)) << "at " << c.transpose() << " heading " << yaw;
+    }
+    yaw_in = yaw;
+  }
+}
+
+TEST(GlobalPlanner, GroundBoxPassesAGapNarrowerThanItsTurningCircleHeadingAlongIt) {
+  // 1.6 m wide: the 1.0 x 0.7 m box turning (1.22 m across) plus its 0.2 m margin each side does
+  // not fit; the box heading along the roadway does, at up to about 14 degrees off its axis.
+  World w(test::straightRoadway(CrossSection::rectangle(1.6, 2.5), 10.0, 0.1));
+  GlobalPlannerParams p = trackedRobot();
+  p.use_roadway_graph = false;  // the free-space graph needs the turning circle's clearance
+  GlobalPlanner planner = w.planner(p, false);
+  const std::optional<Vec3> a = planner.standAt({1.0, 0.2, 0.5}), b = planner.standAt({9.0, -0.2, 0.5});
+  ASSERT_TRUE(a && b);
+  EXPECT_FALSE(planner.stateValid(*a));  // it cannot turn on the spot there
+  const GlobalPlanResult r = planner.plan(*a, *b);
+  ASSERT_TRUE(r.solved()) << outcomeName(r.outcome) << ": " << r.message;
+  EXPECT_TRUE(r.headed);
+  EXPECT_NE(r.message.find("heading"), std::string::npos) << r.message;
+  EXPECT_TRUE(planner.validatePath(r.path).ok()) << planner.validatePath(r.path).message();
+  EXPECT_LT(r.length_m, 1.02 * (*b - *a).norm());
+  // The oracle: the box at each segment's heading, and turning at each break point, is free on
+  // the map with the margin less half a voxel of quantisation around it.
+  expectBoxFollowsPath(w, r.path, p.safety_margin_m - 0.5 * w.map.resolution());
+  EXPECT_GE(r.min_clearance_m, p.safety_margin_m - 0.5 * w.map.resolution());
+
+  // Each segment fits at its own heading, but the box cannot turn a right angle between them here
+  // (1.77 m across at 45 degrees with its margins); driving on backwards needs no turn.
+  const std::optional<Vec3> mid = planner.standAt({5.0, 0.0, 0.5}), side = planner.standAt({5.0, 0.1, 0.5}),
+                            back = planner.standAt({3.0, 0.0, 0.5});
+  ASSERT_TRUE(mid && side && back);
+  const Status turn = planner.validatePath(map::Polyline{{*a, *mid, *side}});
+  EXPECT_FALSE(turn.ok());
+  EXPECT_NE(turn.message().find("cannot turn"), std::string::npos) << turn.message();
+  EXPECT_TRUE(planner.validatePath(map::Polyline{{*mid, *side}}).ok());
+  EXPECT_TRUE(planner.validatePath(map::Polyline{{*a, *mid, *back}}).ok()) << planner.validatePath(map::Polyline{{*a, *mid, *back}}).message();
+
+  // Narrower than the box and its margins (0.7 + 2 x 0.2 m): refused, saying so.
+  World narrow(test::straightRoadway(CrossSection::rectangle(1.0, 2.5), 10.0, 0.1));
+  GlobalPlanner refused = narrow.planner(p, false);
+  const std::optional<Vec3> c = refused.standAt({1.0, 0.0, 0.5}), d = refused.standAt({9.0, 0.0, 0.5});
+  ASSERT_TRUE(c && d);
+  const GlobalPlanResult none = refused.plan(*c, *d);
+  EXPECT_EQ(none.outcome, GlobalPlanOutcome::kStartInRock) << none.message;
+  EXPECT_NE(none.message.find("at any heading"), std::string::npos) << none.message;
+}
+
+TEST(GlobalPlanner, GroundBoxThatCannotTurnARightAngleCornerIsNotSentRoundIt) {
+  // Two 1.3 m-wide roadways meeting at a right angle: the box fits along each (1.1 m with its
+  // margins) but not turned between them (about 1.76 m across at 45 degrees). Any path the planner
+  // gives must pass the oracle; the corner admits none.
+  map::SurveyNetwork net;
+  net.name = "narrow-L";
+  net.resolution_m = 0.1;
+  net.stations = {{"A", Vec3(0, 0, 0)}, {"B", Vec3(8, 0, 0)}, {"C", Vec3(8, 8, 0)}};
+  net.sections = {{"s", CrossSection::rectangle(1.3, 2.5)}};
+  net.roadways = {{"east", {"A", "B"}, "s"}, {"north", {"B", "C"}, "s"}};
+  World w(std::move(net));
+  GlobalPlannerParams p = trackedRobot();
+  p.use_roadway_graph = false;
+  p.max_unsolved_iterations = 4000;
+  GlobalPlanner planner = w.planner(p, false);
+  const std::optional<Vec3> a = planner.standAt({1.5, 0.0, 0.5}), b = planner.standAt({8.0, 6.5, 0.5});
+  ASSERT_TRUE(a && b);
+  const GlobalPlanResult r = planner.plan(*a, *b);
+  if (r.solved()) expectBoxFollowsPath(w, r.path, p.safety_margin_m - 0.5 * w.map.resolution());
+  EXPECT_FALSE(r.solved()) << r.message;
+  // Straight along one arm it goes.
+  const std::optional<Vec3> e = planner.standAt({6.5, 0.0, 0.5});
+  ASSERT_TRUE(e);
+  const GlobalPlanResult along = planner.plan(*a, *e);
+  ASSERT_TRUE(along.solved()) << along.message;
+  expectBoxFollowsPath(w, along.path, p.safety_margin_m - 0.5 * w.map.resolution());
+}
+
 TEST(GlobalPlanner, CapsuleAndCylinderRobots) {
   World w(test::junctionNetwork(0.2));
   const Vec3 c(14, 9.0, 2.0), e(6, -7.0, 1.5);

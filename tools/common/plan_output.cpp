@@ -135,6 +135,9 @@ nlohmann::ordered_json planJson(const global::GlobalPlanResult& r, const PlanRef
   // Where a found path came from: the search, or the route's own axis, shortened (the search found
   // none within the budget, or a longer one: common on routes of kilometres).
   if (r.solved()) j["path_source"] = r.from_route_axis ? "route_axis" : "search";
+  // A ground box robot's path through a gap narrower than its turning circle: the box fits
+  // heading along the path only.
+  if (r.solved() && r.headed) j["body_check"] = "heading";
   if (refinement) {
     j["before"] = {{"length", mm(refinement->length_m)},
                    {"min_clearance", mm(refinement->min_clearance_m)},

@@ -70,6 +70,10 @@ struct GlobalPlanResult {
   /// The search found no path within the budget and the path is the route's own axis, shortened
   /// (valid and re-checked like any other, but not searched for the shortest).
   bool from_route_axis = false;
+  /// Ground mode, box robots: the robot's turning circle does not fit everywhere along the path,
+  /// which was planned with the box at the heading of each segment and the turns at its break
+  /// points checked (the robot must not turn on the spot elsewhere).
+  bool headed = false;
   long iterations = 0;               ///< OMPL iterations (termination-condition checks) of the search
   std::size_t ompl_vertices = 0;     ///< vertices of OMPL's raw path
 
