@@ -251,9 +251,24 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
       sl.i = ci;
       sl.j = cj;
       sl.k0 = k_bottom - (cap - (k_top - k_bottom + 1)) / 2;  // room for the floor to drift either way
+      sl.memo_top = 0;
+      sl.memo_bottom = 1;
       std::fill_n(kn, bc->words_, std::uint64_t(0));
       std::fill_n(rk, bc->words_, std::uint64_t(0));
     }
+    // The last answer settles any range whose top is at most the last top and at least the rock
+    // it found (everything between is free); the same column is asked again with ranges a few
+    // voxels apart (its neighbours' slope and step tests).
+    if (sl.memo_bottom <= sl.memo_top && k_top <= sl.memo_top) {
+      if (sl.memo_k >= sl.memo_bottom && k_top >= sl.memo_k) return sl.memo_k >= k_bottom ? sl.memo_k : k_bottom - 1;
+      if (sl.memo_k < sl.memo_bottom && k_bottom >= sl.memo_bottom) return k_bottom - 1;
+    }
+    auto remember = [&](std::int64_t k) {
+      sl.memo_top = k_top;
+      sl.memo_bottom = k_bottom;
+      sl.memo_k = k;
+      return k;
+    };
     const std::int64_t lo = k_bottom - sl.k0;
     std::int64_t b = k_top - sl.k0;
     while (b >= lo) {
@@ -263,7 +278,7 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
                                  ~((std::uint64_t(1) << bottom) - 1);
       const std::uint64_t unknown = ~kn[w] & mask, rocky = kn[w] & rk[w] & mask;
       const int hu = unknown ? 63 - __builtin_clzll(unknown) : -1, hr = rocky ? 63 - __builtin_clzll(rocky) : -1;
-      if (hr > hu) return sl.k0 + base + hr;  // every voxel above it in range is known free
+      if (hr > hu) return remember(sl.k0 + base + hr);  // every voxel above it in range is known free
       if (hu < 0) {
         b = from - 1;
         continue;
@@ -281,7 +296,7 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
       for (std::int64_t m = bit; m > bit - skip && m >= 0; --m) kn[m >> 6] |= std::uint64_t(1) << (m & 63);
       b = bit;
     }
-    return k_bottom - 1;
+    return remember(k_bottom - 1);
   };
 
   // A floor one voxel higher is the quantisation of any slope, never a step (coarse maps).

@@ -100,6 +100,9 @@ class BandCache {
   struct Slot {
     std::int64_t i = 0, j = 0;  // the column's key (x, y), when valid
     std::int64_t k0 = 0;        // key of the lowest voxel its bits hold
+    // The last search's range and answer (the highest rock key in it, memo_bottom - 1 for none):
+    // the voxels above the answer up to memo_top are free. Empty when memo_bottom > memo_top.
+    std::int64_t memo_top = 0, memo_bottom = 1, memo_k = 0;
     bool valid = false;
   };
   double res_ = 0.0;
