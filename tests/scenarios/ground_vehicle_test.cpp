@@ -328,9 +328,36 @@ TEST(GroundVehicle, BrakingWhileTurningTowardARibStopsClearOfIt) {
   brakeTowardTheSouth(*w, -2.25, "the rib");
 }
 
-// The same toward a bench 0.4 m high along the rib's foot (a real rib bulges at the floor): the
-// field's sphere, lifted off the floor, barely sees it; the band (what the body can hit) does.
-TEST(GroundVehicle, BrakingTowardABenchAtTheRibsFootStopsClearOfIt) {
+// The local planner alone from sc.start at rest, heading `yaw`, each period judged by the referee
+// (into `res`), until it arrives, is stuck or refused, or `periods` pass; its last status, and
+// where it ended in `at`.
+StepStatus driveFromRest(const World& w, Scenario sc, double yaw, int periods, SimulationResult& res, Vec3* at) {
+  StatusOr<Scenario> placed = placeOnFloor(sc, *w.env);
+  EXPECT_TRUE(placed.ok()) << placed.status().message();
+  if (!placed.ok()) return StepStatus::kRefused;
+  sc = *placed;
+  local::World world;
+  world.field = w.field.get();
+  StatusOr<LocalPlanner> planner = LocalPlanner::create(sc.params, world);
+  EXPECT_TRUE(planner.ok()) << planner.status().message();
+  if (!planner.ok()) return StepStatus::kRefused;
+  RobotState state;
+  state.position = sc.start;
+  state.yaw = yaw;
+  StepStatus last = StepStatus::kFollowing;
+  for (int k = 0; k < periods; ++k) {
+    const StepCommand c = planner->step(state, sc.expected_path, {}, sc.dt_s);
+    last = c.status;
+    if (c.status == StepStatus::kArrived || c.status == StepStatus::kStuck || c.status == StepStatus::kRefused) break;
+    refereePeriod(sc, *w.env, c, k * sc.dt_s, state, res);
+  }
+  *at = state.position;
+  return last;
+}
+
+// A 5 m roadway with a bench 0.4 m high along the south rib's foot, its face at y = -1.8 (a real
+// rib bulges at the floor).
+std::unique_ptr<World> benchAtTheRibsFoot() {
   auto w = std::make_unique<World>();
   w->map = std::make_unique<map::OccupancyMap>(
       test::voxelizeOrFail(test::straightRoadway(map::CrossSection::rectangle(5.0, 3.5), 30.0, 0.2)));
@@ -338,9 +365,68 @@ TEST(GroundVehicle, BrakingTowardABenchAtTheRibsFootStopsClearOfIt) {
   for (double x = 0.1; x < 30.0; x += 0.2)
     for (double y = -2.5; y < -1.8; y += 0.2)
       for (double z : {0.1, 0.3}) bench.emplace_back(x, y, z);
-  ASSERT_TRUE(w->map->setVoxels(bench, map::VoxelState::kOccupied).ok());
+  EXPECT_TRUE(w->map->setVoxels(bench, map::VoxelState::kOccupied).ok());
   w->finish();
+  return w;
+}
+
+// The same toward a bench 0.4 m high along the rib's foot (a real rib bulges at the floor): the
+// field's sphere, lifted off the floor, barely sees it; the band (what the body can hit) does.
+TEST(GroundVehicle, BrakingTowardABenchAtTheRibsFootStopsClearOfIt) {
+  const auto w = benchAtTheRibsFoot();
   brakeTowardTheSouth(*w, -1.8, "a bench at the rib's foot");
+}
+
+// Stopped along a bench at a rib's foot with its goal across the roadway, a tracked robot must
+// turn about, and turning on the spot swings the box's corners out to its covering circle: 0.61 m
+// from its centre where its side stood 0.35 m off it. The covering circle already reaches into the
+// bench (a real floor rising into a rib does this: a Koutzi run turned on the spot beside one and
+// touched). It must turn only as far as its corners stay clear and edge away as it turns, never
+// into the bench, by the referee; it gets across.
+TEST(GroundVehicle, TurningAboutBesideABenchKeepsTheBoxCornersOffIt) {
+  const auto w = benchAtTheRibsFoot();
+  int runs = 0;
+  for (const double gap : {0.06, 0.12, 0.2})
+    for (const double yaw : {0.0, 0.3, kPi, -0.2}) {
+      // The box's side parallel to the bench (or nearly), `gap` off its face at y = -1.8.
+      const double half = 0.5 * std::abs(std::sin(yaw)) * 1.0 + 0.5 * std::abs(std::cos(yaw)) * 0.7;
+      const Scenario sc = trackedRobot(Method::kTian2016, Vec3(15, -1.8 + half + gap, 1.5), Vec3(15, 1.6, 1.5));
+      SimulationResult res;
+      Vec3 at;
+      const StepStatus last = driveFromRest(*w, sc, yaw, 400, res, &at);
+      ++runs;
+      EXPECT_EQ(res.collisions, 0) << "gap " << gap << ", yaw " << yaw;
+      EXPECT_EQ(last, StepStatus::kArrived) << "gap " << gap << ", yaw " << yaw << ": at " << at.transpose();
+    }
+  EXPECT_EQ(runs, 12);
+}
+
+// Its covering circle already in a bench at its side and a pillar's face a few centimetres off its
+// front, a tracked robot whose goal lies past the pillar turns to go round it: turning on the spot,
+// its front corner swung into the pillar's face between two of the band's 24 nearest points (they
+// sample the rock by direction from the centre, not from the corner). The turn is checked against
+// the voxels along the box's outline; driving, the box at its heading keeps its own clearance. By
+// the referee, no contact.
+TEST(GroundVehicle, ABoxBesideABenchDoesNotSwingItsCornerIntoAPillar) {
+  const auto w = benchAtTheRibsFoot();
+  std::vector<Vec3> pillar;
+  for (double x = 15.7; x < 16.1; x += 0.2)
+    for (double y = -1.7; y < -0.9; y += 0.2)
+      for (double z = 0.1; z < 2.0; z += 0.2) pillar.emplace_back(x, y, z);
+  ASSERT_TRUE(w->map->setVoxels(pillar, map::VoxelState::kOccupied).ok());
+  ASSERT_TRUE(w->field->update(*w->map, map::Aabb{Vec3(15.4, -2.0, -0.2), Vec3(16.4, -0.6, 2.2)}).ok());
+  int runs = 0;
+  for (const double front : {0.56, 0.6, 0.68})
+    for (const double side : {0.42, 0.47}) {
+      const Scenario sc =
+          trackedRobot(Method::kTian2016, Vec3(15.6 - front, -1.8 + side, 1.5), Vec3(26, -1.8 + side, 1.5));
+      SimulationResult res;
+      Vec3 at;
+      driveFromRest(*w, sc, 0.0, 300, res, &at);
+      ++runs;
+      EXPECT_EQ(res.collisions, 0) << "front " << front << ", side " << side << ": at " << at.transpose();
+    }
+  EXPECT_EQ(runs, 6);
 }
 
 TEST(GroundVehicle, EachDriveKeepsItsKinematics) {

@@ -208,7 +208,10 @@ class LocalPlanner {
   bool pursuitPoint(const Vec3& q, const map::Polyline& path, const Vec3& proj, Vec3* point) const;
   /// The safety envelope's test: a period at `v`, then braking at a_max in a straight line,
   /// keeps the robot's sphere at least `floor` from rock and static obstacles.
-  bool stoppingRunClear(const Vec3& q, const Vec3& v, double dt, double floor) const;
+  /// `yaw`: the body's heading on the run, for a box footprint's own check (NaN: the covering
+  /// circle's only, as for a set-point the drive has not turned to yet).
+  bool stoppingRunClear(const Vec3& q, const Vec3& v, double dt, double floor,
+                        double yaw = std::numeric_limits<double>::quiet_NaN()) const;
   /// The same for a drive that turns at yaw rate `w` this period: it cannot stop turning at
   /// once, so its braking run curves on while the rate is brought to zero at alpha_max (a robot
   /// turning toward a rib as it brakes ends nearer the rib than the straight run says).
@@ -219,9 +222,26 @@ class LocalPlanner {
   /// Ground mode: the covering circle at p (horizontally) is nearer than `floor` to the band's
   /// rock (a rib, a pillar, a floor rising at a rib's foot: what the body can hit, which the
   /// lifted sphere of the field checks does not see below its equator).
-  bool bandWithin(const Vec3& p, double floor) const;
+  /// With a box footprint and the heading `yaw` the body has at p (NaN: unknown), also when the
+  /// box is nearer than box_floor_ to the band's points: where the covering circle already
+  /// reaches into rock (it may, once nearer than the reserve), the circle's clearance can hold
+  /// while the box's front runs into rock nearer than the circle's nearest.
+  bool bandWithin(const Vec3& p, double floor, double yaw = std::numeric_limits<double>::quiet_NaN()) const;
   /// Ground mode: the covering circle's horizontal clearance at p to the band's points.
   double bandClearance(const Vec3& p) const;
+  /// Ground mode, a box footprint: the box's clearance at heading `yaw`, centred at p, to the
+  /// band's points (infinity for a circle: turning does not move it).
+  double footprintClearance(const Vec3& p, double yaw) const;
+  /// Ground mode: turning at yaw rate `w` this period and then bringing the rate to zero at
+  /// alpha_max, the footprint at q stays a centimetre off the band's points (never nearer than
+  /// it is now). The covering circle may already reach into rock the box does not (a floor
+  /// rising into a rib's foot): the box's corners must not swing into it.
+  bool turnClear(const Vec3& q, double yaw, double w, double dt) const;
+  /// Ground mode: the box footprint at q turned to `yaw`, grown by `grow`, stands in free voxels
+  /// at its body's heights (its outline every quarter voxel, from max_step and a voxel over the
+  /// floor's plane, as the referee's body, to its top): exact where the band's 24 nearest points
+  /// are too sparse for a corner swinging past a pillar's face.
+  bool boxFree(const Vec3& q, double yaw, double grow) const;
   double encounterMargin(const Vec3& q, const Vec3& v, const Vec3& v_target, const map::MovingObstacle* moving) const;
   // ---- ground mode
   // Where the field is read for a ground robot whose centre is at p: lifted so that the sphere
@@ -284,8 +304,20 @@ class LocalPlanner {
   map::BandScan band_{};
   Vec3 band_centre_ = Vec3::Zero();  // where band_ was scanned
   double band_nearest_ = std::numeric_limits<double>::infinity();  // its nearest point's distance
+  // The clearance a box footprint keeps along stopping runs: half the reserve, or what the box
+  // has now at its heading if that is less (infinite for a circle).
+  double box_floor_ = std::numeric_limits<double>::infinity();
+  double yaw_ = 0.0;  // the robot's heading this period
+  double plane_gx_ = 0.0, plane_gy_ = 0.0;  // the floor's plane under it (rise per metre in x, y)
   map::BandCache band_cache_;  // what the band scans read, sized at construction for their range
   double car_direction_ = 1.0;  // an Ackermann robot's turn about: +1 forward, -1 reverse
 };
+
+/// Ground mode: the footprint's clearance at `centre`, turned to `yaw`, to the rock in its body's
+/// band within `range` (map::rockInBand: what it can run into, not the floor it stands on), as
+/// the local planner sees it; infinity when none is in range. For an operator's display: the
+/// field's distance from a point of the body counts the floor's voxel stairs as rock.
+double bandFootprintClearance(const map::DistanceField& field, const RobotLimits& robot, const Vec3& centre, double yaw,
+                              double range = 3.0);
 
 }  // namespace adit::local
