@@ -105,8 +105,8 @@ struct LiveOptions {
 
 class LiveConsole final : public sim::NavigatedObserver {
  public:
-  LiveConsole(console::RobotLink& link, double dt_s, double radius_m, const LiveOptions& o)
-      : link_(link), dt_(dt_s), radius_(radius_m), speed_(o.speed), period_(o.period_s), quiet_(o.quiet), hold_(o.hold),
+  LiveConsole(console::RobotLink& link, double dt_s, const local::RobotLimits& robot, const LiveOptions& o)
+      : link_(link), robot_(robot), dt_(dt_s), radius_(robot.radius_m), speed_(o.speed), period_(o.period_s), quiet_(o.quiet), hold_(o.hold),
         lockstep_(o.lockstep), lockstep_timeout_s_(o.lockstep_timeout_s) {}
 
   void started(const fusion::Navigator& nav, const map::Polyline& path) override {
@@ -216,9 +216,21 @@ class LiveConsole final : public sim::NavigatedObserver {
     m.status = estopped_ ? "estop" : status;
     m.goal = nav.goal();
     m.subgoal = subgoal;
-    double centre = 0.0;
-    nav.read([&](const map::OccupancyMap&, const map::DistanceField& f) { centre = f.distance(state.position); });
-    m.min_clearance = std::max(0.0, centre - radius_);
+    // A ground robot's centre stands half its height over the floor, which is not rock in the
+    // way: its clearance is its footprint's to the rock in its body's band.
+    double centre = 0.0, band = std::numeric_limits<double>::infinity();
+    nav.read([&](const map::OccupancyMap&, const map::DistanceField& f) {
+      if (robot_.ground())
+        band = local::bandFootprintClearance(f, robot_, state.position, state.yaw);
+      else
+        centre = f.distance(state.position);
+    });
+    // (Rock farther than the band's 3 m range reads as 3 m.)
+    m.min_clearance = std::max(0.0, robot_.ground() ? std::min(band, 3.0) : centre - radius_);
+    if (robot_.ground()) {
+      m.yaw = state.yaw;
+      if (robot_.footprint.box) m.body = Vec3(robot_.footprint.length_m, robot_.footprint.width_m, robot_.height_m);
+    }
     m.speed = state.velocity.norm();
     if (speed_ > 0.0) m.period = period_ / speed_;  // mission time paced to the wall clock
     send(m);
@@ -338,6 +350,7 @@ class LiveConsole final : public sim::NavigatedObserver {
   }
 
   console::RobotLink& link_;
+  local::RobotLimits robot_;
   double dt_, radius_, speed_, period_;
   bool quiet_, hold_, lockstep_;
   bool estopped_ = false;
@@ -785,7 +798,7 @@ int run(const SimulateArgs& a) {
     StatusOr<std::unique_ptr<console::RobotLink>> l = connectLive(a, *sc);
     if (!l.ok()) return report(l.status());
     link = std::move(l).value();
-    live.emplace(*link, sc->dt_s, sc->params.robot.radius_m,
+    live.emplace(*link, sc->dt_s, sc->params.robot,
                  LiveOptions{a.live_speed, a.live_period, a.live_hold, a.live_lockstep, a.live_flush, a.quiet});
     if (!a.quiet) std::fprintf(stderr, "adit: live: connected to %s\n", a.live.c_str());
   }

@@ -33,6 +33,8 @@ std::string toJson(const Telemetry& m) {
          {"min_clearance", m.min_clearance ? Json(*m.min_clearance) : Json(nullptr)},
          {"speed", m.speed ? Json(*m.speed) : Json(m.velocity.norm())}};
   if (m.period) j["period"] = *m.period;
+  if (m.yaw) j["yaw"] = *m.yaw;
+  if (m.body) j["body"] = point(*m.body);
   return j.dump();
 }
 

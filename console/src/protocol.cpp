@@ -148,6 +148,12 @@ StatusOr<Telemetry> readTelemetry(const Json& j, double t) {
   ADIT_RETURN_IF_ERROR(optionalNumberField(j, "period", "period", &m.period));
   if (m.period && !(*m.period > 0.0 && *m.period <= kMaxTelemetryPeriod))
     return refuse("field 'period' must be in (0, " + std::to_string(int(kMaxTelemetryPeriod)) + "] s");
+  ADIT_RETURN_IF_ERROR(optionalNumberField(j, "yaw", "yaw", &m.yaw));
+  if (m.yaw && std::abs(*m.yaw) > 100.0) return refuse("field 'yaw' must be within 100 rad of 0");
+  ADIT_RETURN_IF_ERROR(optionalPointField(j, "body", &m.body));
+  if (m.body && !((m.body->array() > 0.0).all() && (m.body->array() <= 2.0 * kMaxRobotRadius).all()))
+    return refuse("field 'body' must be [length, width, height], each in (0, " + std::to_string(int(2.0 * kMaxRobotRadius)) +
+                  "] m");
   return m;
 }
 

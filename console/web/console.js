@@ -158,15 +158,19 @@
   function robotView(r) {
     if (r.view || !three.scene) return r.view;
     const colour = new THREE.Color(r.colour);
-    const marker = new THREE.Mesh(new THREE.SphereBufferGeometry(1, 20, 14), new THREE.MeshLambertMaterial({ color: colour }));
+    const material = new THREE.MeshLambertMaterial({ color: colour });
+    const marker = new THREE.Mesh(new THREE.SphereBufferGeometry(1, 20, 14), material);
+    // A ground robot that reports its body (telemetry 'body', 'yaw') is drawn as that box.
+    const box = new THREE.Mesh(new THREE.BoxBufferGeometry(1, 1, 1), material);
+    box.visible = false;
     const trail = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: colour }));
     const plan = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineDashedMaterial({ color: 0xffd866, dashSize: 1, gapSize: 0.6 }));
     const subgoal = new THREE.Mesh(new THREE.OctahedronBufferGeometry(0.5), new THREE.MeshBasicMaterial({ color: 0xffd866 }));
     const rock = new THREE.Points(new THREE.BufferGeometry(), new THREE.PointsMaterial({ color: 0xff7043, size: 0.25 }));
     const tracks = new THREE.Group();
     subgoal.visible = false;
-    for (const o of [marker, trail, plan, subgoal, rock, tracks]) three.scene.add(o);
-    r.view = { marker, trail, plan, subgoal, rock, tracks, breakLabels: [], name: addLabel(r.id, 'robot', [0, 0, 0]) };
+    for (const o of [marker, box, trail, plan, subgoal, rock, tracks]) three.scene.add(o);
+    r.view = { marker, box, trail, plan, subgoal, rock, tracks, breakLabels: [], name: addLabel(r.id, 'robot', [0, 0, 0]) };
     return r.view;
   }
 
@@ -333,6 +337,16 @@
     if (!v || !t) return;
     v.marker.position.set(t.pose[0], t.pose[1], t.pose[2]);
     v.marker.scale.setScalar(markerScale(r, v.marker.position));
+    const body = Array.isArray(t.body) && t.body.length === 3 ? t.body : null;
+    v.marker.visible = !body;
+    v.box.visible = !!body;
+    if (body) {
+      // Its own size when close; grown like the sphere when far, so that it stays in sight.
+      const grow = Math.max(1, markerScale(r, v.marker.position) / Math.max(0.5 * Math.hypot(body[0], body[1]), 1e-3));
+      v.box.position.copy(v.marker.position);
+      v.box.scale.set(body[0] * grow, body[1] * grow, body[2] * grow);
+      v.box.rotation.set(0, 0, typeof t.yaw === 'number' ? t.yaw : 0);
+    }
     v.name.position.set(t.pose[0], t.pose[1], t.pose[2] + r.radius + 0.5);
     const trail = state.replay && state.replay.robot === r.id ? state.replay.trail : r.trail;
     v.trail.geometry.setFromPoints(points3(trail));
@@ -458,7 +472,8 @@
       if (shownLayer('tracks')) for (const tr of r.tracks) dot(g, topPixel(tr.position), Math.max(3, (tr.radius || 1) * s));
       if (t) {
         g.fillStyle = r.colour;
-        dot(g, topPixel(t.pose), Math.max(4, r.radius * s));
+        if (Array.isArray(t.body) && t.body.length === 3) boxTop(g, topPixel(t.pose), t.body, t.yaw || 0, s);
+        else dot(g, topPixel(t.pose), Math.max(4, r.radius * s));
         if (r.estop) {  // an e-stopped robot is ringed in red in every view
           g.strokeStyle = '#ff1744';
           g.lineWidth = 2;
@@ -626,6 +641,20 @@
     g.stroke();
   }
   function dot(g, p, r) { g.beginPath(); g.arc(p[0], p[1], r, 0, 2 * Math.PI); g.fill(); }
+  // A ground robot's footprint seen from above, turned to its heading (north up: the canvas turns
+  // the other way), never smaller than a dot; a line from its centre marks its front.
+  function boxTop(g, p, body, yaw, s) {
+    const k = Math.max(1, 8 / Math.max(body[1] * s, 1e-3));
+    const l = body[0] * s * k, w = body[1] * s * k;
+    g.save();
+    g.translate(p[0], p[1]);
+    g.rotate(-yaw);
+    g.fillRect(-l / 2, -w / 2, l, w);
+    g.strokeStyle = '#101010';
+    g.lineWidth = 1.5;
+    g.beginPath(); g.moveTo(0, 0); g.lineTo(l / 2, 0); g.stroke();
+    g.restore();
+  }
 
   // ----- the frame loop ------------------------------------------------------------------------
   function frame() {

@@ -1172,6 +1172,25 @@ TEST(Messages, EachTypeReadsBackAsWrittenWithTheParserBothEndsUse) {
     EXPECT_EQ(toJson(std::get<T>(*back)), text);
   };
   roundTrip(telemetry);
+  // A ground robot's heading and box body (the viewer draws that box).
+  Telemetry ground = telemetry;
+  ground.yaw = -2.5;
+  ground.body = map::Vec3(1.0, 0.7, 0.6);
+  roundTrip(ground);
+  const auto refusal = [&](const char* key, const protocol::Json& value) {
+    protocol::Json j = protocol::Json::parse(toJson(ground));
+    j[key] = value;
+    StatusOr<protocol::Body> back = protocol::parseBody(j);
+    return back.ok() ? std::string("accepted") : back.status().message();
+  };
+  EXPECT_EQ(refusal("body", protocol::Json::array({1.0, -0.7, 0.6})),
+            "field 'body' must be [length, width, height], each in (0, 20] m");
+  EXPECT_EQ(refusal("body", protocol::Json::array({1.0, 0.7, 25.0})),
+            "field 'body' must be [length, width, height], each in (0, 20] m");
+  EXPECT_NE(refusal("body", protocol::Json::array({1.0, 0.7})).find("body"), std::string::npos);
+  EXPECT_EQ(refusal("yaw", 1e6), "field 'yaw' must be within 100 rad of 0");
+  EXPECT_EQ(refusal("yaw", "north"), "field 'yaw' must be a number");
+  EXPECT_EQ(refusal("yaw", nullptr), "accepted");
   roundTrip(plan);
   roundTrip(obstacles);
   roundTrip(event);

@@ -41,6 +41,11 @@ struct Telemetry {
   /// The robot's telemetry period [s], so the centre knows when telemetry is stale (> 2
   /// periods); none: the centre estimates it from the arrivals.
   std::optional<double> period;
+  /// The robot's heading about z [rad]; none: the viewer draws no heading.
+  std::optional<double> yaw;
+  /// A ground robot's body as a box: length along the heading, width, height [m], the pose its
+  /// centre; none: the viewer draws the sphere of the hello's radius.
+  std::optional<map::Vec3> body;
 };
 
 /// The expected path, on every (re)plan.
