@@ -288,8 +288,8 @@ void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, cons
       v_new = onFloor(vf * Vec3(std::cos(yaw + w * dt), std::sin(yaw + w * dt), 0.0));
     }
     // The box's corners swing as it turns: a rate whose swing (this period's and the stop's)
-    // brings them nearer the band's rock is replaced by the one nearest it that does not, or
-    // the slowest within reach.
+    // takes its outline into rock is replaced by the one nearest it that does not, or the
+    // slowest within reach.
     if (R.drive != DriveType::kAckermann && !turnClear(q, yaw, w, dt)) {
       double best = std::clamp(0.0, w_lo, w_hi), best_cost = std::numeric_limits<double>::infinity();
       for (int i = 0; i <= 8; ++i) {
@@ -302,10 +302,9 @@ void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, cons
       w = best;
       if (R.drive != DriveType::kHolonomic) {
         // Held from turning toward the wish and hardly moving: edge along the heading the way
-        // the box gains clearance (backing off a rib to turn), slowly; the stopping runs below
-        // still check that way.
-        // The way must be free for the box itself, in voxels, a decimetre on (the band's
-        // points are too sparse for its corners).
+        // the box gains clearance (backing off a rib to turn), slowly, where a decimetre on is
+        // free for its outline in voxels (the band's points are too sparse for its corners);
+        // the stopping runs below still check that way.
         if (std::abs(vf) < 0.05 * v_max) {
           const double now = footprintClearance(q, yaw);
           double back = footprintClearance(q - 0.1 * fwd, yaw), ahead = footprintClearance(q + 0.1 * fwd, yaw);
@@ -620,7 +619,9 @@ bool LocalPlanner::turnClear(const Vec3& q, double yaw, double w, double dt) con
   // benchmark's robot among pillars in 2 of 66 fields, where no turn touched.)
   constexpr double kGrow = 0.01;
   if (bandClearance(q) >= kGrow && world_.field->distance(probe(q)) - params_.robot.radius_m >= kGrow) return true;
-  // Already touching where it stands: no turn makes that worse than standing still does.
+  // Where it stands already reads as in rock (a real contact, or a stepped floor whose voxels
+  // the outline's heights misjudge) the check cannot tell one turn from another: it does not
+  // hold the robot there.
   if (!boxFree(q, yaw, 0.0)) return true;
   constexpr double kStep = 5.0 * kPi / 180.0;  // a corner 0.6 m out moves 5 cm a step
   const int n = std::min(72, int(std::ceil(std::abs(sweep) / kStep)));

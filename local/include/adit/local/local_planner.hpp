@@ -233,9 +233,9 @@ class LocalPlanner {
   /// band's points (infinity for a circle: turning does not move it).
   double footprintClearance(const Vec3& p, double yaw) const;
   /// Ground mode: turning at yaw rate `w` this period and then bringing the rate to zero at
-  /// alpha_max, the footprint at q stays a centimetre off the band's points (never nearer than
-  /// it is now). The covering circle may already reach into rock the box does not (a floor
-  /// rising into a rib's foot): the box's corners must not swing into it.
+  /// alpha_max, the box footprint at q stays in free voxels, grown by a centimetre (boxFree,
+  /// every 5 degrees of the swing). The covering circle may already reach into rock the box does
+  /// not (a floor rising into a rib's foot): the box's corners must not swing into it.
   bool turnClear(const Vec3& q, double yaw, double w, double dt) const;
   /// Ground mode: the box footprint at q turned to `yaw`, grown by `grow`, stands in free voxels
   /// at its body's heights (its outline every quarter voxel, from max_step and a voxel over the
