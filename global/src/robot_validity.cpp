@@ -19,6 +19,13 @@ constexpr double kPi = 3.14159265358979323846;
 // largest step of a turn checked at a break point.
 constexpr int kStateHeadings = 16;
 constexpr double kTurnStep = 5.0 * kPi / 180.0;
+// The pose of a shape centred at c, turned by yaw about z.
+Eigen::Isometry3d poseAt(const Vec3& c, double yaw) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = c;
+  if (yaw != 0.0) pose.linear() = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+  return pose;
+}
 // Horizontal direction of a-b; NaN for a vertical (or null) move.
 double headingOf(const Vec3& a, const Vec3& b) {
   const double dx = b.x() - a.x(), dy = b.y() - a.y();
@@ -65,22 +72,13 @@ bool RobotValidity::bodyClear(const Vec3& c) const {
       return true;
     }
     case ShapeType::kBox:
-    case ShapeType::kCylinder: {
-      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-      pose.translation() = c;
-      const map::ShapeDistance d = checker_->distance(checked_, pose, params_.safety_margin_m);
-      if (d.collision) return false;
-      return !d.exact || d.distance_m >= params_.safety_margin_m;
-    }
+    case ShapeType::kCylinder: return shapeClearAt(checked_, c, 0.0);
   }
   return false;
 }
 
-bool RobotValidity::boxClearAt(const Vec3& c, double yaw) const {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = c;
-  pose.linear() = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
-  const map::ShapeDistance d = checker_->distance(params_.robot, pose, params_.safety_margin_m);
+bool RobotValidity::shapeClearAt(const map::RobotShape& shape, const Vec3& c, double yaw) const {
+  const map::ShapeDistance d = checker_->distance(shape, poseAt(c, yaw), params_.safety_margin_m);
   if (d.collision) return false;
   return !d.exact || d.distance_m >= params_.safety_margin_m;
 }
@@ -88,9 +86,9 @@ bool RobotValidity::boxClearAt(const Vec3& c, double yaw) const {
 bool RobotValidity::bodyClearHeaded(const Vec3& b, double yaw) const {
   if (bodyClear(b)) return true;
   if (!headed_) return false;
-  if (std::isfinite(yaw)) return boxClearAt(b, yaw);
+  if (std::isfinite(yaw)) return shapeClearAt(params_.robot, b, yaw);
   for (int h = 0; h < kStateHeadings; ++h)
-    if (boxClearAt(b, kPi * h / kStateHeadings)) return true;
+    if (shapeClearAt(params_.robot, b, kPi * h / kStateHeadings)) return true;
   return false;
 }
 
@@ -114,7 +112,7 @@ int RobotValidity::badTurns(const std::vector<Vec3>& path, std::size_t* first) c
       bool ok = b.has_value();
       if (ok && !bodyClear(*b)) {
         const int n = std::max(1, int(std::ceil(std::abs(d) / kTurnStep)));
-        for (int i = 0; i <= n && ok; ++i) ok = boxClearAt(*b, yaw_in + d * i / n);
+        for (int i = 0; i <= n && ok; ++i) ok = shapeClearAt(params_.robot, *b, yaw_in + d * i / n);
       }
       if (!ok && bad++ == 0 && first) *first = k;
     }
@@ -217,9 +215,7 @@ double RobotValidity::clearance(const Vec3& c) const {
     }
     case ShapeType::kBox:
     case ShapeType::kCylinder: {
-      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-      pose.translation() = body;
-      return checker_->distance(checked_, pose).distance_m;
+      return checker_->distance(checked_, poseAt(body, 0.0)).distance_m;
     }
   }
   return 0.0;
@@ -228,10 +224,7 @@ double RobotValidity::clearance(const Vec3& c) const {
 double RobotValidity::clearance(const Vec3& c, double yaw) const {
   const double turning = clearance(c);
   if (!headed_ || !std::isfinite(yaw)) return turning;
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = c + Vec3(0, 0, lift_);
-  pose.linear() = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
-  return std::max(turning, checker_->distance(params_.robot, pose).distance_m);
+  return std::max(turning, checker_->distance(params_.robot, poseAt(c + Vec3(0, 0, lift_), yaw)).distance_m);
 }
 
 double RobotValidity::costFactor(const Vec3& c) const {

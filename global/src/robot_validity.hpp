@@ -91,8 +91,9 @@ class RobotValidity {
     std::size_t tail_ = 0;
   };
   bool bodyClear(const map::Vec3& c) const;
-  /// The box turned to `yaw` about z at `c` is at least the margin from rock.
-  bool boxClearAt(const map::Vec3& c, double yaw) const;
+  /// `shape` centred at `c`, turned to `yaw` about z, is at least the margin from rock (exact,
+  /// through the checker).
+  bool shapeClearAt(const map::RobotShape& shape, const map::Vec3& c, double yaw) const;
   /// Where the state's body is checked: on its floor, lifted; nullopt off the floor.
   std::optional<map::Vec3> bodyAt(const map::Vec3& p) const;
   /// The body at `b` (already lifted) is clear turned to `yaw`; NaN yaw: at some heading.

@@ -117,6 +117,19 @@ double bandRange(const LocalParams& p) {
   return p.pursuit.enabled ? std::max(repulsionRange(p), p.pursuit.lookahead_m) : repulsionRange(p);
 }
 
+// The footprint at p, turned to yaw, to the nearest of a band scan's points (its gap, 0 on or
+// inside it).
+double footprintGapToBand(const map::BandScan& scan, const Footprint& f, const Vec3& p, double yaw) {
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  double least = std::numeric_limits<double>::infinity();
+  for (int b = 0; b < map::BandScan::kBins; ++b) {
+    if (!std::isfinite(scan.distance[b])) continue;
+    const double dx = scan.point[b].x() - p.x(), dy = scan.point[b].y() - p.y();
+    least = std::min(least, f.gapTo(c * dx + s * dy, -s * dx + c * dy));
+  }
+  return least;
+}
+
 }  // namespace
 
 const char* stepStatusName(StepStatus s) {
@@ -290,11 +303,12 @@ void LocalPlanner::driveCommand(const RobotState& state, const Vec3& v_cmd, cons
     // The box's corners swing as it turns: a rate whose swing (this period's and the stop's)
     // takes its outline into rock is replaced by the one nearest it that does not, or the
     // slowest within reach.
-    if (R.drive != DriveType::kAckermann && !turnClear(q, yaw, w, dt)) {
+    const double turn_grow = R.drive != DriveType::kAckermann ? turnGrow(q, yaw) : -1.0;
+    if (turn_grow >= 0.0 && !turnClear(q, yaw, w, dt, turn_grow)) {
       double best = std::clamp(0.0, w_lo, w_hi), best_cost = std::numeric_limits<double>::infinity();
       for (int i = 0; i <= 8; ++i) {
         const double wi = w_lo + (w_hi - w_lo) * double(i) / 8.0;
-        if (std::abs(wi - w) < best_cost && turnClear(q, yaw, wi, dt)) {
+        if (std::abs(wi - w) < best_cost && turnClear(q, yaw, wi, dt, turn_grow)) {
           best = wi;
           best_cost = std::abs(wi - w);
         }
@@ -598,36 +612,32 @@ double LocalPlanner::bandClearance(const Vec3& p) const {
 }
 
 double LocalPlanner::footprintClearance(const Vec3& p, double yaw) const {
-  const Footprint& f = params_.robot.footprint;
-  double least = std::numeric_limits<double>::infinity();
-  if (!f.box) return least;
-  const double c = std::cos(yaw), s = std::sin(yaw);
-  for (int b = 0; b < map::BandScan::kBins; ++b) {
-    if (!std::isfinite(band_.distance[b])) continue;
-    const double dx = band_.point[b].x() - p.x(), dy = band_.point[b].y() - p.y();
-    least = std::min(least, f.gapTo(c * dx + s * dy, -s * dx + c * dy));
-  }
-  return least;
+  if (!params_.robot.footprint.box) return std::numeric_limits<double>::infinity();
+  return footprintGapToBand(band_, params_.robot.footprint, p, yaw);
 }
 
-bool LocalPlanner::turnClear(const Vec3& q, double yaw, double w, double dt) const {
-  if (!ground_ || !world_.field || !params_.robot.footprint.box) return true;
-  const double sweep = w * dt + w * std::abs(w) / (2.0 * params_.robot.alpha_max_rps2);
-  if (std::abs(sweep) < 1e-6) return true;
+double LocalPlanner::turnGrow(const Vec3& q, double yaw) const {
+  if (!ground_ || !world_.field || !params_.robot.footprint.box) return -1.0;
   // A centimetre: the box is inside its covering circle, so a circle that far off the band's
   // rock (and the field's) turns anyway. (Half the envelope's reserve froze the BARN-like
   // benchmark's robot among pillars in 2 of 66 fields, where no turn touched.)
   constexpr double kGrow = 0.01;
-  if (bandClearance(q) >= kGrow && world_.field->distance(probe(q)) - params_.robot.radius_m >= kGrow) return true;
+  if (bandClearance(q) >= kGrow && world_.field->distance(probe(q)) - params_.robot.radius_m >= kGrow) return -1.0;
   // Where it stands already reads as in rock (a real contact, or a stepped floor whose voxels
   // the outline's heights misjudge) the check cannot tell one turn from another: it does not
   // hold the robot there.
-  if (!boxFree(q, yaw, 0.0)) return true;
+  if (!boxFree(q, yaw, 0.0)) return -1.0;
+  return boxFree(q, yaw, kGrow) ? kGrow : 0.0;
+}
+
+bool LocalPlanner::turnClear(const Vec3& q, double yaw, double w, double dt, double grow) const {
+  if (grow < 0.0) return true;
+  const double sweep = w * dt + w * std::abs(w) / (2.0 * params_.robot.alpha_max_rps2);
+  if (std::abs(sweep) < 1e-6) return true;
   constexpr double kStep = 5.0 * kPi / 180.0;  // a corner 0.6 m out moves 5 cm a step
   const int n = std::min(72, int(std::ceil(std::abs(sweep) / kStep)));
-  const bool grown_now = boxFree(q, yaw, kGrow);
   for (int k = 1; k <= n; ++k)
-    if (!boxFree(q, yaw + sweep * double(k) / double(n), grown_now ? kGrow : 0.0)) return false;
+    if (!boxFree(q, yaw + sweep * double(k) / double(n), grow)) return false;
   return true;
 }
 
@@ -1364,14 +1374,11 @@ double bandFootprintClearance(const map::DistanceField& field, const RobotLimits
   map::BandScan scan;
   map::rockInBand(field, centre, range + robot.radius_m, f ? *f : centre.z() - 0.5 * robot.height_m, robot.max_step_m,
                   tan_max, robot.height_m, scan);
-  const double c = std::cos(yaw), s = std::sin(yaw);
+  if (robot.footprint.box) return footprintGapToBand(scan, robot.footprint, centre, yaw);
   double least = std::numeric_limits<double>::infinity();
-  for (int b = 0; b < map::BandScan::kBins; ++b) {
-    if (!std::isfinite(scan.distance[b])) continue;
-    const double dx = scan.point[b].x() - centre.x(), dy = scan.point[b].y() - centre.y();
-    least = std::min(least, robot.footprint.box ? robot.footprint.gapTo(c * dx + s * dy, -s * dx + c * dy)
-                                                : std::hypot(dx, dy) - robot.radius_m);
-  }
+  for (int b = 0; b < map::BandScan::kBins; ++b)
+    if (std::isfinite(scan.distance[b]))
+      least = std::min(least, std::hypot(scan.point[b].x() - centre.x(), scan.point[b].y() - centre.y()) - robot.radius_m);
   return least;
 }
 

@@ -236,7 +236,12 @@ class LocalPlanner {
   /// alpha_max, the box footprint at q stays in free voxels, grown by a centimetre (boxFree,
   /// every 5 degrees of the swing). The covering circle may already reach into rock the box does
   /// not (a floor rising into a rib's foot): the box's corners must not swing into it.
-  bool turnClear(const Vec3& q, double yaw, double w, double dt) const;
+  /// `grow`: turnGrow(q, yaw), the same for every rate tried in one period.
+  bool turnClear(const Vec3& q, double yaw, double w, double dt, double grow) const;
+  /// What turnClear grows the outline by at (q, yaw): a centimetre, or 0 where the grown box
+  /// already meets rock; negative where no turn is held (the covering circle is clear, or the
+  /// box already reads as in rock).
+  double turnGrow(const Vec3& q, double yaw) const;
   /// Ground mode: the box footprint at q turned to `yaw`, grown by `grow`, stands in free voxels
   /// at its body's heights (its outline every quarter voxel, from max_step and a voxel over the
   /// floor's plane, as the referee's body, to its top): exact where the band's 24 nearest points
