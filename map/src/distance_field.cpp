@@ -8,6 +8,7 @@
 #include <chrono>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <tuple>
@@ -253,28 +254,32 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
     cells[2] = tile[kDy];       cells[3] = tile[kDy + 1];
     cells[4] = tile[kDz];       cells[5] = tile[kDz + 1];
     cells[6] = tile[kDz + kDy]; cells[7] = tile[kDz + kDy + 1];
-  } else if ((base[0] & kBlockMask) != kBlockMask && (base[1] & kBlockMask) != kBlockMask &&
-             (base[2] & kBlockMask) != kBlockMask) {
-    // Across tiles of one block (tiles are small: the commoner case), still one index read;
-    // rock tiles are the shared all-rock tile, so the 8 loads neither branch nor wait on each
-    // other.
-    const std::int32_t r = m.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
-    if (r < 0) return out;  // the whole neighbourhood, p's voxel included, is rock
-    const std::int32_t* region = m.regions[std::size_t(r)].data();
-    const Tile* tiles = m.tiles.data();
+  } else {
+    // Across tiles (tiles are small: the commoner case), perhaps across blocks. Each axis's two
+    // voxel rows give an index stride, a tile slot and a cell slot, so the 8 loads neither wait
+    // on each other nor branch but where a block lies off the index or holds no free space.
+    const std::size_t stride[3] = {1, std::size_t(m.bdim[0]), std::size_t(m.bdim[0]) * std::size_t(m.bdim[1])};
+    std::size_t off[3][2];
     int sub[3][2], loc[3][2];
+    bool inside[3][2];
     for (int a = 0; a < 3; ++a)
       for (int i = 0; i < 2; ++i) {
-        sub[a][i] = ((base[a] + i) >> kTileBits) & kSubMask;
-        loc[a][i] = (base[a] + i) & kTileMask;
+        const int v = base[a] + i, b = (v >> kBlockBits) - m.bmin[a];
+        inside[a][i] = unsigned(b) < unsigned(m.bdim[a]);
+        off[a][i] = std::size_t(unsigned(b)) * stride[a];
+        sub[a][i] = ((v >> kTileBits) & kSubMask) << (a * kSubBits);
+        loc[a][i] = (v & kTileMask) << (a * kTileBits);
       }
+    const std::int32_t* index = m.index.data();
+    const Region* regions = m.regions.data();
+    const Tile* tiles = m.tiles.data();
     for (int c = 0; c < 8; ++c) {
       const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
-      const std::int32_t t = region[sub[0][i] | (sub[1][j] << kSubBits) | (sub[2][k] << (2 * kSubBits))];
-      cells[c] = tiles[t][std::size_t(loc[0][i] | (loc[1][j] << kTileBits) | (loc[2][k] << (2 * kTileBits)))];
+      const std::int32_t r =
+          inside[0][i] && inside[1][j] && inside[2][k] ? index[off[0][i] + off[1][j] + off[2][k]] : -1;
+      const std::int32_t t = r < 0 ? kRockTile : regions[r][std::size_t(sub[0][i] | sub[1][j] | sub[2][k])];
+      cells[c] = tiles[t][std::size_t(loc[0][i] | loc[1][j] | loc[2][k])];
     }
-  } else {
-    m.gatherAcrossTiles(base, cells);
   }
   // Coordinates of p relative to the base voxel's centre, in voxels (each in [0, 1)).
   const double qx = ux - double(base[0] - internal::kKeyOffset) - 0.5;
@@ -283,28 +288,52 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
   const int own_corner = (qx >= 0.5 ? 1 : 0) | (qy >= 0.5 ? 2 : 0) | (qz >= 0.5 ? 4 : 0);
   if (!isFreeCell(cells[own_corner])) return out;
   // Each corner's site relative to base: its offset plus the corner's own position (a rock
-  // corner's offset is 0: it is its own site).
-  int site[3][8];
-  Cell any = 0;
-  for (int c = 0; c < 8; ++c) {
-    site[0][c] = cellOffset(cells[c], 0) + (c & 1);
-    site[1][c] = cellOffset(cells[c], 1) + ((c >> 1) & 1);
-    site[2][c] = cellOffset(cells[c], 2) + (c >> 2);
-    any |= cells[c];
+  // corner's offset is 0: it is its own site). Four corners to a vector (GCC's generic vectors:
+  // SSE2 here, NEON on arm64), the same operations per corner as a scalar loop, so the answer is
+  // bit for bit the one a plain loop gives.
+  using V4i = std::int32_t __attribute__((vector_size(16)));
+  using V4u = std::uint32_t __attribute__((vector_size(16)));
+  using V2i = std::int32_t __attribute__((vector_size(8)));
+  using V2d = double __attribute__((vector_size(16)));
+  using V2u = std::uint64_t __attribute__((vector_size(16)));
+  alignas(16) int site[3][8];
+  {
+    // Built from scalars, not loaded as 16 bytes from the 4-byte stores just made (a load
+    // wider than the stores it reads waits for them to retire).
+    const V4u u[2] = {{cells[0], cells[1], cells[2], cells[3]}, {cells[4], cells[5], cells[6], cells[7]}};
+    // cellOffset(): the axis's 9 bits moved to the top, then shifted down with their sign.
+    auto offset = [](V4u c, int axis) { return V4i(c << (32 - kOffsetBits * (axis + 1))) >> (32 - kOffsetBits); };
+    const V4i cx = {0, 1, 0, 1}, cy = {0, 0, 1, 1};
+    const V4i sx[2] = {offset(u[0], 0) + cx, offset(u[1], 0) + cx};
+    const V4i sy[2] = {offset(u[0], 1) + cy, offset(u[1], 1) + cy};
+    const V4i sz[2] = {offset(u[0], 2), offset(u[1], 2) + 1};
+    std::memcpy(site[0], sx, sizeof sx);
+    std::memcpy(site[1], sy, sizeof sy);
+    std::memcpy(site[2], sz, sizeof sz);
   }
+  const Cell any = cells[0] | cells[1] | cells[2] | cells[3] | cells[4] | cells[5] | cells[6] | cells[7];
   if (any & kFarBit) m.resolveFar(cells, base, site);
-  // Distance from p to each candidate site's cube: one pass over the 8 that the compiler
-  // vectorises, then the first nearest (no running minimum inside the arithmetic).
+  // Distance from p to each candidate site's cube, per corner max(|q - s| - 0.5, 0) on each
+  // axis, summed as ((ex^2 + ey^2) + ez^2); then the first nearest.
   const double q[3] = {qx, qy, qz};
-  double e[3][8], d2[8];
-  for (int c = 0; c < 8; ++c) {
-    double sum = 0;
+  alignas(16) double e[3][8];
+  alignas(16) double d2[8];
+  for (int h = 0; h < 4; ++h) {
+    V2d ea[3];
     for (int a = 0; a < 3; ++a) {
-      e[a][c] = std::max(std::abs(q[a] - double(site[a][c])) - 0.5, 0.0);
-      sum += e[a][c] * e[a][c];
+      V2i si;
+      std::memcpy(&si, &site[a][2 * h], sizeof si);
+      const V2d t = q[a] - __builtin_convertvector(si, V2d);
+      const V2d mag = V2d(V2u(t) & ~(std::uint64_t{1} << 63)) - 0.5;  // fabs, then - 0.5
+      ea[a] = mag < 0.0 ? V2d{0.0, 0.0} : mag;                         // std::max(mag, 0.0)
+      std::memcpy(&e[a][2 * h], &ea[a], sizeof ea[a]);
     }
-    d2[c] = (isFreeCell(cells[c]) && !hasSite(cells[c])) ? std::numeric_limits<double>::infinity() : sum;
+    const V2d sum = (ea[0] * ea[0] + ea[1] * ea[1]) + ea[2] * ea[2];
+    std::memcpy(&d2[2 * h], &sum, sizeof sum);
   }
+  // A free corner without a site knows no rock: it offers none.
+  for (int c = 0; c < 8; ++c)
+    if ((cells[c] & (kFreeBit | kSiteBit)) == kFreeBit) d2[c] = std::numeric_limits<double>::infinity();
   int bc = 0;
   for (int c = 1; c < 8; ++c) bc = d2[c] < d2[bc] ? c : bc;
   const double best = d2[bc];

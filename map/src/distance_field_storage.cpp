@@ -27,10 +27,6 @@ void adviseHugePages(std::vector<Tile>& tiles) {
 
 }  // namespace dfield
 
-void DistanceField::Impl::gatherAcrossTiles(const int base[3], Cell cells[8]) const {
-  for (int c = 0; c < 8; ++c) cells[c] = cell(base[0] + (c & 1), base[1] + ((c >> 1) & 1), base[2] + (c >> 2));
-}
-
 void DistanceField::Impl::resolveFar(const Cell cells[8], const int base[3], int s[3][8]) const {
   for (int c = 0; c < 8; ++c) {
     if (!isFarCell(cells[c])) continue;
