@@ -53,10 +53,14 @@ constexpr std::uint64_t kMaxFarSites = kFarIndexMask + std::uint64_t{1};
 inline bool isFreeCell(Cell c) { return c & kFreeBit; }
 inline bool hasSite(Cell c) { return c & kSiteBit; }
 inline bool isFarCell(Cell c) { return c & kFarBit; }
-// Offset on `axis` of a near cell (0 for rock), sign-extended from its 9 bits.
-inline int cellOffset(Cell c, int axis) {
-  return int(std::int32_t(c << (32 - kOffsetBits * (axis + 1)))) >> (32 - kOffsetBits);
+// The axis's 9 offset bits moved to the top, then shifted down with their sign: for one cell
+// (S = std::int32_t) or, in query(), for a vector of cells (S its signed vector type).
+template <class S, class U>
+S offsetBits(U c, int axis) {
+  return S(c << (32 - kOffsetBits * (axis + 1))) >> (32 - kOffsetBits);
 }
+// Offset on `axis` of a near cell (0 for rock), sign-extended from its 9 bits.
+inline int cellOffset(Cell c, int axis) { return offsetBits<std::int32_t>(c, axis); }
 
 // A site as a whole key (16 bits per axis): what the far table and the transform hold.
 inline std::uint64_t packKey(int x, int y, int z) {
