@@ -10,12 +10,14 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <optional>
 #include <random>
 #include <unordered_map>
 
 #include "adit/map/collision.hpp"
 #include "adit/map/distance_field.hpp"
 #include "adit/map/map_io.hpp"
+#include "adit/map/rock_points.hpp"
 #include "adit/map/survey_network.hpp"
 #include "support/synthetic_roadway.hpp"
 
@@ -296,6 +298,69 @@ void BM_WideLayout_AlongPathWarm(benchmark::State& state) {
 }
 BENCHMARK(BM_WideLayout_AlongPathWarm);
 
+// A ground robot's view each period (local::LocalPlanner's scanBand): the floor under it, the
+// floor's plane over 2.5 m about it and the 2.5-D band scan out to 2.61 m (the bundled tracked
+// robot: 1.0 x 0.7 x 0.6 m, 15 degree slopes, 0.1 m steps), its centre 0.3 m above the floor,
+// advancing 5 cm a period along every roadway. The scan with its cache (what the planner runs)
+// and the reference that reads every voxel, in one run.
+struct GroundView {
+  std::vector<Vec3> at;       // the robot's centre
+  std::vector<double> floor;  // the floor's top under it
+};
+const GroundView& groundView() {
+  static GroundView g = [] {
+    World& w = district();
+    GroundView out;
+    for (const Vec3& p : w.path) {
+      const Vec3 c = p - Vec3(0, 0, 0.9);
+      const std::optional<double> f = floorBelow(w.field, c + Vec3(0, 0, 0.1), 0.3 + 0.1 + 0.4);
+      if (!f) continue;
+      out.at.push_back(c);
+      out.floor.push_back(*f);
+    }
+    return out;
+  }();
+  return g;
+}
+constexpr double kBandRadius = 2.61, kBandStep = 0.1, kBandHeight = 0.6;
+const double kBandSlope = std::tan(15.0 * 3.14159265358979323846 / 180.0);
+
+void bandScans(benchmark::State& state, bool cached) {
+  World& w = district();
+  const GroundView& g = groundView();
+  BandCache cache;
+  if (cached && !cache.reserve(w.field.resolution(), kBandRadius, kBandStep, kBandSlope, kBandHeight)) std::abort();
+  BandBody body;
+  body.reach = 0.61 + 0.05 + 0.25;
+  body.clearance = kBandStep + w.field.resolution();
+  BandScan scan;
+  std::size_t i = 0, hits = 0;
+  for (auto _ : state) {
+    rockInBand(w.field, g.at[i], kBandRadius, g.floor[i], kBandStep, kBandSlope, kBandHeight, scan, 1u << 16,
+               cached ? &cache : nullptr, &body);
+    for (double d : scan.distance) hits += std::isfinite(d);
+    if (++i == g.at.size()) i = 0;
+  }
+  state.counters["bins_hit"] = double(hits) / double(state.iterations());
+  state.SetItemsProcessed(state.iterations());
+}
+void BM_BandScan_Cached(benchmark::State& state) { bandScans(state, true); }
+BENCHMARK(BM_BandScan_Cached)->Unit(benchmark::kMicrosecond);
+void BM_BandScan_EveryVoxel(benchmark::State& state) { bandScans(state, false); }
+BENCHMARK(BM_BandScan_EveryVoxel)->Unit(benchmark::kMicrosecond);
+
+void BM_FloorSlope(benchmark::State& state) {
+  World& w = district();
+  const GroundView& g = groundView();
+  std::size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(floorSlope(w.field, Vec3(g.at[i].x(), g.at[i].y(), g.floor[i]), 0.0, 2.5, kBandSlope, kBandStep));
+    if (++i == g.at.size()) i = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_FloorSlope)->Unit(benchmark::kMicrosecond);
+
 // The baseline: FCL's octree distance for a sphere (radius 0.3 m) at the same random points.
 void BM_FclOctree_SphereDistance(benchmark::State& state) {
   World& w = district();
@@ -453,6 +518,7 @@ class RatioReporter : public benchmark::ConsoleReporter {
     ratio("BM_WideLayout_RandomPoints", "BM_DistanceField_RandomPoints",
           "16^3 tiles of 8-byte words / compact field (random)");
     ratio("BM_WideLayout_AlongPath", "BM_DistanceField_AlongPath", "16^3 tiles of 8-byte words / compact field (path)");
+    ratio("BM_BandScan_EveryVoxel", "BM_BandScan_Cached", "band scan reading every voxel / with its cache");
   }
 
  private:
