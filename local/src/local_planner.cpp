@@ -185,7 +185,7 @@ void LocalPlanner::scanBand(const Vec3& q, double range, double speed) {
   // under the body, or where the body gets to before it stops, is in the way.
   // (Refitting it only every quarter metre, or from 5 x 5 samples, left a Koutzi run in contact.)
   const map::FloorSlope plane = map::floorSlope(*world_.field, Vec3(q.x(), q.y(), floor_z_), 0.0,
-                                                std::max(2.5, r.radius_m), tan_max, r.max_step_m);
+                                                std::max(2.5, r.radius_m), tan_max, r.max_step_m, 9, &band_cache_);
   map::BandBody body;
   body.grad_x = std::clamp(plane.along, -tan_max, tan_max);
   body.grad_y = std::clamp(plane.across, -tan_max, tan_max);

@@ -11,11 +11,14 @@
 #include <limits>
 #include <optional>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "adit/map/distance_field.hpp"
+#include "adit/map/map_io.hpp"
 #include "adit/map/occupancy_map.hpp"
 #include "adit/map/rock_points.hpp"
+#include "adit/map/survey_network.hpp"
 #include "support/pillar_field.hpp"
 
 namespace adit::map {
@@ -157,6 +160,103 @@ TEST(BandScan, CachedScanEqualsTheReferenceInPillarFields) {
   }
 }
 
+// The bundled district's roadways, walked as the tracked rescue robot does (1.0 x 0.7 x 0.6 m,
+// 0.1 m steps, its underside checked to its stopping reach): long stretches of one floor level,
+// where whole scans pass their step and slope tests on the cache's bounds, and level changes,
+// junctions and ribs where they do not. A run of 150 periods (5 cm each) along every roadway.
+TEST(BandScan, CachedScanEqualsTheReferenceAlongTheDistrictsRoadways) {
+  StatusOr<SurveyNetwork> net = loadSurvey(std::string(ADIT_MAPS_DIR) + "/district.yaml");
+  StatusOr<OccupancyMap> m = loadMap(std::string(ADIT_MAPS_DIR) + "/district.bt");
+  ASSERT_TRUE(net.ok() && m.ok());
+  StatusOr<DistanceField> field = DistanceField::build(*m);
+  ASSERT_TRUE(field.ok());
+  const double res = field->resolution(), radius = 2.61, step = 0.1, slope = std::tan(15.0 * kPi / 180.0);
+  BandCache cache;
+  ASSERT_TRUE(cache.reserve(res, radius, step, slope, 0.6));
+  BandBody body;
+  body.reach = 0.91;
+  body.clearance = step + res;
+  int scans = 0, with_way = 0;
+  for (const SurveyRoadway& r : net->roadways) {
+    const Polyline line = net->centreline(r);
+    int n = 0;
+    for (std::size_t i = 1; i < line.size() && n < 150; ++i) {
+      const Vec3 d = line.points[i] - line.points[i - 1];
+      for (double t = 0; t < d.norm() && n < 150; t += 0.05, ++n) {
+        // Off the centreline by up to a metre and a half, toward a rib.
+        const Vec3 p = line.points[i - 1] + d.normalized() * t + Vec3(0, 0, 1.2) +
+                       1.5 * std::sin(0.05 * n) * Vec3(-d.y(), d.x(), 0).normalized();
+        const std::optional<double> f = floorBelow(*field, p, 3.0);
+        if (!f) continue;
+        const Vec3 c(p.x(), p.y(), *f + 0.3);
+        BandScan ref, got;
+        rockInBand(*field, c, radius, *f, step, slope, 0.6, ref, 1u << 16, nullptr, &body);
+        rockInBand(*field, c, radius, *f, step, slope, 0.6, got, 1u << 16, &cache, &body);
+        expectSameScan(ref, got, c);
+        if (HasFatalFailure()) return;
+        ++scans;
+        with_way += std::any_of(std::begin(ref.distance), std::end(ref.distance), [](double x) { return std::isfinite(x); });
+      }
+    }
+  }
+  EXPECT_GT(scans, 1500);
+  EXPECT_GT(with_way, scans / 2) << "most scans should reach a rib";
+}
+
+// A room of flat floors joined by a kerb two voxels high (a step the robot may not take: 0.4 m
+// against 0.15) and by a ramp three voxels high over a metre (31 degrees against 15): the
+// smallest floor differences that fail the step and the slope test, where the cache's bounds
+// on the window's floors are tightest, and wide flat floors, where whole scans pass on them.
+// Every scan across them equals the reference.
+TEST(BandScan, CachedScanEqualsTheReferenceAtTheSmallestFailingStepAndSlope) {
+  const double res = 0.2;
+  // Floor level (in voxels) of column (i, j): a kerb at x = 4 m for y < 5 m; a ramp from x = 10
+  // to 11 m elsewhere.
+  auto level = [&](int i, int j) {
+    const double x = (i + 0.5) * res, y = (j + 0.5) * res;
+    if (y < 5.0) return x > 4.0 ? 2 : 0;
+    return x < 10.0 ? 0 : x > 11.0 ? 3 : int(std::floor((x - 10.0) * 3.0 / 1.0 + 0.5));
+  };
+  std::vector<Vec3> free, occupied;
+  for (int i = 0; i < int(16.0 / res); ++i)
+    for (int j = 0; j < int(10.0 / res); ++j)
+      for (int k = -3; k < 16; ++k)
+        (k < level(i, j) ? occupied : free).emplace_back((i + 0.5) * res, (j + 0.5) * res, (k + 0.5) * res);
+  StatusOr<OccupancyMap> m = OccupancyMap::fromVoxels(res, free, occupied);
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  StatusOr<DistanceField> field = DistanceField::build(*m);
+  ASSERT_TRUE(field.ok());
+  Robot r;
+  BandCache cache;
+  ASSERT_TRUE(cache.reserve(res, r.radius, r.max_step, r.slope_tan, r.height));
+  int with_way = 0, n = 0;
+  for (double y : {2.5, 7.5})
+    for (double x = 1.0; x < 15.0; x += 0.05, ++n) {
+      const std::optional<double> f = floorAt(*field, x, y);
+      ASSERT_TRUE(f.has_value()) << x << " " << y;
+      // The floor as the caller says it is: the floor under the robot, and (every fourth period)
+      // a voxel or more above or below it (a robot on a box, or in a hole), where the step to
+      // its own floor, a drop or the climbable height decide; the body's underside tilted.
+      const double z_floor = *f + (n % 4 == 3 ? res * double((n / 4) % 7 - 3) : 0.0);
+      BandBody body;
+      body.grad_x = 0.25 * std::sin(0.3 * n);
+      body.grad_y = 0.25 * std::cos(0.2 * n);
+      body.reach = 0.6 + 0.5 * std::abs(std::sin(0.1 * n));
+      body.clearance = r.max_step + res;
+      const Vec3 c(x, y, z_floor + 0.3);
+      const BandBody* bodies[] = {nullptr, &body};
+      for (const BandBody* b : bodies) {
+        BandScan ref, got;
+        rockInBand(*field, c, r.radius, z_floor, r.max_step, r.slope_tan, r.height, ref, 1u << 16, nullptr, b);
+        rockInBand(*field, c, r.radius, z_floor, r.max_step, r.slope_tan, r.height, got, 1u << 16, &cache, b);
+        expectSameScan(ref, got, c);
+        if (HasFatalFailure()) return;
+        with_way += std::any_of(std::begin(ref.distance), std::end(ref.distance), [](double d) { return std::isfinite(d); });
+      }
+    }
+  EXPECT_GT(with_way, 200) << "the kerb and the ramp should be in the way";
+}
+
 TEST(BandScan, CacheIsDroppedWhenTheFieldChanges) {
   OccupancyMap m = flatRoom(0.2);
   StatusOr<DistanceField> field = DistanceField::build(m);
@@ -245,6 +345,41 @@ TEST(BandScan, TheBodysUndersideMeetsALumpButNotARamp) {
   BandScan scan;
   rockInBand(*f, on_ramp, 1.5, on_ramp.z() - 0.3, 0.1, tan15, 0.6, scan, 1u << 16, nullptr, &tilted);
   EXPECT_FALSE(std::isfinite(scan.distance[BandScan::kBins / 2])) << scan.distance[BandScan::kBins / 2];
+}
+
+// The floor's plane read through the band scan's cache (as the local planner reads it, between
+// its scans) equals the plane read voxel by voxel, along walks over rugged terrain at several
+// headings: turned windows wider than the cache's ring fall back to the field.
+TEST(FloorSlope, ThroughTheCacheEqualsTheFieldsOwnReading) {
+  for (double res : {0.1, 0.2}) {
+    const OccupancyMap m = ruggedTerrain(5, res);
+    StatusOr<DistanceField> field = DistanceField::build(m);
+    ASSERT_TRUE(field.ok());
+    Robot r;
+    BandCache cache;
+    ASSERT_TRUE(cache.reserve(res, r.radius, r.max_step, r.slope_tan, r.height));
+    std::mt19937_64 rng(9);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    int fitted = 0;
+    Vec3 q(8.0, 5.0, 0.0);
+    for (int n = 0; n < 400; ++n) {
+      q += Vec3(0.05 * (u(rng) - 0.3), 0.05 * (u(rng) - 0.5), 0.0);
+      if (n % 100 == 0) q = Vec3(1.0 + 14.0 * u(rng), 1.0 + 8.0 * u(rng), 0.0);
+      const std::optional<double> f = floorAt(*field, q.x(), q.y());
+      if (!f) continue;
+      const Vec3 at(q.x(), q.y(), *f);
+      const double yaw = n % 3 == 0 ? 0.0 : 2.0 * kPi * u(rng);
+      const FloorSlope a = floorSlope(*field, at, yaw, 2.5, r.slope_tan, r.max_step);
+      BandScan scan;
+      rockInBand(*field, at + Vec3(0, 0, 0.3), r.radius, *f, r.max_step, r.slope_tan, r.height, scan, 1u << 16, &cache);
+      const FloorSlope b = floorSlope(*field, at, yaw, 2.5, r.slope_tan, r.max_step, 9, &cache);
+      ASSERT_EQ(a.samples, b.samples) << at.transpose() << " yaw " << yaw;
+      ASSERT_EQ(a.along, b.along) << at.transpose() << " yaw " << yaw;
+      ASSERT_EQ(a.across, b.across) << at.transpose() << " yaw " << yaw;
+      fitted += a.samples >= 3;
+    }
+    EXPECT_GT(fitted, 300);
+  }
 }
 
 TEST(FloorBelow, PointsOnVoxelFacesFindTheFloor) {

@@ -83,9 +83,15 @@ struct BandScan {
 /// with this cache each voxel is read once while it stays near the robot, and runs of free
 /// voxels are skipped by the field's exact clearance (a voxel that far from rock has free voxels
 /// below it). A ring of columns about the robot, each tagged with its key; everything is dropped
-/// when the field's generation changes (an update). Allocated once by reserve(); scans do not
-/// allocate, and one that does not fit reads the field voxel by voxel (the same result: the
-/// tests hold the two equal on rugged terrain and pillar fields).
+/// when the field's generation changes (an update).
+///
+/// Each column also keeps its answers for the scan's few search tops (the highest rock at or
+/// below each), made once while the robot's floor stays on one voxel level, so that a search is a
+/// table read; and the floors those answers can give. When every floor the window can give is
+/// within a step of a column's own, its step and slope tests cannot fail and are not made.
+/// Allocated once by reserve(); scans do not allocate, and one that does not fit reads the field
+/// voxel by voxel (the same result: the tests hold the two equal on rugged terrain and pillar
+/// fields).
 class BandCache {
  public:
   /// Sizes the cache for scans of up to `radius` on a field of `resolution`, for a robot of
@@ -97,19 +103,35 @@ class BandCache {
  private:
   friend void rockInBand(const DistanceField&, const Vec3&, double, double, double, double, double, BandScan&,
                          std::size_t, BandCache*, const BandBody*) noexcept;
-  struct Slot {
+  friend struct BandColumns;
+  static constexpr int kMaxTops = 16;
+  static constexpr std::int8_t kMixed = -128;
+  // One cache line: a scan reads every slot of its window once before it starts.
+  struct alignas(64) Slot {
     std::int64_t i = 0, j = 0;  // the column's key (x, y), when valid
     std::int64_t k0 = 0;        // key of the lowest voxel its bits hold
-    // The last search's range and answer (the highest rock key in it, memo_bottom - 1 for none):
-    // the voxels above the answer up to memo_top are free. Empty when memo_bottom > memo_top.
-    std::int64_t memo_top = 0, memo_bottom = 1, memo_k = 0;
+    // The table's scan keys: tops t_lo .. t_lo + tops - 1, bottom b_lo (tops = 0: no table).
+    std::int64_t t_lo = 0, b_lo = 0;
+    std::int8_t tops = 0;
+    // The floors its answers can give (relative to b_lo; none when fmin > fmax): an answer below
+    // its top (rock at the top of a search is the body's band, never a floor).
+    std::int8_t fmin = 1, fmax = 0;
+    // The answer of every top when they are all one floor (relative to b_lo); kMixed otherwise.
+    std::int8_t uniform = kMixed;
     bool valid = false;
+    std::int8_t highest[kMaxTops];  // highest rock key at or below t_lo + n, down to b_lo, minus b_lo; -1: none
   };
+  static_assert(sizeof(Slot) == 64, "a slot is one cache line");
   double res_ = 0.0;
   std::int64_t ring_ = 0, words_ = 0;
   std::uint64_t generation_ = 0;
   std::vector<Slot> slots_;
   std::vector<std::uint64_t> known_, rock_;  // words_ per slot: one bit per voxel from k0 up
+  // floorSlope's sample reaches for the arguments in reach_key_ (half window, slope, step) and
+  // reach_n_ x reach_n_ samples; 0: none yet.
+  std::vector<double> reach_;
+  double reach_key_[3] = {0.0, 0.0, 0.0};
+  int reach_n_ = 0;
 };
 
 void rockInBand(const DistanceField& field, const Vec3& centre, double radius, double z_floor, double max_step,
@@ -135,7 +157,9 @@ struct FloorSlope {
   double across = 0.0;  ///< rise per metre along (-sin yaw, cos yaw), the vehicle's left
   int samples = 0;      ///< samples in the fit
 };
+/// With a cache (the band scan's, reserved for a radius at least the window's half-diagonal),
+/// the same answer from the voxels it holds: the band scan that follows reads the same columns.
 FloorSlope floorSlope(const DistanceField& field, const Vec3& at, double yaw, double half_window, double slope_tan,
-                      double step, int n = 9) noexcept;
+                      double step, int n = 9, BandCache* cache = nullptr) noexcept;
 
 }  // namespace adit::map
