@@ -181,6 +181,7 @@ bool BandCache::reserve(double resolution, double radius, double max_step, doubl
   words_ = std::int64_t(words);
   slots_.assign(std::size_t(ring_ * ring_), Slot());
 
+  candidates_.assign(std::size_t(ring_ * ring_), Candidate());
   reach_.assign(64 * 64, 0.0);
   reach_n_ = 0;
   known_.assign(std::size_t(ring_ * ring_ * words_), 0);
@@ -316,7 +317,7 @@ struct BandColumns {
         !(std::abs(p.y()) <= lim) || !(std::abs(p.z()) <= lim))
       return map::floorBelow(field, p, depth);
     const std::int64_t ci = floorKey(p.x() * inv), cj = floorKey(p.y() * inv), kp = floorKey(p.z() * inv);
-    const std::int64_t n = std::int64_t(std::floor(depth * inv)) + 1;
+    const std::int64_t n = floorKey(depth * inv) + 1;  // as std::floor: depth * inv is far below 2^62
     const std::int64_t k = firstRock(ci, cj, kp, kp - n);
     if (k == kp || k < kp - n) return std::nullopt;  // p in rock, or no floor within the depth
     return double(k + 1) * res;
@@ -409,12 +410,16 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
     const double ey = std::clamp(centre.y(), cy - half, cy + half) - centre.y();
     return ex * ex + ey * ey;
   };
+  // Those columns, in the scan's order, for the pass below.
   std::int64_t fmin = std::numeric_limits<std::int64_t>::max(), fmax = std::numeric_limits<std::int64_t>::min();
+  std::size_t candidates = 0;
   if (tables) {
     for (std::int64_t j = j_lo; j <= j_hi; ++j)
       for (std::int64_t i = i_lo; i <= i_hi; ++i) {
-        if (!(squaredDistance(i, j) <= radius2)) continue;
+        const double q = squaredDistance(i, j);
+        if (!(q <= radius2)) continue;
         const BandCache::Slot& sl = cols.table(i, j, t_lo, t_hi, b_lo);
+        bc->candidates_[candidates++] = {std::int32_t(i - i_lo), std::int32_t(j - j_lo), sl.uniform, q};
         if (sl.fmin > sl.fmax) continue;
         fmin = std::min(fmin, b_lo + sl.fmin);
         fmax = std::max(fmax, b_lo + sl.fmax);
@@ -507,57 +512,65 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
     n.bin = n.s > 1e-9 ? azimuthBin(ex, ey) : azimuthBin(cx - centre.x(), cy - centre.y());
     return n;
   };
-  for (std::int64_t j = j_lo; j <= j_hi; ++j) {
-    const double cy = (double(j) + 0.5) * res;
-    for (std::int64_t i = i_lo; i <= i_hi; ++i) {
-      const double cx = (double(i) + 0.5) * res;
-      if (tables) {
-        const double q = squaredDistance(i, j);
-        if (!(q <= radius2)) continue;  // beyond the radius (and without a table this scan)
-        const std::int8_t u = bc->slots_[std::size_t(cols.slotOf(i, j))].uniform;
-        if (pass_lo <= pass_hi && u != BandCache::kMixed && b_lo + u >= pass_lo && b_lo + u <= pass_hi &&
-            !(q <= reach2))
-          continue;  // never in the way
-      }
-      const Near n = nearOf(i, j);
-      const double s = n.s;
-      const int b = n.bin;
-      if (s > radius) continue;
-      if (s >= out.distance[b]) continue;  // this column cannot be nearer in its bin
-      const Column c = columnAt(i, j, s);
-      bool way = c.blocked || !c.floor;
-      const double dx = cx - centre.x(), dy = cy - centre.y();
-      if (!way && body && s <= body->reach &&
-          c.z - (z_floor + body->grad_x * dx + body->grad_y * dy) > body->clearance + 1e-9)
-        way = true;
-      // No floor in the window further from this one than these voxels: its tests pass.
-      const std::int64_t apart =
-          tables && !way && fmin <= c.k && c.k <= fmax ? std::max(c.k - fmin, fmax - c.k) : std::int64_t(-1);
-      const bool slope_passes = apart >= 0 && apart <= safe_slope, step_passes = apart >= 0 && apart <= safe_step;
-      // The centre's distance, for the tests that look back toward it.
-      auto centreDistance = [&] { return std::max(std::sqrt(dx * dx + dy * dy), 1e-9); };
-      if (!way && s >= baseline) {
-        // A slope steeper than allowed: against the column a baseline nearer the robot (a voxel of
-        // quantisation over the baseline; a step within max_step on a flat baseline passes).
-        if (!slope_passes) {
-          const double d = centreDistance();
-          const Column back = column(cx - dx / d * baseline, cy - dy / d * baseline, s - baseline);
-          if (back.floor && std::abs(c.z - back.z) > baseline * slope_tan + res) way = true;
-        }
-      } else if (!way && s >= 4.0 * res) {
-        // Nearer than a baseline: against the robot's own floor, steps within max_step allowed.
-        if (std::abs(c.z - z_floor) > s * slope_tan + res + max_step) way = true;
-      }
-      if (!way && s > res && !step_passes) {
-        // A step: against the next column toward the robot.
+  // Column (i, j): nearer than its bin's nearest so far and in the way, it becomes that.
+  auto visit = [&](std::int64_t i, std::int64_t j) __attribute__((always_inline)) {
+    const double cx = (double(i) + 0.5) * res, cy = (double(j) + 0.5) * res;
+    const Near n = nearOf(i, j);
+    const double s = n.s;
+    const int b = n.bin;
+    if (s > radius) return;
+    if (s >= out.distance[b]) return;  // this column cannot be nearer in its bin
+    const Column c = columnAt(i, j, s);
+    bool way = c.blocked || !c.floor;
+    const double dx = cx - centre.x(), dy = cy - centre.y();
+    if (!way && body && s <= body->reach &&
+        c.z - (z_floor + body->grad_x * dx + body->grad_y * dy) > body->clearance + 1e-9)
+      way = true;
+    // No floor in the window further from this one than these voxels: its tests pass.
+    const std::int64_t apart =
+        tables && !way && fmin <= c.k && c.k <= fmax ? std::max(c.k - fmin, fmax - c.k) : std::int64_t(-1);
+    const bool slope_passes = apart >= 0 && apart <= safe_slope, step_passes = apart >= 0 && apart <= safe_step;
+    // The centre's distance, for the tests that look back toward it.
+    auto centreDistance = [&] { return std::max(std::sqrt(dx * dx + dy * dy), 1e-9); };
+    if (!way && s >= baseline) {
+      // A slope steeper than allowed: against the column a baseline nearer the robot (a voxel of
+      // quantisation over the baseline; a step within max_step on a flat baseline passes).
+      if (!slope_passes) {
         const double d = centreDistance();
-        const Column inner = column(cx - dx / d * res, cy - dy / d * res, std::max(0.0, s - res));
-        if (inner.floor && std::abs(c.z - inner.z) > step_tol) way = true;
+        const Column back = column(cx - dx / d * baseline, cy - dy / d * baseline, s - baseline);
+        if (back.floor && std::abs(c.z - back.z) > baseline * slope_tan + res) way = true;
       }
-      if (!way) continue;
-      out.distance[b] = s;
-      out.point[b] = Vec3(n.nx, n.ny, z_floor);
+    } else if (!way && s >= 4.0 * res) {
+      // Nearer than a baseline: against the robot's own floor, steps within max_step allowed.
+      if (std::abs(c.z - z_floor) > s * slope_tan + res + max_step) way = true;
     }
+    if (!way && s > res && !step_passes) {
+      // A step: against the next column toward the robot.
+      const double d = centreDistance();
+      const Column inner = column(cx - dx / d * res, cy - dy / d * res, std::max(0.0, s - res));
+      if (inner.floor && std::abs(c.z - inner.z) > step_tol) way = true;
+    }
+    if (!way) return;
+    out.distance[b] = s;
+    out.point[b] = Vec3(n.nx, n.ny, z_floor);
+  };
+  if (!tables) {
+    for (std::int64_t j = j_lo; j <= j_hi; ++j)
+      for (std::int64_t i = i_lo; i <= i_hi; ++i) visit(i, j);
+    return;
+  }
+  for (std::size_t k = 0; k < candidates; ++k) {
+    const BandCache::Candidate& cd = bc->candidates_[k];
+    const std::int64_t i = i_lo + cd.di, j = j_lo + cd.dj;
+    if (pass_lo <= pass_hi && cd.uniform != BandCache::kMixed && b_lo + cd.uniform >= pass_lo &&
+        b_lo + cd.uniform <= pass_hi) {
+      if (!(cd.q <= reach2)) continue;  // never in the way
+      // Within reach: in the way only if it rises above the underside (the test in visit()).
+      const double z = (double(b_lo + cd.uniform) + 0.5) * res + half;
+      const double dx = (double(i) + 0.5) * res - centre.x(), dy = (double(j) + 0.5) * res - centre.y();
+      if (!(z - (z_floor + body->grad_x * dx + body->grad_y * dy) > body->clearance + 1e-9)) continue;
+    }
+    visit(i, j);
   }
 }
 

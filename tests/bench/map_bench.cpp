@@ -349,17 +349,25 @@ BENCHMARK(BM_BandScan_Cached)->Unit(benchmark::kMicrosecond);
 void BM_BandScan_EveryVoxel(benchmark::State& state) { bandScans(state, false); }
 BENCHMARK(BM_BandScan_EveryVoxel)->Unit(benchmark::kMicrosecond);
 
-void BM_FloorSlope(benchmark::State& state) {
+// The floor's plane over 2.5 m about the robot, read voxel by voxel and through the band scan's
+// cache (as the local planner reads it, before each scan).
+void floorSlopes(benchmark::State& state, bool cached) {
   World& w = district();
   const GroundView& g = groundView();
+  BandCache cache;
+  if (cached && !cache.reserve(w.field.resolution(), kBandRadius, kBandStep, kBandSlope, kBandHeight)) std::abort();
   std::size_t i = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(floorSlope(w.field, Vec3(g.at[i].x(), g.at[i].y(), g.floor[i]), 0.0, 2.5, kBandSlope, kBandStep));
+    benchmark::DoNotOptimize(floorSlope(w.field, Vec3(g.at[i].x(), g.at[i].y(), g.floor[i]), 0.0, 2.5, kBandSlope,
+                                        kBandStep, 9, cached ? &cache : nullptr));
     if (++i == g.at.size()) i = 0;
   }
   state.SetItemsProcessed(state.iterations());
 }
+void BM_FloorSlope(benchmark::State& state) { floorSlopes(state, false); }
 BENCHMARK(BM_FloorSlope)->Unit(benchmark::kMicrosecond);
+void BM_FloorSlope_Cached(benchmark::State& state) { floorSlopes(state, true); }
+BENCHMARK(BM_FloorSlope_Cached)->Unit(benchmark::kMicrosecond);
 
 // The baseline: FCL's octree distance for a sphere (radius 0.3 m) at the same random points.
 void BM_FclOctree_SphereDistance(benchmark::State& state) {
@@ -519,6 +527,7 @@ class RatioReporter : public benchmark::ConsoleReporter {
           "16^3 tiles of 8-byte words / compact field (random)");
     ratio("BM_WideLayout_AlongPath", "BM_DistanceField_AlongPath", "16^3 tiles of 8-byte words / compact field (path)");
     ratio("BM_BandScan_EveryVoxel", "BM_BandScan_Cached", "band scan reading every voxel / with its cache");
+    ratio("BM_FloorSlope", "BM_FloorSlope_Cached", "floor's plane reading every voxel / through the cache");
   }
 
  private:

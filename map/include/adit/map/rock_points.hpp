@@ -127,6 +127,14 @@ class BandCache {
   std::uint64_t generation_ = 0;
   std::vector<Slot> slots_;
   std::vector<std::uint64_t> known_, rock_;  // words_ per slot: one bit per voxel from k0 up
+  // One scan's columns within its radius (offsets in its window), with their tables' one floor
+  // and their nearest point's squared distance: ring_ x ring_ of them at most.
+  struct Candidate {
+    std::int32_t di = 0, dj = 0;
+    std::int8_t uniform = kMixed;
+    double q = 0.0;
+  };
+  std::vector<Candidate> candidates_;
   // floorSlope's sample reaches for the arguments in reach_key_ (half window, slope, step) and
   // reach_n_ x reach_n_ samples; 0: none yet.
   std::vector<double> reach_;
