@@ -2,6 +2,9 @@
 #include "adit/fusion/break_point_refiner.hpp"
 
 #include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <unordered_map>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -143,10 +146,14 @@ class PathModel {
   double segmentCost(const Vec3& a, const Vec3& b, std::size_t seg) const {
     const double len = (b - a).norm();
     if (p_.clearance_weight == 0) return len;
+    const SegmentKey key(a, b, seg);
+    if (const auto it = costs_.find(key); it != costs_.end()) return it->second;
     const int n = samples_[seg];
     double sum = 0;
     for (int k = 0; k < n; ++k) sum += penalty(clearance_(a + (b - a) * ((k + 0.5) / n)));
-    return len + p_.clearance_weight * sum * len / n;
+    const double cost = len + p_.clearance_weight * sum * len / n;
+    remember(costs_, key, cost);
+    return cost;
   }
   double value(const VectorX& z) const { return valueOf(points(z)); }
   double valueOf(const std::vector<Vec3>& pts) const {
@@ -193,14 +200,52 @@ class PathModel {
   bool feasible(const VectorX& z) const {
     if (!z.allFinite() || !withinMoveRadius(z)) return false;
     const std::vector<Vec3> pts = points(z);
-    for (std::size_t i = 0; i + 1 < pts.size(); ++i)
-      if (!segmentClear(clearance_, pts[i], pts[i + 1], p_.sample_step_m, p_.min_clearance_m, nullptr,
-                        p_.clearance_slack_m))
-        return false;
+    for (std::size_t i = 0; i + 1 < pts.size(); ++i) {
+      const SegmentKey key(pts[i], pts[i + 1], i);
+      const auto it = clear_.find(key);
+      const bool clear = it != clear_.end() ? it->second
+                                            : segmentClear(clearance_, pts[i], pts[i + 1], p_.sample_step_m,
+                                                           p_.min_clearance_m, nullptr, p_.clearance_slack_m);
+      if (it == clear_.end()) remember(clear_, key, clear);
+      if (!clear) return false;
+    }
     return true;
   }
 
  private:
+  // The search comes back to the same segments (a vertex it left where it was, the value after
+  // a gradient, a candidate checked and then scored): a third of the objective's segments in a
+  // district campaign. Each segment's cost and clearance, by its two ends' bits, kept for this
+  // refinement (both are functions of the ends alone; at most kMemo of each, then started over).
+  struct SegmentKey {
+    std::uint64_t bits[6];
+    std::size_t seg;
+    SegmentKey(const Vec3& a, const Vec3& b, std::size_t s) : seg(s) {
+      for (int c = 0; c < 3; ++c) {
+        std::memcpy(&bits[c], &a[c], sizeof(double));
+        std::memcpy(&bits[3 + c], &b[c], sizeof(double));
+      }
+    }
+    bool operator==(const SegmentKey& o) const {
+      return seg == o.seg && std::equal(std::begin(bits), std::end(bits), std::begin(o.bits));
+    }
+  };
+  struct SegmentKeyHash {
+    std::size_t operator()(const SegmentKey& k) const {
+      std::uint64_t h = 0x9E3779B97F4A7C15ull ^ k.seg;
+      for (std::uint64_t b : k.bits) h = (h ^ b) * 0x100000001B3ull, h ^= h >> 29;
+      return std::size_t(h);
+    }
+  };
+  static constexpr std::size_t kMemo = 1u << 16;
+  template <class Map, class V>
+  static void remember(Map& m, const SegmentKey& k, V v) {
+    if (m.size() >= kMemo) m.clear();
+    m.emplace(k, v);
+  }
+  mutable std::unordered_map<SegmentKey, double, SegmentKeyHash> costs_;
+  mutable std::unordered_map<SegmentKey, bool, SegmentKeyHash> clear_;
+
   std::vector<Vec3> input_;
   const ClearanceFn& clearance_;
   const BreakPointRefinerParams& p_;
