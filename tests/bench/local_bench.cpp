@@ -4,12 +4,14 @@
 // same run; the ratio baseline / adit is printed at the end. Not run by CTest.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <ctime>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "adit/local/local_planner.hpp"
 #include "adit/local/potential_terms.hpp"
@@ -129,6 +131,50 @@ void BM_LocalStepGround(benchmark::State& state) {
   runSteps(state, Method::kTian2016, ground ? "ground-20" : "fly-20", true, 20, ground);
 }
 BENCHMARK(BM_LocalStepGround)->Arg(0)->Arg(1);
+
+// The ground step's spread (a robot's control period must hold its worst step, not its mean):
+// each step's CPU time over the same walk, as percentiles. The periods that follow the floor down
+// a voxel remake the band's tables and are the slowest.
+void BM_LocalStepGroundLatency(benchmark::State& state) {
+  District& d = district();
+  World w;
+  w.field = &d.field;
+  LocalParams params = LocalParams::preset(Method::kTian2016);
+  params.robot = RobotLimits::trackedRescue();
+  StatusOr<LocalPlanner> p = LocalPlanner::create(params, w);
+  if (!p.ok()) std::abort();
+  const std::vector<map::MovingObstacle> mov = movers(20);
+  const double drop = 1.9 - 0.3;
+  const map::Polyline path{{Vec3(25, 0, 0.575 - drop), Vec3(80, 0, -2.23 - drop)}};
+  std::vector<double> ns;
+  ns.reserve(1u << 20);
+  std::size_t i = 0;
+  for (auto _ : state) {
+    if (i == d.robot_positions.size()) {
+      i = 0;
+      p->reset();
+    }
+    RobotState s;
+    s.position = d.robot_positions[i++] - Vec3(0, 0, drop);
+    s.velocity = Vec3(0.5, 0, -0.025);
+    const double t0 = threadCpuNs();
+    StepCommand c = p->step(s, path, mov.data(), mov.size(), 0.1);
+    if (ns.size() < ns.capacity()) ns.push_back(threadCpuNs() - t0);
+    benchmark::DoNotOptimize(c);
+  }
+  // The first step fills the band's cache (every column's voxels read once): apart.
+  if (!ns.empty()) {
+    state.counters["first_us"] = ns.front() / 1e3;
+    ns.erase(ns.begin());
+  }
+  std::sort(ns.begin(), ns.end());
+  auto at = [&](double q) { return ns.empty() ? 0.0 : ns[std::min(ns.size() - 1, std::size_t(q * double(ns.size())))]; };
+  state.counters["p50_us"] = at(0.5) / 1e3;
+  state.counters["p99_us"] = at(0.99) / 1e3;
+  state.counters["p999_us"] = at(0.999) / 1e3;
+  state.counters["max_us"] = ns.empty() ? 0.0 : ns.back() / 1e3;
+}
+BENCHMARK(BM_LocalStepGroundLatency)->Unit(benchmark::kMicrosecond);
 
 // The models that sum over every rock surface point in range (rockSurfacePoints), 20 obstacles.
 void BM_LocalStepModel(benchmark::State& state) {
