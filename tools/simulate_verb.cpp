@@ -229,7 +229,12 @@ class LiveConsole final : public sim::NavigatedObserver {
     m.min_clearance = std::max(0.0, robot_.ground() ? std::min(band, 3.0) : centre - radius_);
     if (robot_.ground()) {
       m.yaw = state.yaw;
-      if (robot_.footprint.box) m.body = Vec3(robot_.footprint.length_m, robot_.footprint.width_m, robot_.height_m);
+      if (robot_.footprint.box) {
+        m.body = Vec3(robot_.footprint.length_m, robot_.footprint.width_m, robot_.height_m);
+      } else {
+        m.body = Vec3(2.0 * robot_.footprint.radius_m, 2.0 * robot_.footprint.radius_m, robot_.height_m);
+        m.body_shape = "cylinder";
+      }
     }
     m.speed = state.velocity.norm();
     if (speed_ > 0.0) m.period = period_ / speed_;  // mission time paced to the wall clock

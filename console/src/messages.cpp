@@ -35,6 +35,7 @@ std::string toJson(const Telemetry& m) {
   if (m.period) j["period"] = *m.period;
   if (m.yaw) j["yaw"] = *m.yaw;
   if (m.body) j["body"] = point(*m.body);
+  if (m.body_shape) j["body_shape"] = *m.body_shape;
   return j.dump();
 }
 

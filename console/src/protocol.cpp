@@ -154,6 +154,15 @@ StatusOr<Telemetry> readTelemetry(const Json& j, double t) {
   if (m.body && !((m.body->array() > 0.0).all() && (m.body->array() <= 2.0 * kMaxRobotRadius).all()))
     return refuse("field 'body' must be [length, width, height], each in (0, " + std::to_string(int(2.0 * kMaxRobotRadius)) +
                   "] m");
+  if (auto shape = j.find("body_shape"); shape != j.end() && !shape->is_null()) {
+    std::string s;
+    ADIT_RETURN_IF_ERROR(wordOf(*shape, "body_shape", &s));
+    if (!oneOf(s, {"box", "cylinder"})) return refuse("field 'body_shape' must be 'box' or 'cylinder'");
+    if (!m.body) return refuse("field 'body_shape' needs a 'body'");
+    if (s == "cylinder" && m.body->x() != m.body->y())
+      return refuse("field 'body' of a cylinder must be [diameter, diameter, height]");
+    m.body_shape = s;
+  }
   return m;
 }
 

@@ -163,14 +163,18 @@
     // A ground robot that reports its body (telemetry 'body', 'yaw') is drawn as that box.
     const box = new THREE.Mesh(new THREE.BoxBufferGeometry(1, 1, 1), material);
     box.visible = false;
+    // A round one (telemetry 'body_shape': 'cylinder') as its cylinder, stood on its end.
+    const cylinder = new THREE.Mesh(new THREE.CylinderBufferGeometry(0.5, 0.5, 1, 24), material);
+    cylinder.rotation.set(Math.PI / 2, 0, 0);
+    cylinder.visible = false;
     const trail = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: colour }));
     const plan = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineDashedMaterial({ color: 0xffd866, dashSize: 1, gapSize: 0.6 }));
     const subgoal = new THREE.Mesh(new THREE.OctahedronBufferGeometry(0.5), new THREE.MeshBasicMaterial({ color: 0xffd866 }));
     const rock = new THREE.Points(new THREE.BufferGeometry(), new THREE.PointsMaterial({ color: 0xff7043, size: 0.25 }));
     const tracks = new THREE.Group();
     subgoal.visible = false;
-    for (const o of [marker, box, trail, plan, subgoal, rock, tracks]) three.scene.add(o);
-    r.view = { marker, box, trail, plan, subgoal, rock, tracks, breakLabels: [], name: addLabel(r.id, 'robot', [0, 0, 0]) };
+    for (const o of [marker, box, cylinder, trail, plan, subgoal, rock, tracks]) three.scene.add(o);
+    r.view = { marker, box, cylinder, trail, plan, subgoal, rock, tracks, breakLabels: [], name: addLabel(r.id, 'robot', [0, 0, 0]) };
     return r.view;
   }
 
@@ -338,14 +342,22 @@
     v.marker.position.set(t.pose[0], t.pose[1], t.pose[2]);
     v.marker.scale.setScalar(markerScale(r, v.marker.position));
     const body = Array.isArray(t.body) && t.body.length === 3 ? t.body : null;
+    const round = !!body && t.body_shape === 'cylinder';
     v.marker.visible = !body;
-    v.box.visible = !!body;
+    v.box.visible = !!body && !round;
+    v.cylinder.visible = round;
     if (body) {
       // Its own size when close; grown like the sphere when far, so that it stays in sight.
       const grow = Math.max(1, markerScale(r, v.marker.position) / Math.max(0.5 * Math.hypot(body[0], body[1]), 1e-3));
-      v.box.position.copy(v.marker.position);
-      v.box.scale.set(body[0] * grow, body[1] * grow, body[2] * grow);
-      v.box.rotation.set(0, 0, typeof t.yaw === 'number' ? t.yaw : 0);
+      if (round) {
+        // The cylinder's axis is its local y, stood up along z: [diameter, height, diameter].
+        v.cylinder.position.copy(v.marker.position);
+        v.cylinder.scale.set(body[0] * grow, body[2] * grow, body[1] * grow);
+      } else {
+        v.box.position.copy(v.marker.position);
+        v.box.scale.set(body[0] * grow, body[1] * grow, body[2] * grow);
+        v.box.rotation.set(0, 0, typeof t.yaw === 'number' ? t.yaw : 0);
+      }
     }
     v.name.position.set(t.pose[0], t.pose[1], t.pose[2] + r.radius + 0.5);
     const trail = state.replay && state.replay.robot === r.id ? state.replay.trail : r.trail;
@@ -472,7 +484,8 @@
       if (shownLayer('tracks')) for (const tr of r.tracks) dot(g, topPixel(tr.position), Math.max(3, (tr.radius || 1) * s));
       if (t) {
         g.fillStyle = r.colour;
-        if (Array.isArray(t.body) && t.body.length === 3) boxTop(g, topPixel(t.pose), t.body, t.yaw || 0, s);
+        if (Array.isArray(t.body) && t.body.length === 3)
+          (t.body_shape === 'cylinder' ? roundTop : boxTop)(g, topPixel(t.pose), t.body, t.yaw || 0, s);
         else dot(g, topPixel(t.pose), Math.max(4, r.radius * s));
         if (r.estop) {  // an e-stopped robot is ringed in red in every view
           g.strokeStyle = '#ff1744';
@@ -653,6 +666,17 @@
     g.strokeStyle = '#101010';
     g.lineWidth = 1.5;
     g.beginPath(); g.moveTo(0, 0); g.lineTo(l / 2, 0); g.stroke();
+    g.restore();
+  }
+
+  // A round ground robot seen from above: its disc, never smaller than a dot, and its front.
+  function roundTop(g, p, body, yaw, s) {
+    const rad = Math.max(4, 0.5 * body[0] * s);
+    dot(g, p, rad);
+    g.save();
+    g.strokeStyle = '#101010';
+    g.lineWidth = 1.5;
+    g.beginPath(); g.moveTo(p[0], p[1]); g.lineTo(p[0] + rad * Math.cos(yaw), p[1] - rad * Math.sin(yaw)); g.stroke();
     g.restore();
   }
 

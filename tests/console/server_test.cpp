@@ -1188,6 +1188,25 @@ TEST(Messages, EachTypeReadsBackAsWrittenWithTheParserBothEndsUse) {
   EXPECT_EQ(refusal("body", protocol::Json::array({1.0, 0.7, 25.0})),
             "field 'body' must be [length, width, height], each in (0, 20] m");
   EXPECT_NE(refusal("body", protocol::Json::array({1.0, 0.7})).find("body"), std::string::npos);
+  // A round ground robot: a cylinder, [diameter, diameter, height].
+  Telemetry round = ground;
+  round.body = map::Vec3(0.6, 0.6, 0.5);
+  round.body_shape = "cylinder";
+  roundTrip(round);
+  EXPECT_EQ(refusal("body_shape", "sphere"), "field 'body_shape' must be 'box' or 'cylinder'");
+  EXPECT_EQ(refusal("body_shape", 3), "field 'body_shape' must be a string");
+  EXPECT_EQ(refusal("body_shape", "box"), "accepted");
+  {
+    protocol::Json j = protocol::Json::parse(toJson(round));
+    j["body"] = protocol::Json::array({0.6, 0.4, 0.5});
+    StatusOr<protocol::Body> back = protocol::parseBody(j);
+    ASSERT_FALSE(back.ok());
+    EXPECT_EQ(back.status().message(), "field 'body' of a cylinder must be [diameter, diameter, height]");
+    j.erase("body");
+    back = protocol::parseBody(j);
+    ASSERT_FALSE(back.ok());
+    EXPECT_EQ(back.status().message(), "field 'body_shape' needs a 'body'");
+  }
   EXPECT_EQ(refusal("yaw", 1e6), "field 'yaw' must be within 100 rad of 0");
   EXPECT_EQ(refusal("yaw", "north"), "field 'yaw' must be a number");
   EXPECT_EQ(refusal("yaw", nullptr), "accepted");

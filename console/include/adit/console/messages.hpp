@@ -46,6 +46,9 @@ struct Telemetry {
   /// A ground robot's body as a box: length along the heading, width, height [m], the pose its
   /// centre; none: the viewer draws the sphere of the hello's radius.
   std::optional<map::Vec3> body;
+  /// The body's shape: "box" (none says the same) or "cylinder", a round robot, whose body is
+  /// then [diameter, diameter, height]. Only with `body`.
+  std::optional<std::string> body_shape;
 };
 
 /// The expected path, on every (re)plan.
