@@ -2,12 +2,12 @@
 #include "adit/fusion/break_point_refiner.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <unordered_map>
-#include <cmath>
 #include <limits>
 #include <sstream>
+#include <unordered_map>
 
 namespace adit::fusion {
 
