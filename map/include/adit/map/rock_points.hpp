@@ -88,10 +88,12 @@ struct BandScan {
 /// Each column also keeps its answers for the scan's few search tops (the highest rock at or
 /// below each), made once while the robot's floor stays on one voxel level, so that a search is a
 /// table read; and the floors those answers can give. When every floor the window can give is
-/// within a step of a column's own, its step and slope tests cannot fail and are not made.
+/// within a step of a column's own, its step and slope tests cannot fail and are not made; a
+/// column that is one such floor at every top, near the robot's own floor and out of the body's
+/// reach is never in the way and is passed by unmeasured (most of a roadway's columns).
 /// Allocated once by reserve(); scans do not allocate, and one that does not fit reads the field
-/// voxel by voxel (the same result: the tests hold the two equal on rugged terrain and pillar
-/// fields).
+/// voxel by voxel (the same result: the tests hold the two equal on rugged terrain, pillar fields,
+/// the district's roadways and the smallest kerb and ramp that fail).
 class BandCache {
  public:
   /// Sizes the cache for scans of up to `radius` on a field of `resolution`, for a robot of
