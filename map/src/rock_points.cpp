@@ -2,6 +2,7 @@
 #include "adit/map/rock_points.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -132,6 +133,9 @@ inline std::int64_t floorKey(double v) {
   return t - std::int64_t(double(t) > v);
 }
 
+// floorSlope's sample a of n along one side of its square of half-side `half_window`.
+inline double sampleOffset(double half_window, int a, int n) { return half_window * (2.0 * a / (n - 1) - 1.0); }
+
 // The band's bin of the direction (x, y): bin b covers azimuths from -pi + b 15 deg, as
 // floor((atan2(y, x) + pi) / 15 deg), found by comparing with the bins' edges instead of an
 // atan2 per column (this runs for every column of every scan).
@@ -247,7 +251,6 @@ struct BandColumns {
       sl.j = cj;
       sl.k0 = k_bottom - (cap - (k_top - k_bottom + 1)) / 2;  // room for the floor to drift either way
       sl.tops = 0;
-      sl.uniform = BandCache::kMixed;
       std::fill_n(bc->known_.data() + std::size_t(index * bc->words_), bc->words_, std::uint64_t(0));
       std::fill_n(bc->rock_.data() + std::size_t(index * bc->words_), bc->words_, std::uint64_t(0));
     }
@@ -300,7 +303,7 @@ struct BandColumns {
     if (k.reach_n_ != n || k.reach_key_[0] != half_window || k.reach_key_[1] != slope_tan || k.reach_key_[2] != step) {
       for (int a = 0; a < n; ++a)
         for (int b = 0; b < n; ++b) {
-          const double u = half_window * (2.0 * a / (n - 1) - 1.0), v = half_window * (2.0 * b / (n - 1) - 1.0);
+          const double u = sampleOffset(half_window, a, n), v = sampleOffset(half_window, b, n);
           k.reach_[std::size_t(a * n + b)] = std::hypot(u, v) * slope_tan + step + res;
         }
       k.reach_n_ = n;
@@ -328,11 +331,18 @@ struct BandColumns {
   const BandCache::Slot& table(std::int64_t ci, std::int64_t cj, std::int64_t t_lo, std::int64_t t_hi, std::int64_t b_lo) {
     const std::int64_t index = slotOf(ci, cj);
     const BandCache::Slot& sl = bc->slots_[std::size_t(index)];
-    // (A table made for these keys was made with its bits holding b_lo..t_hi.)
-    if (sl.valid && sl.i == ci && sl.j == cj && sl.tops == std::int8_t(t_hi - t_lo + 1) && sl.t_lo == t_lo &&
-        sl.b_lo == b_lo)
-      return sl;
-    return makeTable(index, ci, cj, t_lo, t_hi, b_lo);
+    return holdsTable(sl, ci, cj, t_lo, t_hi, b_lo) ? sl : makeTable(index, ci, cj, t_lo, t_hi, b_lo);
+  }
+  // The slot holds column (ci, cj)'s table for these keys (made with its bits holding b_lo..t_hi).
+  static bool holdsTable(const BandCache::Slot& sl, std::int64_t ci, std::int64_t cj, std::int64_t t_lo,
+                         std::int64_t t_hi, std::int64_t b_lo) {
+    return sl.valid && sl.i == ci && sl.j == cj && sl.tops == t_hi - t_lo + 1 && sl.t_lo == t_lo && sl.b_lo == b_lo;
+  }
+  // The answer of every top when all are one floor (relative to b_lo: the highest rock at or
+  // below the top top is below the lowest top); kMixed otherwise.
+  static std::int8_t oneFloor(const BandCache::Slot& sl) {
+    const std::int8_t h = sl.highest[sl.tops - 1];
+    return h >= 0 && sl.b_lo + h < sl.t_lo ? h : BandCache::kMixed;
   }
   __attribute__((noinline)) const BandCache::Slot& makeTable(std::int64_t index, std::int64_t ci, std::int64_t cj,
                                                              std::int64_t t_lo, std::int64_t t_hi, std::int64_t b_lo) {
@@ -344,7 +354,6 @@ struct BandColumns {
     sl.fmin = 1;
     sl.fmax = 0;
     std::int64_t h = bits(index, sl, t_hi, b_lo);
-    sl.uniform = h >= b_lo && h < t_lo ? std::int8_t(h - b_lo) : BandCache::kMixed;
     for (std::int64_t t = t_hi; t >= t_lo; --t) {
       if (h > t) h = bits(index, sl, t, b_lo);  // the rock found was this top's upper neighbour
       sl.highest[t - t_lo] = std::int8_t(h - b_lo);
@@ -404,10 +413,15 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
   // the rounding of the square root the scan compares: a superset of those the scan takes, and
   // of those their step and slope tests look back at (on the line to the centre, nearer).
   const double radius2 = radius * radius * (1.0 + 1e-9) + 1e-12;
-  auto squaredDistance = [&](std::int64_t i, std::int64_t j) __attribute__((always_inline)) {
+  // The point of column (i, j)'s square nearest the centre.
+  auto nearestPoint = [&](std::int64_t i, std::int64_t j) __attribute__((always_inline)) {
     const double cx = (double(i) + 0.5) * res, cy = (double(j) + 0.5) * res;
-    const double ex = std::clamp(centre.x(), cx - half, cx + half) - centre.x();
-    const double ey = std::clamp(centre.y(), cy - half, cy + half) - centre.y();
+    return std::array<double, 2>{std::clamp(centre.x(), cx - half, cx + half),
+                                 std::clamp(centre.y(), cy - half, cy + half)};
+  };
+  auto squaredDistance = [&](std::int64_t i, std::int64_t j) __attribute__((always_inline)) {
+    const std::array<double, 2> p = nearestPoint(i, j);
+    const double ex = p[0] - centre.x(), ey = p[1] - centre.y();
     return ex * ex + ey * ey;
   };
   // Those columns, in the scan's order, for the pass below.
@@ -419,7 +433,7 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
         const double q = squaredDistance(i, j);
         if (!(q <= radius2)) continue;
         const BandCache::Slot& sl = cols.table(i, j, t_lo, t_hi, b_lo);
-        bc->candidates_[candidates++] = {std::int32_t(i - i_lo), std::int32_t(j - j_lo), sl.uniform, q};
+        bc->candidates_[candidates++] = {std::int32_t(i - i_lo), std::int32_t(j - j_lo), BandColumns::oneFloor(sl), q};
         if (sl.fmin > sl.fmax) continue;
         fmin = std::min(fmin, b_lo + sl.fmin);
         fmax = std::max(fmax, b_lo + sl.fmax);
@@ -453,6 +467,10 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
   // Within the body's reach, by the nearest point's squared distance (a margin over the rounding of
   // the square root the scan compares).
   const double reach2 = body ? body->reach * body->reach * (1.0 + 1e-9) + 1e-12 : -1.0;
+  // A floor at height z, (dx, dy) from the centre, rises above the body's underside.
+  auto aboveUnderside = [&](double z, double dx, double dy) __attribute__((always_inline)) {
+    return z - (z_floor + body->grad_x * dx + body->grad_y * dy) > body->clearance + 1e-9;
+  };
 
   // The highest rock of column (ci, cj) from key k_top down to k_bottom; k_bottom - 1 when there
   // is none.
@@ -464,8 +482,7 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
       const std::int64_t slot = cols.slotOf(ci, cj);
       if (slot < 0 || k_top < t_lo || k_top > t_hi || k_bottom < b_lo) return cols.direct(ci, cj, k_top, k_bottom);
       const BandCache::Slot& sl = bc->slots_[std::size_t(slot)];
-      if (!sl.valid || sl.i != ci || sl.j != cj || sl.t_lo != t_lo || sl.b_lo != b_lo || sl.tops != t_hi - t_lo + 1)
-        return cols.direct(ci, cj, k_top, k_bottom);
+      if (!BandColumns::holdsTable(sl, ci, cj, t_lo, t_hi, b_lo)) return cols.direct(ci, cj, k_top, k_bottom);
       const std::int64_t h = b_lo + sl.highest[k_top - t_lo];
       return h >= k_bottom ? h : k_bottom - 1;
     }
@@ -505,8 +522,9 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
   auto nearOf = [&](std::int64_t i, std::int64_t j) __attribute__((always_inline)) {
     const double cx = (double(i) + 0.5) * res, cy = (double(j) + 0.5) * res;
     Near n;
-    n.nx = std::clamp(centre.x(), cx - half, cx + half);
-    n.ny = std::clamp(centre.y(), cy - half, cy + half);
+    const std::array<double, 2> p = nearestPoint(i, j);
+    n.nx = p[0];
+    n.ny = p[1];
     const double ex = n.nx - centre.x(), ey = n.ny - centre.y();
     n.s = std::sqrt(ex * ex + ey * ey);
     n.bin = n.s > 1e-9 ? azimuthBin(ex, ey) : azimuthBin(cx - centre.x(), cy - centre.y());
@@ -523,9 +541,7 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
     const Column c = columnAt(i, j, s);
     bool way = c.blocked || !c.floor;
     const double dx = cx - centre.x(), dy = cy - centre.y();
-    if (!way && body && s <= body->reach &&
-        c.z - (z_floor + body->grad_x * dx + body->grad_y * dy) > body->clearance + 1e-9)
-      way = true;
+    if (!way && body && s <= body->reach && aboveUnderside(c.z, dx, dy)) way = true;
     // No floor in the window further from this one than these voxels: its tests pass.
     const std::int64_t apart =
         tables && !way && fmin <= c.k && c.k <= fmax ? std::max(c.k - fmin, fmax - c.k) : std::int64_t(-1);
@@ -567,8 +583,7 @@ void rockInBand(const DistanceField& field, const Vec3& centre, double radius, d
       if (!(cd.q <= reach2)) continue;  // never in the way
       // Within reach: in the way only if it rises above the underside (the test in visit()).
       const double z = (double(b_lo + cd.uniform) + 0.5) * res + half;
-      const double dx = (double(i) + 0.5) * res - centre.x(), dy = (double(j) + 0.5) * res - centre.y();
-      if (!(z - (z_floor + body->grad_x * dx + body->grad_y * dy) > body->clearance + 1e-9)) continue;
+      if (!aboveUnderside(z, (double(i) + 0.5) * res - centre.x(), (double(j) + 0.5) * res - centre.y())) continue;
     }
     visit(i, j);
   }
@@ -611,7 +626,7 @@ FloorSlope floorSlope(const DistanceField& field, const Vec3& at, double yaw, do
   double suu = 0, svv = 0, suv = 0, su = 0, sv = 0, sz = 0, suz = 0, svz = 0;
   for (int a = 0; a < n; ++a)
     for (int b = 0; b < n; ++b) {
-      const double u = half_window * (2.0 * a / (n - 1) - 1.0), v = half_window * (2.0 * b / (n - 1) - 1.0);
+      const double u = sampleOffset(half_window, a, n), v = sampleOffset(half_window, b, n);
       const double reach = reach_of ? reach_of[a * n + b] : std::hypot(u, v) * slope_tan + step + res;
       const Vec3 top(at.x() + u * c - v * s, at.y() + u * s + v * c, at.z() + reach);
       const std::optional<double> f = cols.bc ? cols.floorBelow(top, 2.0 * reach) : floorBelow(field, top, 2.0 * reach);

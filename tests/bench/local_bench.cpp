@@ -72,8 +72,10 @@ void recordNs(benchmark::State& state, const std::string& name, double total_ns)
   g_ns_per_step[name] = total_ns / double(state.iterations());
 }
 
+// `step_ns`, when given, receives each step's CPU time (up to its capacity; timing every step costs
+// two clock reads, so only the spread benchmark asks).
 void runSteps(benchmark::State& state, Method method, const std::string& record_as, bool envelope = true,
-              int n_movers = -1, bool ground = false) {
+              int n_movers = -1, bool ground = false, std::vector<double>* step_ns = nullptr) {
   District& d = district();
   World w;
   w.field = &d.field;
@@ -102,7 +104,9 @@ void runSteps(benchmark::State& state, Method method, const std::string& record_
     RobotState s;
     s.position = d.robot_positions[i++] - Vec3(0, 0, drop);
     s.velocity = Vec3(0.5, 0, -0.025);
+    const double t_step = step_ns ? threadCpuNs() : 0.0;
     StepCommand c = p->step(s, path, mov.data(), mov.size(), 0.1);
+    if (step_ns && step_ns->size() < step_ns->capacity()) step_ns->push_back(threadCpuNs() - t_step);
     stuck_or_arrived += c.status == StepStatus::kStuck || c.status == StepStatus::kArrived;
     benchmark::DoNotOptimize(c);
   }
@@ -136,32 +140,9 @@ BENCHMARK(BM_LocalStepGround)->Arg(0)->Arg(1);
 // each step's CPU time over the same walk, as percentiles. The periods that follow the floor down
 // a voxel remake the band's tables and are the slowest.
 void BM_LocalStepGroundLatency(benchmark::State& state) {
-  District& d = district();
-  World w;
-  w.field = &d.field;
-  LocalParams params = LocalParams::preset(Method::kTian2016);
-  params.robot = RobotLimits::trackedRescue();
-  StatusOr<LocalPlanner> p = LocalPlanner::create(params, w);
-  if (!p.ok()) std::abort();
-  const std::vector<map::MovingObstacle> mov = movers(20);
-  const double drop = 1.9 - 0.3;
-  const map::Polyline path{{Vec3(25, 0, 0.575 - drop), Vec3(80, 0, -2.23 - drop)}};
   std::vector<double> ns;
   ns.reserve(1u << 20);
-  std::size_t i = 0;
-  for (auto _ : state) {
-    if (i == d.robot_positions.size()) {
-      i = 0;
-      p->reset();
-    }
-    RobotState s;
-    s.position = d.robot_positions[i++] - Vec3(0, 0, drop);
-    s.velocity = Vec3(0.5, 0, -0.025);
-    const double t0 = threadCpuNs();
-    StepCommand c = p->step(s, path, mov.data(), mov.size(), 0.1);
-    if (ns.size() < ns.capacity()) ns.push_back(threadCpuNs() - t0);
-    benchmark::DoNotOptimize(c);
-  }
+  runSteps(state, Method::kTian2016, "", true, 20, true, &ns);
   // The first step fills the band's cache (every column's voxels read once): apart.
   if (!ns.empty()) {
     state.counters["first_us"] = ns.front() / 1e3;

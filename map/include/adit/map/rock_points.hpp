@@ -118,8 +118,6 @@ class BandCache {
     // The floors its answers can give (relative to b_lo; none when fmin > fmax): an answer below
     // its top (rock at the top of a search is the body's band, never a floor).
     std::int8_t fmin = 1, fmax = 0;
-    // The answer of every top when they are all one floor (relative to b_lo); kMixed otherwise.
-    std::int8_t uniform = kMixed;
     bool valid = false;
     std::int8_t highest[kMaxTops];  // highest rock key at or below t_lo + n, down to b_lo, minus b_lo; -1: none
   };
@@ -130,7 +128,8 @@ class BandCache {
   std::vector<Slot> slots_;
   std::vector<std::uint64_t> known_, rock_;  // words_ per slot: one bit per voxel from k0 up
   // One scan's columns within its radius (offsets in its window), with their tables' one floor
-  // and their nearest point's squared distance: ring_ x ring_ of them at most.
+  // (the answer of every top when all are one floor, relative to b_lo; kMixed otherwise) and their
+  // nearest point's squared distance: ring_ x ring_ of them at most.
   struct Candidate {
     std::int32_t di = 0, dj = 0;
     std::int8_t uniform = kMixed;
