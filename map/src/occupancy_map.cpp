@@ -3,9 +3,11 @@
 
 #include <octomap/OcTree.h>
 
+#include <atomic>
 #include <cmath>
 #include <mutex>
 #include <sstream>
+#include <unordered_map>
 
 namespace adit::map {
 
@@ -88,6 +90,32 @@ struct OccupancyMap::LazyTree {
   }
 };
 
+// A deepCopy()'s changed voxels, each with its state now (kUnknown: deleted); a voxel written
+// back to the shared tree's state leaves it. `own`, once made, is the shared tree cloned with
+// the changes applied: from then on it is the copy's tree and the changes are not read.
+struct OccupancyMap::Overlay {
+  std::unordered_map<octomap::OcTreeKey, VoxelState, octomap::OcTreeKey::KeyHash> changes;
+  std::atomic<octomap::OcTree*> own{nullptr};
+  std::shared_ptr<octomap::OcTree> own_holder;
+  std::mutex mutex;  // readers may ask for the whole tree from several threads
+};
+
+namespace {
+VoxelState nodeState(const octomap::OcTree& tree, const octomap::OcTreeKey& key) {
+  const octomap::OcTreeNode* node = tree.search(key);
+  if (!node) return VoxelState::kUnknown;
+  return tree.isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree;
+}
+// The octree's part of a voxel write: what applyKey() and an overlay's clone both do.
+void writeNode(octomap::OcTree& tree, const octomap::OcTreeKey& key, VoxelState state) {
+  if (state == VoxelState::kUnknown) {
+    if (tree.search(key)) tree.deleteNode(key);
+    return;
+  }
+  tree.setNodeValue(key, state == VoxelState::kOccupied ? tree.getClampingThresMaxLog() : tree.getClampingThresMinLog());
+}
+}  // namespace
+
 OccupancyMap::OccupancyMap(std::shared_ptr<octomap::OcTree> tree, UnknownPolicy policy)
     : tree_(std::move(tree)), policy_(policy) {}
 
@@ -131,21 +159,34 @@ OccupancyMap OccupancyMap::withUnknownPolicy(UnknownPolicy policy) const {
 }
 
 OccupancyMap OccupancyMap::deepCopy() const {
+  // A copy of a copy shares the same original tree: the overlay it starts from is this one's
+  // changes (or, once cloned, this one's clone is its original).
   OccupancyMap copy(tree_, policy_);
   copy.lazy_ = lazy_;
   copy.stats_ = stats_;
-  copy.clone_on_write_ = true;
+  copy.overlay_ = std::make_shared<Overlay>();
+  if (overlay_) {
+    if (overlay_->own.load(std::memory_order_acquire)) {
+      copy.tree_ = overlay_->own_holder;
+      copy.lazy_.reset();
+    } else {
+      copy.overlay_->changes = overlay_->changes;
+    }
+  }
   return copy;
 }
 
-void OccupancyMap::cloneIfShared() {
-  if (!tree_) {
-    tree_ = lazy_->shared();
-    lazy_.reset();
+// Writes to a map that is no copy go to its (possibly still lazy) tree; a copy's overlay that
+// has outgrown its bound becomes the clone.
+void OccupancyMap::prepareWrite() {
+  if (!overlay_) {
+    if (!tree_) {
+      tree_ = lazy_->shared();
+      lazy_.reset();
+    }
+    return;
   }
-  if (!clone_on_write_) return;
-  tree_ = std::make_shared<octomap::OcTree>(*tree_);
-  clone_on_write_ = false;
+  if (!overlay_->own.load(std::memory_order_acquire) && overlay_->changes.size() >= kMaxOverlayVoxels) (void)tree();
 }
 
 double OccupancyMap::resolution() const { return tree_ ? tree_->getResolution() : stats_.resolution_m; }
@@ -157,8 +198,40 @@ OccupancyMap OccupancyMap::fromOctreeData(std::string data, UnknownPolicy policy
   return map;
 }
 
-octomap::OcTree& OccupancyMap::tree() const { return tree_ ? *tree_ : *lazy_->shared(); }
-std::shared_ptr<const octomap::OcTree> OccupancyMap::sharedOctree() const { return tree_ ? tree_ : lazy_->shared(); }
+octomap::OcTree& OccupancyMap::lazyTree() const { return *lazy_->shared(); }
+
+octomap::OcTree& OccupancyMap::tree() const {
+  if (!overlay_) return base();
+  Overlay& o = *overlay_;
+  if (octomap::OcTree* own = o.own.load(std::memory_order_acquire)) return *own;
+  if (o.changes.empty()) return base();  // nothing written yet: the shared tree is this map
+  std::lock_guard<std::mutex> lock(o.mutex);
+  if (octomap::OcTree* own = o.own.load(std::memory_order_relaxed)) return *own;
+  auto clone = std::make_shared<octomap::OcTree>(base());
+  for (const auto& [key, state] : o.changes) writeNode(*clone, key, state);
+  o.own_holder = clone;
+  o.own.store(clone.get(), std::memory_order_release);
+  return *clone;
+}
+
+std::shared_ptr<const octomap::OcTree> OccupancyMap::sharedOctree() const {
+  if (overlay_ && (overlay_->own.load(std::memory_order_acquire) || !overlay_->changes.empty())) {
+    (void)tree();
+    return overlay_->own_holder;
+  }
+  return tree_ ? tree_ : lazy_->shared();
+}
+
+VoxelState OccupancyMap::keyState(const octomap::OcTreeKey& key) const {
+  if (overlay_) {
+    if (const octomap::OcTree* own = overlay_->own.load(std::memory_order_acquire)) return nodeState(*own, key);
+    if (!overlay_->changes.empty()) {
+      auto it = overlay_->changes.find(key);
+      if (it != overlay_->changes.end()) return it->second;
+    }
+  }
+  return nodeState(base(), key);
+}
 
 namespace {
 // Unknown = voxels of the bounding box that are neither free nor occupied.
@@ -187,20 +260,18 @@ void OccupancyMap::recomputeStats() {
 
 VoxelState OccupancyMap::state(const Vec3& p) const {
   octomap::OcTreeKey key;
-  if (!allFinite(p) || !tree().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return VoxelState::kUnknown;
-  const octomap::OcTreeNode* node = tree().search(key);
-  if (!node) return VoxelState::kUnknown;
-  return tree().isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree;
+  if (!allFinite(p) || !base().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return VoxelState::kUnknown;
+  return keyState(key);
 }
 
 bool OccupancyMap::isFree(const Vec3& p) const {
   // The outermost layer of the key range is rock whatever the tree says, so that every free voxel
   // has representable rock around it (the distance field relies on it).
   octomap::OcTreeKey key;
-  if (!allFinite(p) || !tree().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return false;
+  if (!allFinite(p) || !base().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return false;
   for (int a = 0; a < 3; ++a)
     if (key[a] == 0 || key[a] == 65535) return false;
-  switch (state(p)) {
+  switch (keyState(key)) {
     case VoxelState::kFree: return true;
     case VoxelState::kOccupied: return false;
     case VoxelState::kUnknown: return policy_ == UnknownPolicy::kFree && stats_.bounds.contains(p);
@@ -226,13 +297,13 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
   std::vector<octomap::OcTreeKey> keys(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Vec3& p = points[i];
-    if (!allFinite(p) || !tree().coordToKeyChecked(p.x(), p.y(), p.z(), keys[i])) {
+    if (!allFinite(p) || !base().coordToKeyChecked(p.x(), p.y(), p.z(), keys[i])) {
       std::ostringstream os;
       os << "point " << i << " (" << p.transpose() << ") is outside the map's key range";
       return outOfRange(os.str());
     }
   }
-  cloneIfShared();
+  prepareWrite();
   MapChange local;
   for (const octomap::OcTreeKey& key : keys) applyKey(key, state, local);
   finishUpdate();
@@ -243,31 +314,33 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
 // One voxel to `state`. Counts are kept incrementally: a whole-tree pass per sensed batch would
 // dominate the update. Bounds only grow (a voxel set to unknown leaves them as they were).
 void OccupancyMap::applyKey(const octomap::OcTreeKey& key, VoxelState state, MapChange& change) {
-  const octomap::OcTreeNode* node = tree().search(key);
-  const VoxelState before =
-      node ? (tree().isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree) : VoxelState::kUnknown;
-  if (node) (before == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) -= 1;
-  const double res = tree().getResolution();
-  const octomap::point3d c = tree().keyToCoord(key);
+  const bool in_overlay = overlay_ && !overlay_->own.load(std::memory_order_acquire);
+  const VoxelState before = keyState(key);
+  if (before != VoxelState::kUnknown) (before == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) -= 1;
+  const double res = base().getResolution();
+  const octomap::point3d c = base().keyToCoord(key);
   const Vec3 centre(c.x(), c.y(), c.z());
   if (before != state) {
     (state == VoxelState::kOccupied ? change.to_occupied : state == VoxelState::kFree ? change.to_free : change.to_unknown) += 1;
     change.box.extend(centre - Vec3::Constant(0.5 * res));
     change.box.extend(centre + Vec3::Constant(0.5 * res));
   }
-  if (state == VoxelState::kUnknown) {
-    if (node) tree().deleteNode(key);
-    return;
+  if (in_overlay) {
+    if (state == nodeState(base(), key)) overlay_->changes.erase(key);
+    else overlay_->changes[key] = state;
+  } else {
+    writeNode(tree(), key, state);
   }
-  const float value = state == VoxelState::kOccupied ? tree().getClampingThresMaxLog() : tree().getClampingThresMinLog();
-  tree().setNodeValue(key, value);
+  if (state == VoxelState::kUnknown) return;
   (state == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) += 1;
   stats_.bounds.extend(centre - Vec3::Constant(0.5 * res));
   stats_.bounds.extend(centre + Vec3::Constant(0.5 * res));
 }
 
 void OccupancyMap::finishUpdate() {
-  stats_.octree_nodes = tree().size();
+  stats_.octree_nodes = overlay_ && !overlay_->own.load(std::memory_order_acquire)
+                            ? base().size() + overlay_->changes.size()
+                            : tree().size();
   setUnknownFromBounds(stats_);
 }
 
@@ -278,7 +351,7 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
     return invalidArgument(os.str());
   }
   octomap::OcTreeKey origin_key;
-  if (!allFinite(origin) || !tree().coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) {
+  if (!allFinite(origin) || !base().coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) {
     std::ostringstream os;
     os << "insertRays: the origin (" << origin.transpose() << ") is outside the map's key range";
     return outOfRange(os.str());
@@ -296,8 +369,8 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
     const bool hit = d <= max_range_m;
     const Vec3 end = hit ? p : Vec3(origin + (p - origin) * (max_range_m / d));
     octomap::OcTreeKey end_key;
-    if (!allFinite(p) || !tree().coordToKeyChecked(end.x(), end.y(), end.z(), end_key) ||
-        !tree().computeRayKeys(o, octomap::point3d(float(end.x()), float(end.y()), float(end.z())), ray)) {
+    if (!allFinite(p) || !base().coordToKeyChecked(end.x(), end.y(), end.z(), end_key) ||
+        !base().computeRayKeys(o, octomap::point3d(float(end.x()), float(end.y()), float(end.z())), ray)) {
       std::ostringstream os;
       os << "insertRays: return " << i << " (" << p.transpose() << ") is not finite or its ray leaves the map's key range";
       return outOfRange(os.str());
@@ -306,7 +379,7 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
     if (hit) hit_keys.insert(end_key);
     else free_keys.insert(end_key);
   }
-  cloneIfShared();
+  prepareWrite();
   MapChange change;
   for (const octomap::OcTreeKey& k : free_keys)
     if (!hit_keys.count(k)) applyKey(k, VoxelState::kFree, change);
@@ -323,11 +396,11 @@ void OccupancyMap::lineOfSight(const Vec3& origin, const std::vector<Vec3>& targ
   const octomap::point3d o(float(origin.x()), float(origin.y()), float(origin.z()));
   for (std::size_t i = 0; i < targets.size(); ++i) {
     const Vec3& p = targets[i];
-    if (!allFinite(p) || !tree().computeRayKeys(o, octomap::point3d(float(p.x()), float(p.y()), float(p.z())), ray))
+    if (!allFinite(p) || !base().computeRayKeys(o, octomap::point3d(float(p.x()), float(p.y()), float(p.z())), ray))
       continue;
     bool clear = true;
     for (const octomap::OcTreeKey& k : ray) {
-      const octomap::point3d c = tree().keyToCoord(k);
+      const octomap::point3d c = base().keyToCoord(k);
       const Vec3 centre(c.x(), c.y(), c.z());
       if (!isFree(centre) || (opaque && opaque(centre))) {
         clear = false;

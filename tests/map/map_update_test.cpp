@@ -9,6 +9,8 @@
 #include <limits>
 #include <random>
 
+#include <octomap/OcTree.h>
+
 #include "adit/map/distance_field.hpp"
 #include "adit/map/occupancy_map.hpp"
 #include "support/synthetic_roadway.hpp"
@@ -187,6 +189,119 @@ TEST(MapUpdate, DeepCopyIsIndependentOfTheOriginal) {
   DistanceField copied_field = *field;
   expectFieldMatchesRebuild(copy, copied_field, c);
   EXPECT_GT(field->distance({5.1, 0.1, 1.1}), 0.0);  // the original's field is untouched
+}
+
+}  // namespace
+}  // namespace adit::map
+
+namespace adit::map {
+namespace {
+
+void expectSameMap(const OccupancyMap& a, const OccupancyMap& b, std::uint64_t seed) {
+  ASSERT_EQ(a.stats().free_voxels, b.stats().free_voxels);
+  ASSERT_EQ(a.stats().occupied_voxels, b.stats().occupied_voxels);
+  ASSERT_EQ(a.stats().unknown_voxels, b.stats().unknown_voxels);
+  ASSERT_TRUE(a.bounds().min.isApprox(b.bounds().min) && a.bounds().max.isApprox(b.bounds().max));
+  Aabb box = b.bounds();
+  box.extend(box.min - Vec3::Constant(1.0));
+  box.extend(box.max + Vec3::Constant(1.0));
+  std::mt19937_64 rng(seed);
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3 p = test::randomPoint(rng, box);
+    ASSERT_EQ(a.state(p), b.state(p)) << p.transpose();
+    ASSERT_EQ(a.isFree(p), b.isFree(p)) << p.transpose();
+  }
+}
+
+// A deepCopy() keeps its writes as an overlay beside the shared octree, and clones it when the
+// whole tree is asked for. Oracle: an independently built map written in place with the same
+// writes (every state, scans, writes back to the original state), compared voxel by voxel and by
+// what each write reported, before and after the clone; the original never changes.
+TEST(MapUpdate, DeepCopysOverlayReadsAsTheWrittenMapDoes) {
+  const OccupancyMap original = roadway();
+  OccupancyMap copy = original.deepCopy();
+  OccupancyMap oracle = roadway();
+  const std::shared_ptr<const octomap::OcTree> shared = original.sharedOctree();
+  std::mt19937_64 rng(5);
+  const Aabb inside{{0.5, -2.5, -0.5}, {19.5, 2.5, 3.5}};
+  auto writeBoth = [&](int round) {
+    std::vector<Vec3> pts;
+    for (int i = 0; i < 40; ++i) pts.push_back(test::randomPoint(rng, inside));
+    const VoxelState st = VoxelState(round % 3);
+    MapChange ca, cb;
+    ASSERT_TRUE(copy.setVoxels(pts, st, &ca).ok());
+    ASSERT_TRUE(oracle.setVoxels(pts, st, &cb).ok());
+    EXPECT_EQ(ca.to_occupied, cb.to_occupied);
+    EXPECT_EQ(ca.to_free, cb.to_free);
+    EXPECT_EQ(ca.to_unknown, cb.to_unknown);
+    // A scan from the roadway's axis: its rays clear what they pass.
+    const Vec3 origin(2.0 + 0.7 * round, 0.0, 1.5);
+    std::vector<Vec3> returns;
+    for (int i = 0; i < 12; ++i) returns.push_back(test::randomPoint(rng, inside));
+    StatusOr<MapChange> ra = copy.insertRays(origin, returns, 6.0), rb = oracle.insertRays(origin, returns, 6.0);
+    ASSERT_TRUE(ra.ok() && rb.ok());
+    EXPECT_EQ(ra->to_occupied, rb->to_occupied);
+    EXPECT_EQ(ra->to_free, rb->to_free);
+  };
+  for (int round = 0; round < 12; ++round) writeBoth(round);
+  EXPECT_EQ(original.sharedOctree(), shared);
+  expectSameMap(copy, oracle, 1);
+  // Written back to what the original holds: the copy reads as the original there.
+  const Vec3 back(9.1, 0.1, 1.1);
+  ASSERT_TRUE(copy.setVoxel(back, VoxelState::kOccupied).ok());
+  ASSERT_TRUE(copy.setVoxel(back, VoxelState::kFree).ok());
+  EXPECT_TRUE(copy.isFree(back));
+  ASSERT_TRUE(oracle.setVoxel(back, VoxelState::kFree).ok());
+
+  // A copy of the copy starts from its overlay and is independent of it.
+  OccupancyMap second = copy.deepCopy();
+  expectSameMap(second, oracle, 2);
+  ASSERT_TRUE(second.setVoxel({12.1, 0.1, 1.1}, VoxelState::kOccupied).ok());
+  EXPECT_TRUE(second.isRock({12.1, 0.1, 1.1}));
+
+  // The whole tree: a clone with the overlay applied, its leaves the oracle's voxels; later
+  // writes go to it.
+  std::uint64_t free_leaves = 0;
+  copy.forEachLeaf([&](const Vec3& c, double size, VoxelState s) {
+    const auto edge = std::uint64_t(std::llround(size / copy.resolution()));
+    if (s == VoxelState::kFree) free_leaves += edge * edge * edge;
+    EXPECT_EQ(oracle.state(c), s) << c.transpose();
+  });
+  EXPECT_EQ(free_leaves, oracle.stats().free_voxels);
+  EXPECT_NE(copy.sharedOctree(), shared);
+  for (int round = 12; round < 18; ++round) writeBoth(round);
+  expectSameMap(copy, oracle, 3);
+  EXPECT_EQ(copy.stats().octree_nodes, copy.octree().size());
+  EXPECT_TRUE(copy.isFree({12.1, 0.1, 1.1}) == oracle.isFree({12.1, 0.1, 1.1}));
+
+  expectSameMap(original, roadway(), 4);
+  EXPECT_EQ(original.sharedOctree(), shared);
+}
+
+// An overlay that outgrows kMaxOverlayVoxels becomes the clone, and reads the same.
+TEST(MapUpdate, AnOverlayPastItsBoundBecomesTheClone) {
+  const OccupancyMap original = roadway();
+  OccupancyMap copy = original.deepCopy();
+  const double r = original.resolution();
+  std::vector<Vec3> block;  // unknown voxels beside the roadway, each a change
+  const int n = int(std::ceil(std::cbrt(double(OccupancyMap::kMaxOverlayVoxels)))) + 1;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int k = 0; k < n; ++k) block.push_back({40.0 + (i + 0.5) * r, (j + 0.5) * r, (k + 0.5) * r});
+  MapChange c;
+  ASSERT_TRUE(copy.setVoxels(block, VoxelState::kOccupied, &c).ok());
+  EXPECT_EQ(c.to_occupied, block.size());
+  // Still the overlay: its node count is the shared tree's plus the changed voxels.
+  EXPECT_EQ(copy.stats().octree_nodes, original.stats().octree_nodes + block.size());
+  ASSERT_TRUE(copy.setVoxel({5.1, 0.1, 1.1}, VoxelState::kOccupied).ok());  // past the bound: cloned
+  EXPECT_EQ(copy.stats().octree_nodes, copy.octree().size());
+  EXPECT_NE(copy.sharedOctree(), original.sharedOctree());
+  EXPECT_EQ(copy.state(block.front()), VoxelState::kOccupied);
+  EXPECT_EQ(copy.state(block.back()), VoxelState::kOccupied);
+  EXPECT_TRUE(copy.isRock({5.1, 0.1, 1.1}));
+  EXPECT_EQ(original.state(block.front()), VoxelState::kUnknown);
+  EXPECT_TRUE(original.isFree({5.1, 0.1, 1.1}));
+  EXPECT_EQ(copy.stats().occupied_voxels, original.stats().occupied_voxels + block.size() + 1);
 }
 
 }  // namespace

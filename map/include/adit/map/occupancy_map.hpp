@@ -70,6 +70,8 @@ struct MapChange {
 
 /// Copies share the octree (it can be hundreds of megabytes): setVoxels() on one copy changes
 /// what every copy sees, though only its own statistics. Keep one owner that mutates the map.
+/// A deepCopy() keeps its writes beside the octree it shares, so that a navigator's belief costs
+/// the voxels it changed, not a clone of millions of nodes (see deepCopy()).
 class OccupancyMap {
  public:
   /// Wraps `tree` (taken over). Refuses an invalid resolution and a map without free space under
@@ -89,11 +91,18 @@ class OccupancyMap {
   OccupancyMap withUnknownPolicy(UnknownPolicy policy) const;
   /// A copy that behaves as one with its own octree, for a second owner that mutates it: e.g.
   /// each simulated run's believed map, made from one loaded map instead of voxelizing the survey
-  /// again per run. The octree is cloned on the copy's first write (setVoxels, insertRays), so a
-  /// run that never writes costs nothing: cloning and freeing millions of nodes was half a
-  /// district run. Until then sharedOctree() is the original's tree; plain copies taken of the
-  /// copy before its first write clone on their own first write.
+  /// again per run. Its writes (setVoxels, insertRays) are kept as an overlay of changed voxels
+  /// over the original's octree, which it shares and never writes: cloning and freeing millions of
+  /// nodes was a fifth of a campaign's time, and a run changes a few thousand voxels. Voxel
+  /// queries (state, isFree, lineOfSight) read the overlay first. What needs the whole tree
+  /// (octree(), sharedOctree(), forEachLeaf) gets, from the first such call on, a clone with the
+  /// overlay applied, which later writes then go to; so does a copy whose overlay outgrows
+  /// kMaxOverlayVoxels. The original must not be written while copies read it (one owner writes).
+  /// Plain copies of the copy share its overlay; its stats' octree_nodes count the shared octree's
+  /// nodes plus the overlay's voxels until the clone is made.
   OccupancyMap deepCopy() const;
+  /// Changed voxels a deepCopy() holds beside the shared octree before cloning it (about 50 MB).
+  static constexpr std::size_t kMaxOverlayVoxels = std::size_t{1} << 20;
 
   /// Raw state of the voxel holding `p`; outside the key range it is kUnknown.
   VoxelState state(const Vec3& p) const;
@@ -145,15 +154,21 @@ class OccupancyMap {
   // A map whose octree is OcTree::writeData's stream `data`, built on first use; `stats` are
   // the built map's (the cache checked both).
   static OccupancyMap fromOctreeData(std::string data, UnknownPolicy policy, const MapStats& stats);
+  struct Overlay;
+  // The tree whole-tree readers and writers use: for a deepCopy(), its clone (made on first use).
   octomap::OcTree& tree() const;
+  // The octree this map was made on (for a deepCopy(), the original's): keys, rays, lookups.
+  octomap::OcTree& base() const { return tree_ ? *tree_ : lazyTree(); }
+  octomap::OcTree& lazyTree() const;
+  VoxelState keyState(const octomap::OcTreeKey& key) const;
   void recomputeStats();
   void applyKey(const octomap::OcTreeKey& key, VoxelState state, MapChange& change);
   void finishUpdate();
-  void cloneIfShared();
+  void prepareWrite();
 
   std::shared_ptr<octomap::OcTree> tree_;  // null while lazy_ holds the octree as bytes
   std::shared_ptr<LazyTree> lazy_;
-  bool clone_on_write_ = false;  // tree_ belongs to the map deepCopy() was taken from
+  std::shared_ptr<Overlay> overlay_;  // a deepCopy()'s writes; null for a map that writes its tree
   UnknownPolicy policy_ = UnknownPolicy::kRock;
   MapStats stats_;
 };
