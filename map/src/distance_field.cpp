@@ -405,10 +405,16 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed, Dista
   coords.erase(std::unique(coords.begin(), coords.end()), coords.end());
   ADIT_RETURN_IF_ERROR(m.allocate(coords));
   for (const auto& k : now_free) m.setFree(k[0], k[1], k[2], true);
-  // Voxels whose nearest rock may change lie within the largest clearance of the window.
-  const int grow = int(std::ceil(m.stats.max_distance_m / m.res)) + 2;
+  // Voxels whose nearest rock may change lie within the largest clearance of the window: a voxel
+  // p whose site s stays chooses another only if a changed voxel c is as near (|p - c| <= |p - s|,
+  // ties included: a pass along a line picks between equally near rock only on that line, so a
+  // farther change cannot reach p through it), and a voxel whose site was freed had it in the
+  // window. Both distances are centre to centre, as max_distance_m is.
+  const int grow = int(std::floor(m.stats.max_distance_m / m.res + 1e-9));
   BoxI write;
   for (int a = 0; a < 3; ++a) { write.lo[a] = std::max(0, w.lo[a] - grow); write.hi[a] = std::min(65535, w.hi[a] + grow); }
+  // The dense copy must hold each written voxel's nearest rock: checked below (worst <= margin),
+  // and grown until it does.
   int margin = grow + 1;
   double worst = 0;
   for (;;) {

@@ -107,6 +107,84 @@ TEST(DistanceField, WindowUpdateMatchesFullRebuild) {
   EXPECT_TRUE(df->isFree({10.1, 2.6, 1.0}));
 }
 
+// Windowed updates give exactly a fresh build's field: the same nearest rock voxel at every voxel
+// centre of the map (not only the same distance: the site decides the gradient), after each of a
+// sequence of rubble falls and clearings of random sizes at random places. The voxels a change
+// reaches lie within the field's largest clearance of it; a write box one voxel short of that
+// fails here.
+TEST(DistanceField, WindowUpdatesGiveAFreshBuildsSitesEverywhere) {
+  OccupancyMap map = test::voxelizeOrFail(test::junctionNetwork(0.25));
+  StatusOr<DistanceField> df = DistanceField::build(map);
+  ASSERT_TRUE(df.ok());
+  const double res = map.resolution();
+  const Aabb bounds = map.bounds();
+  std::mt19937_64 rng(17);
+  std::vector<Vec3> placed;  // rubble so far, for clearings that free some of it
+  int compared = 0;
+  for (int round = 0; round < 10; ++round) {
+    const bool clear = round % 3 == 2 && !placed.empty();
+    Vec3 at = clear ? placed[rng() % placed.size()] : test::randomPoint(rng, bounds);
+    while (!clear && !map.isFree(at)) at = test::randomPoint(rng, bounds);  // rubble falls in the roadways
+    std::uniform_int_distribution<int> extent(0, 4);
+    const int nx = extent(rng), ny = extent(rng), nz = extent(rng);
+    std::vector<Vec3> voxels;
+    for (int i = 0; i <= nx; ++i)
+      for (int j = 0; j <= ny; ++j)
+        for (int k = 0; k <= nz; ++k) voxels.push_back(at + res * Vec3(i, j, k));
+    MapChange change;
+    ASSERT_TRUE(map.setVoxels(voxels, clear ? VoxelState::kFree : VoxelState::kOccupied, &change).ok());
+    if (!clear) placed.insert(placed.end(), voxels.begin(), voxels.end());
+    ASSERT_FALSE(change.empty());
+    ++compared;
+    ASSERT_TRUE(df->update(map, change.box).ok());
+    StatusOr<DistanceField> fresh = DistanceField::build(map);
+    ASSERT_TRUE(fresh.ok());
+    const Vec3 lo = bounds.min.array() + 0.5 * res;
+    for (double z = lo.z(); z < bounds.max.z(); z += res)
+      for (double y = lo.y(); y < bounds.max.y(); y += res)
+        for (double x = lo.x(); x < bounds.max.x(); x += res) {
+          const Vec3 c(x, y, z);
+          ASSERT_EQ(df->isFree(c), fresh->isFree(c)) << "round " << round << " at " << c.transpose();
+          if (fresh->isFree(c))
+            ASSERT_EQ(df->nearestRockVoxel(c), fresh->nearestRockVoxel(c)) << "round " << round << " at " << c.transpose();
+        }
+  }
+  EXPECT_EQ(compared, 10);
+}
+
+// The tight case of that bound: the voxel farthest from rock (D voxels, its nearest rock voxel
+// unique and straight across) loses its nearest rock, which is D voxels from it along an axis.
+// The update must reach D voxels from the change, and no fewer will do.
+TEST(DistanceField, WindowUpdateReachesTheFarthestVoxelWhoseRockIsCleared) {
+  constexpr int kD = 6;
+  const double res = 0.2;
+  std::vector<Vec3> free;
+  auto centre = [res](int x, int y, int z) { return Vec3((x + 0.5) * res, (y + 0.5) * res, (z + 0.5) * res); };
+  // 30 voxels long, 2D wide (so each middle column has one nearest wall), 2D + 4 high (floor and
+  // roof farther than the walls).
+  for (int x = 0; x < 30; ++x)
+    for (int y = 0; y < 2 * kD; ++y)
+      for (int z = 0; z < 2 * kD + 4; ++z) free.push_back(centre(x, y, z));
+  StatusOr<OccupancyMap> map = OccupancyMap::fromVoxels(res, free, {});
+  ASSERT_TRUE(map.ok());
+  StatusOr<DistanceField> df = DistanceField::build(*map);
+  ASSERT_TRUE(df.ok());
+  ASSERT_NEAR(df->stats().max_distance_m, kD * res, 1e-9);
+  const Vec3 p = centre(15, kD - 1, kD + 2), wall = centre(15, -1, kD + 2);
+  ASSERT_EQ(df->nearestRockVoxel(p), wall);
+  MapChange change;
+  ASSERT_TRUE(map->setVoxels({wall}, VoxelState::kFree, &change).ok());
+  ASSERT_EQ(change.to_free, 1u);
+  // The window as tight as it goes: inside the one voxel (the change's box is its closed cube,
+  // whose far faces touch the next voxels).
+  ASSERT_TRUE(df->update(*map, Aabb(wall - Vec3::Constant(0.25 * res), wall + Vec3::Constant(0.25 * res))).ok());
+  StatusOr<DistanceField> fresh = DistanceField::build(*map);
+  ASSERT_TRUE(fresh.ok());
+  EXPECT_NE(fresh->nearestRockVoxel(p), wall);
+  EXPECT_EQ(df->nearestRockVoxel(p), fresh->nearestRockVoxel(p));
+  EXPECT_EQ(df->distance(p), fresh->distance(p));
+}
+
 // Free space touching the end of OctoMap's key range: rock beyond it cannot be represented, so
 // the outermost key layer counts as rock, and nothing wraps round to the far side of the map.
 TEST(DistanceField, FreeSpaceAtTheEdgeOfTheKeyRangeMatchesBruteForce) {
