@@ -227,7 +227,7 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   return impl_->res * std::sqrt(dx * dx + dy * dy + dz * dz);
 }
 
-DistanceSample DistanceField::query(const Vec3& p) const noexcept {
+[[gnu::always_inline]] inline DistanceSample DistanceField::sample(const Vec3& p, bool full) const noexcept {
   // Plain scalars on purpose: this runs in every planner's inner loop (see tests/bench).
   DistanceSample out;
   out.nearest = p;
@@ -337,6 +337,11 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
   for (int c = 1; c < 8; ++c) bc = d2[c] < d2[bc] ? c : bc;
   const double best = d2[bc];
   if (!(best < std::numeric_limits<double>::infinity())) return out;  // no rock known
+  if (!full) {
+    out.in_rock = false;
+    out.distance = std::sqrt(best) * m.res;
+    return out;
+  }
   const double bx = std::copysign(e[0][bc], qx - double(site[0][bc]));
   const double by = std::copysign(e[1][bc], qy - double(site[1][bc]));
   const double bz = std::copysign(e[2][bc], qz - double(site[2][bc]));
@@ -350,6 +355,9 @@ DistanceSample DistanceField::query(const Vec3& p) const noexcept {
   }
   return out;
 }
+
+DistanceSample DistanceField::query(const Vec3& p) const noexcept { return sample(p, true); }
+double DistanceField::distance(const Vec3& p) const noexcept { return sample(p, false).distance; }
 
 Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) { return update(map, changed, nullptr); }
 

@@ -242,6 +242,19 @@ void BM_DistanceField_AlongPath(benchmark::State& state) {
 }
 BENCHMARK(BM_DistanceField_AlongPath);
 
+// The distance alone (a cost integral's samples), the same walk.
+void BM_DistanceField_AlongPathDistanceOnly(benchmark::State& state) {
+  World& w = district();
+  std::size_t i = 0;
+  const std::size_t n = w.path.size();
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(w.field.distance(w.path[i]));
+    if (++i == n) i = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_DistanceField_AlongPathDistanceOnly);
+
 // The same two walks over the wide layout, for the ratios at the end.
 void BM_WideLayout_RandomPoints(benchmark::State& state) {
   World& w = district();

@@ -90,7 +90,9 @@ class DistanceField {
 
   /// Distance, gradient and closest rock point. Never throws; NaN input gives in_rock = true.
   DistanceSample query(const Vec3& p) const noexcept;
-  double distance(const Vec3& p) const noexcept { return query(p).distance; }
+  /// query(p).distance, bit for bit, without the gradient and closest point (a cost integral's
+  /// samples need only this).
+  double distance(const Vec3& p) const noexcept;
   /// How far distance(p) may exceed the true distance to rock, proven rather than measured: the
   /// voxel holding p (centre c, |p - c| <= sqrt(3)/2 voxel) is one of the 8 read, and its stored
   /// site S is at least as near c as the centre of p's truly nearest rock voxel R, so
@@ -127,6 +129,8 @@ class DistanceField {
   friend struct MapCacheIo;
   struct Impl;
   explicit DistanceField(std::unique_ptr<Impl> impl);
+  // query()'s work; with full = false only the distance is filled in.
+  DistanceSample sample(const Vec3& p, bool full) const noexcept;
   std::unique_ptr<Impl> impl_;
 };
 
