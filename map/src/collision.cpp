@@ -16,6 +16,7 @@
 
 #include "fcl_adapter.hpp"
 #include "shape_geometry.hpp"
+#include "voxel_blocks.hpp"
 
 namespace adit::map {
 namespace {
@@ -120,19 +121,24 @@ bool collectSurfaceRock(const DistanceField& field, const Aabb& window, const Cu
   }
   if (n[0] * n[1] * n[2] > kMaxWindowVoxels) return false;
   const std::int64_t sy = n[0], sz = n[0] * n[1];
-  enum : std::uint8_t { kUnread = 0, kFree = 1, kRock = 2 };
+  // Voxels are read as the search below asks for them (inside the known-free ball it asks for
+  // none), but a tile's row at a time: its neighbours along x are asked for next, and one tile
+  // lookup serves them all.
+  constexpr std::uint8_t kUnread = 2;
+  constexpr std::int64_t kFieldTileEdge = std::int64_t{1} << internal::kFieldTileBits;
   state.assign(std::size_t(n[0] * n[1] * n[2]), kUnread);
   auto centre = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
     return Vec3((Vec3(double(lo[0] + i), double(lo[1] + j), double(lo[2] + k)).array() + 0.5) * res);
   };
   auto isRock = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
-    std::uint8_t& s = state[std::size_t(i + sy * j + sz * k)];
-    if (s == kUnread) {
-      const Vec3 c = centre(i, j, k);
-      const double g2 = ((c - origin).cwiseAbs() - Vec3::Constant(half)).cwiseMax(0.0).squaredNorm();
-      s = ((clear_lb > 0.0 && g2 < clear_lb * clear_lb) || field.isFree(c)) ? kFree : kRock;
+    std::uint8_t* s = &state[std::size_t(i + sy * j + sz * k)];
+    if (*s == kUnread) {
+      const std::int64_t first = std::max<std::int64_t>(0, i - ((lo[0] + i) & (kFieldTileEdge - 1)));
+      const std::int64_t at[3] = {lo[0] + first, lo[1] + j, lo[2] + k};
+      const std::int64_t len[3] = {std::min<std::int64_t>(n[0], first + kFieldTileEdge) - first, 1, 1};
+      field.freeVoxels(at, len, s - (i - first));
     }
-    return s == kRock;
+    return *s == 0;
   };
   // Per x-row, only the voxels in the shell between the known-free ball (cube distance from the
   // origin < clear_lb) and the ball beyond which the bounding sphere is out of reach (cube

@@ -205,6 +205,36 @@ bool DistanceField::isFree(const Vec3& p) const noexcept {
   return impl_->voxelKey(p, k) && isFreeCell(impl_->cell(k[0], k[1], k[2]));
 }
 
+void DistanceField::freeVoxels(const std::int64_t lo[3], const std::int64_t n[3], std::uint8_t* out) const noexcept {
+  const Impl& m = *impl_;
+  auto key = [](std::int64_t v) { return v + internal::kKeyOffset; };
+  auto inRange = [](std::int64_t k) { return k >= 0 && k <= 65535; };
+  for (std::int64_t k = 0; k < n[2]; ++k) {
+    const std::int64_t z = key(lo[2] + k);
+    for (std::int64_t j = 0; j < n[1]; ++j) {
+      const std::int64_t y = key(lo[1] + j);
+      std::uint8_t* row = out + std::size_t(n[0] * (j + n[1] * k));
+      if (!inRange(y) || !inRange(z)) {
+        std::fill(row, row + n[0], std::uint8_t{0});
+        continue;
+      }
+      for (std::int64_t i = 0; i < n[0];) {
+        const std::int64_t x = key(lo[0] + i);
+        if (!inRange(x)) {
+          row[i++] = 0;
+          continue;
+        }
+        // The rest of this tile's row: one tile lookup for up to kTileSize voxels.
+        const std::int64_t run = std::min<std::int64_t>(n[0] - i, kTileSize - (x & kTileMask));
+        const Cell* cells = m.tiles[std::size_t(m.tileIndex(int(x), int(y), int(z)))].data() +
+                            localIndex(int(x), int(y), int(z));
+        for (std::int64_t q = 0; q < run; ++q) row[i + q] = isFreeCell(cells[q]) ? 1 : 0;
+        i += run;
+      }
+    }
+  }
+}
+
 Vec3 DistanceField::nearestRockVoxel(const Vec3& p) const noexcept {
   const double res = impl_->res;
   int k[3];

@@ -185,6 +185,42 @@ TEST(DistanceField, WindowUpdateReachesTheFarthestVoxelWhoseRockIsCleared) {
   EXPECT_EQ(df->distance(p), fresh->distance(p));
 }
 
+// freeVoxels() reads what isFree() says at every voxel centre of a box, whatever the box's
+// alignment to the tiles, its size, or whether it leaves the map (and the key range).
+TEST(DistanceField, FreeVoxelsOfABoxAreIsFreeAtTheirCentres) {
+  const OccupancyMap map = test::voxelizeOrFail(test::junctionNetwork(0.25));
+  StatusOr<DistanceField> df = DistanceField::build(map);
+  ASSERT_TRUE(df.ok());
+  const double res = map.resolution();
+  std::mt19937_64 rng(23);
+  std::uniform_int_distribution<int> size(1, 19);
+  auto check = [&](const std::int64_t lo[3], const std::int64_t n[3]) {
+    std::vector<std::uint8_t> out(std::size_t(n[0] * n[1] * n[2]), 7);
+    df->freeVoxels(lo, n, out.data());
+    for (std::int64_t k = 0; k < n[2]; ++k)
+      for (std::int64_t j = 0; j < n[1]; ++j)
+        for (std::int64_t i = 0; i < n[0]; ++i) {
+          const Vec3 c((double(lo[0] + i) + 0.5) * res, (double(lo[1] + j) + 0.5) * res, (double(lo[2] + k) + 0.5) * res);
+          ASSERT_EQ(out[std::size_t(i + n[0] * (j + n[1] * k))], df->isFree(c) ? 1 : 0) << c.transpose();
+        }
+  };
+  int free_seen = 0;
+  for (int t = 0; t < 200; ++t) {
+    const Vec3 at = test::randomPoint(rng, map.bounds());
+    const std::int64_t lo[3] = {std::int64_t(std::floor(at.x() / res)) - 3, std::int64_t(std::floor(at.y() / res)) - 3,
+                                std::int64_t(std::floor(at.z() / res)) - 3};
+    const std::int64_t n[3] = {size(rng), size(rng), size(rng)};
+    check(lo, n);
+    free_seen += df->isFree(at) ? 1 : 0;
+  }
+  EXPECT_GT(free_seen, 10);
+  // Across the ends of the key range: all rock there.
+  for (const std::int64_t edge : {std::int64_t{-32768}, std::int64_t{32767}}) {
+    const std::int64_t lo[3] = {edge - 5, -3, -3}, n[3] = {11, 7, 7};
+    check(lo, n);
+  }
+}
+
 // Free space touching the end of OctoMap's key range: rock beyond it cannot be represented, so
 // the outermost key layer counts as rock, and nothing wraps round to the far side of the map.
 TEST(DistanceField, FreeSpaceAtTheEdgeOfTheKeyRangeMatchesBruteForce) {

@@ -103,6 +103,11 @@ class DistanceField {
   double errorBound() const noexcept { return 2.598076211353316 * resolution(); }
   /// Free under the policy the field was built with (the voxel holding p).
   bool isFree(const Vec3& p) const noexcept;
+  /// isFree() of a whole box of voxels, read a tile row at a time: out[i + n[0] (j + n[1] k)] is
+  /// 1 for the free voxel (lo[0] + i, lo[1] + j, lo[2] + k), the voxel of index v along an axis
+  /// being [v, v + 1) times the resolution, else 0. A search that reads most of a small window
+  /// (the surface rock around a robot) pays one tile lookup per row of a tile, not one per voxel.
+  void freeVoxels(const std::int64_t lo[3], const std::int64_t n[3], std::uint8_t* out) const noexcept;
   /// Centre of the nearest rock voxel to the voxel holding p (the stored feature transform).
   Vec3 nearestRockVoxel(const Vec3& p) const noexcept;
   /// Distance from the centre of the voxel holding p to the centre of its nearest rock voxel
