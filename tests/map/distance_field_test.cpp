@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 
+#include <cmath>
 #include <random>
 
 #include "adit/map/brute_force_distance.hpp"
@@ -186,8 +187,9 @@ TEST(DistanceField, WindowUpdateReachesTheFarthestVoxelWhoseRockIsCleared) {
 }
 
 // freeVoxels() reads what isFree() says at every voxel centre of a box, whatever the box's
-// alignment to the tiles, its size, or whether it leaves the map (and the key range).
-TEST(DistanceField, FreeVoxelsOfABoxAreIsFreeAtTheirCentres) {
+// alignment to the tiles, its size, or whether it leaves the map (and the key range); distance()
+// is query()'s distance.
+TEST(DistanceField, FreeVoxelsAndDistanceAgreeWithIsFreeAndQuery) {
   const OccupancyMap map = test::voxelizeOrFail(test::junctionNetwork(0.25));
   StatusOr<DistanceField> df = DistanceField::build(map);
   ASSERT_TRUE(df.ok());
@@ -214,6 +216,12 @@ TEST(DistanceField, FreeVoxelsOfABoxAreIsFreeAtTheirCentres) {
     free_seen += df->isFree(at) ? 1 : 0;
   }
   EXPECT_GT(free_seen, 10);
+  // distance() is query()'s distance, bit for bit, in rock and out, and for NaN.
+  for (int t = 0; t < 5000; ++t) {
+    const Vec3 p = test::randomPoint(rng, map.bounds());
+    ASSERT_EQ(df->distance(p), df->query(p).distance) << p.transpose();
+  }
+  EXPECT_EQ(df->distance(Vec3::Constant(std::nan(""))), df->query(Vec3::Constant(std::nan(""))).distance);
   // Across the ends of the key range: all rock there.
   for (const std::int64_t edge : {std::int64_t{-32768}, std::int64_t{32767}}) {
     const std::int64_t lo[3] = {edge - 5, -3, -3}, n[3] = {11, 7, 7};
