@@ -146,14 +146,12 @@ class PathModel {
   double segmentCost(const Vec3& a, const Vec3& b, std::size_t seg) const {
     const double len = (b - a).norm();
     if (p_.clearance_weight == 0) return len;
-    const SegmentKey key(a, b, seg);
-    if (const auto it = costs_.find(key); it != costs_.end()) return it->second;
-    const int n = samples_[seg];
-    double sum = 0;
-    for (int k = 0; k < n; ++k) sum += penalty(clearance_(a + (b - a) * ((k + 0.5) / n)));
-    const double cost = len + p_.clearance_weight * sum * len / n;
-    remember(costs_, key, cost);
-    return cost;
+    return memo(costs_, SegmentKey(a, b, seg), [&] {
+      const int n = samples_[seg];
+      double sum = 0;
+      for (int k = 0; k < n; ++k) sum += penalty(clearance_(a + (b - a) * ((k + 0.5) / n)));
+      return len + p_.clearance_weight * sum * len / n;
+    });
   }
   double value(const VectorX& z) const { return valueOf(points(z)); }
   double valueOf(const std::vector<Vec3>& pts) const {
@@ -201,12 +199,10 @@ class PathModel {
     if (!z.allFinite() || !withinMoveRadius(z)) return false;
     const std::vector<Vec3> pts = points(z);
     for (std::size_t i = 0; i + 1 < pts.size(); ++i) {
-      const SegmentKey key(pts[i], pts[i + 1], i);
-      const auto it = clear_.find(key);
-      const bool clear = it != clear_.end() ? it->second
-                                            : segmentClear(clearance_, pts[i], pts[i + 1], p_.sample_step_m,
-                                                           p_.min_clearance_m, nullptr, p_.clearance_slack_m);
-      if (it == clear_.end()) remember(clear_, key, clear);
+      const bool clear = memo(clear_, SegmentKey(pts[i], pts[i + 1], i), [&] {
+        return segmentClear(clearance_, pts[i], pts[i + 1], p_.sample_step_m, p_.min_clearance_m, nullptr,
+                            p_.clearance_slack_m);
+      });
       if (!clear) return false;
     }
     return true;
@@ -238,10 +234,14 @@ class PathModel {
     }
   };
   static constexpr std::size_t kMemo = 1u << 16;
-  template <class Map, class V>
-  static void remember(Map& m, const SegmentKey& k, V v) {
+  // The value kept for `k`, else compute() kept.
+  template <class Map, class Compute>
+  static typename Map::mapped_type memo(Map& m, const SegmentKey& k, Compute compute) {
+    if (const auto it = m.find(k); it != m.end()) return it->second;
+    const typename Map::mapped_type v = compute();
     if (m.size() >= kMemo) m.clear();
     m.emplace(k, v);
+    return v;
   }
   mutable std::unordered_map<SegmentKey, double, SegmentKeyHash> costs_;
   mutable std::unordered_map<SegmentKey, bool, SegmentKeyHash> clear_;

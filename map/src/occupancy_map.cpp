@@ -314,8 +314,12 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
 // One voxel to `state`. Counts are kept incrementally: a whole-tree pass per sensed batch would
 // dominate the update. Bounds only grow (a voxel set to unknown leaves them as they were).
 void OccupancyMap::applyKey(const octomap::OcTreeKey& key, VoxelState state, MapChange& change) {
+  // In an overlay, the voxel's entry and the shared tree's state, each looked up once: the state
+  // before is the entry's, else the tree's, and a write back to the tree's state drops the entry.
   const bool in_overlay = overlay_ && !overlay_->own.load(std::memory_order_acquire);
-  const VoxelState before = keyState(key);
+  auto entry = in_overlay ? overlay_->changes.find(key) : decltype(overlay_->changes.end()){};
+  const VoxelState shared = in_overlay ? nodeState(base(), key) : VoxelState::kUnknown;
+  const VoxelState before = !in_overlay ? keyState(key) : entry != overlay_->changes.end() ? entry->second : shared;
   if (before != VoxelState::kUnknown) (before == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) -= 1;
   const double res = base().getResolution();
   const octomap::point3d c = base().keyToCoord(key);
@@ -326,8 +330,12 @@ void OccupancyMap::applyKey(const octomap::OcTreeKey& key, VoxelState state, Map
     change.box.extend(centre + Vec3::Constant(0.5 * res));
   }
   if (in_overlay) {
-    if (state == nodeState(base(), key)) overlay_->changes.erase(key);
-    else overlay_->changes[key] = state;
+    if (entry != overlay_->changes.end()) {
+      if (state == shared) overlay_->changes.erase(entry);
+      else entry->second = state;
+    } else if (state != shared) {
+      overlay_->changes.emplace(key, state);
+    }
   } else {
     writeNode(tree(), key, state);
   }
