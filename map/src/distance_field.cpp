@@ -24,8 +24,66 @@ std::uint64_t nextGeneration() {
   static std::atomic<std::uint64_t> counter{0};
   return ++counter;
 }
+
 }  // namespace
 
+// Squared distance (voxels^2) from voxel (x, y, z)'s centre to its stored nearest rock voxel's:
+// 0 for rock, infinity for a free voxel whose site the transform does not know.
+double DistanceField::Impl::storedClearance2(int x, int y, int z) const {
+  const Cell c = cell(x, y, z);
+  if (!isFreeCell(c)) return 0.0;
+  if (!hasSite(c)) return std::numeric_limits<double>::infinity();
+  const std::uint64_t site = siteOf(c, x, y, z);
+  const double dx = keyCoord(site, 0) - x, dy = keyCoord(site, 1) - y, dz = keyCoord(site, 2) - z;
+  return dx * dx + dy * dy + dz * dz;
+}
+
+// How far beyond the changed box w update() must rewrite voxels, from the field as it stands
+// (before w is re-read): the smallest g < grow_max such that every voxel at Chebyshev distance g
+// from w has a stored clearance below g - sqrt(1/2) voxels, else grow_max (the map's largest
+// clearance, which bounds every voxel). `max_d2` gets the largest squared clearance in w grown by
+// the g returned, w included (for the transform's margin), or infinity when g is grow_max.
+//
+// Why: a voxel v can change only if the change comes as near it as its own nearest rock,
+// dist(v, w) <= D(v) (update()'s comment), D being the centre-to-centre distance to the nearest
+// rock voxel. D is 1-Lipschitz and dist(x, w) falls at rate 1 along the segment from x to the
+// nearest point of w, so D - dist(., w) only grows along it. If v lies beyond w grown by g, the
+// segment crosses that box's face at some x with D(x) >= dist(x, w) >= g, and the face's voxel
+// centre nearest x (within sqrt(1/2) voxel, in the face's plane) has D >= g - sqrt(1/2). Where
+// no face voxel reaches that, no voxel beyond changes. In a roadway the clearances are its half
+// width, not the largest chamber's, and the rewritten box shrinks accordingly.
+int DistanceField::Impl::localGrow(const BoxI& w, int grow_max, double& max_d2) const {
+  const int* lo = w.lo;
+  const int* hi = w.hi;
+  constexpr double kFaceSlack = 0.70711;  // sqrt(1/2), rounded up
+  double worst = 0.0;
+  for (int g = 0; g < grow_max; ++g) {
+    double layer = 0.0;
+    const int zl = std::max(0, lo[2] - g), zh = std::min(65535, hi[2] + g);
+    const int yl = std::max(0, lo[1] - g), yh = std::min(65535, hi[1] + g);
+    const int xl = std::max(0, lo[0] - g), xh = std::min(65535, hi[0] + g);
+    for (int z = zl; z <= zh; ++z)
+      for (int y = yl; y <= yh; ++y) {
+        // Inside the box of the layers already read, only the two ends of the row are new.
+        const bool inner = g > 0 && z > lo[2] - g && z < hi[2] + g && y > lo[1] - g && y < hi[1] + g;
+        if (inner) {
+          if (lo[0] - g >= 0) layer = std::max(layer, storedClearance2(lo[0] - g, y, z));
+          if (hi[0] + g <= 65535) layer = std::max(layer, storedClearance2(hi[0] + g, y, z));
+        } else {
+          for (int x = xl; x <= xh; ++x) layer = std::max(layer, storedClearance2(x, y, z));
+        }
+      }
+    worst = std::max(worst, layer);
+    const double bound = double(g) - kFaceSlack;
+    if (g > 0 && layer < bound * bound) {
+      max_d2 = worst;
+      return g;
+    }
+    if (!(worst < std::numeric_limits<double>::infinity())) break;  // an unknown site: no local proof
+  }
+  max_d2 = std::numeric_limits<double>::infinity();
+  return grow_max;
+}
 DistanceField::DistanceField(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) { impl_->generation = nextGeneration(); }
 DistanceField::DistanceField(DistanceField&&) noexcept = default;
 DistanceField& DistanceField::operator=(DistanceField&&) noexcept = default;
@@ -421,6 +479,10 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed, Dista
     finish();
     return {};
   }
+  // How far the change can reach, read before the window is re-read (see localGrow()).
+  const int grow_max = int(std::floor(m.stats.max_distance_m / m.res + 1e-9));
+  double near_d2 = 0.0;
+  const int grow = m.localGrow(w, grow_max, near_d2);
   // Re-read the changed voxels; new free space outside the tiles gets tiles.
   std::vector<std::array<int, 3>> coords;
   std::vector<std::array<int, 3>> now_free;
@@ -443,17 +505,20 @@ Status DistanceField::update(const OccupancyMap& map, const Aabb& changed, Dista
   coords.erase(std::unique(coords.begin(), coords.end()), coords.end());
   ADIT_RETURN_IF_ERROR(m.allocate(coords));
   for (const auto& k : now_free) m.setFree(k[0], k[1], k[2], true);
-  // Voxels whose nearest rock may change lie within the largest clearance of the window: a voxel
-  // p whose site s stays chooses another only if a changed voxel c is as near (|p - c| <= |p - s|,
-  // ties included: a pass along a line picks between equally near rock only on that line, so a
+  // Voxels whose nearest rock may change lie within `grow` of the window: a voxel p whose site s
+  // stays chooses another only if a changed voxel c is as near (|p - c| <= |p - s|, ties
+  // included: a pass along a line picks between equally near rock only on that line, so a
   // farther change cannot reach p through it), and a voxel whose site was freed had it in the
-  // window. Both distances are centre to centre, as max_distance_m is.
-  const int grow = int(std::floor(m.stats.max_distance_m / m.res + 1e-9));
+  // window. Both distances are centre to centre, as max_distance_m is; the map's largest
+  // clearance bounds them everywhere, the clearances around the window (localGrow) here.
   BoxI write;
   for (int a = 0; a < 3; ++a) { write.lo[a] = std::max(0, w.lo[a] - grow); write.hi[a] = std::min(65535, w.hi[a] + grow); }
   // The dense copy must hold each written voxel's nearest rock: checked below (worst <= margin),
-  // and grown until it does.
+  // and grown until it does. Around the window the clearances read before the change are known
+  // (a freed site can only lengthen them, which the check catches).
   int margin = grow + 1;
+  if (near_d2 < std::numeric_limits<double>::infinity())
+    margin = std::max(grow, int(std::ceil(std::sqrt(near_d2) - 1e-9))) + 1;
   double worst = 0;
   for (;;) {
     BoxI r;

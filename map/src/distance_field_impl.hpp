@@ -188,6 +188,14 @@ struct DistanceField::Impl {
     c = free ? kFreeBit : 0;
   }
 
+  // Squared centre-to-centre distance (voxels^2) from voxel (x, y, z) to its stored nearest rock
+  // voxel: 0 for rock, infinity for a free voxel whose site is not known.
+  double storedClearance2(int x, int y, int z) const;
+  // How far beyond the changed box w update() must rewrite voxels, read from the field before w
+  // is re-read: at most grow_max (the map's largest clearance); `max_d2` gets the largest squared
+  // clearance within the box grown by the answer, or infinity when it is grow_max.
+  int localGrow(const BoxI& w, int grow_max, double& max_d2) const;
+
   // ---- tiles and statistics (distance_field_storage.cpp)
   // Allocates (rock-initialised) tiles for the given distinct tile coords (key >> kTileBits),
   // with regions for blocks that had none, and rebuilds the top-level index if blocks were added.

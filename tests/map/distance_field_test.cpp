@@ -186,6 +186,80 @@ TEST(DistanceField, WindowUpdateReachesTheFarthestVoxelWhoseRockIsCleared) {
   EXPECT_EQ(df->distance(p), fresh->distance(p));
 }
 
+// A change in a narrow roadway rewrites the voxels within the roadway's clearances of it, not
+// within the largest clearance of the map (a chamber's): update() reads how far the change can
+// reach from the clearances around it. The field stays a fresh build's, site for site, after
+// rubble falls and clearings in the roadway, at its mouth, in the chamber and across both.
+TEST(DistanceField, WindowUpdatesInARoadwayReachOnlyItsClearance) {
+  const double res = 0.2;
+  auto centre = [res](int x, int y, int z) { return Vec3((x + 0.5) * res, (y + 0.5) * res, (z + 0.5) * res); };
+  std::vector<Vec3> free;
+  // A roadway 4 voxels wide and 5 high, 60 long, opening into a 24-voxel chamber: the map's
+  // largest clearance is the chamber's 12 voxels, the roadway's 2 to 3.
+  for (int x = 0; x < 60; ++x)
+    for (int y = 0; y < 4; ++y)
+      for (int z = 0; z < 5; ++z) free.push_back(centre(x, y, z));
+  for (int x = 60; x < 84; ++x)
+    for (int y = -10; y < 14; ++y)
+      for (int z = -8; z < 16; ++z) free.push_back(centre(x, y, z));
+  StatusOr<OccupancyMap> map = OccupancyMap::fromVoxels(res, free, {});
+  ASSERT_TRUE(map.ok());
+  StatusOr<DistanceField> df = DistanceField::build(*map);
+  ASSERT_TRUE(df.ok());
+  const int grow_max = int(std::floor(df->stats().max_distance_m / res + 1e-9));
+  ASSERT_GE(grow_max, 11);
+
+  std::mt19937_64 rng(29);
+  std::vector<Vec3> placed;
+  int narrow = 0;
+  for (int round = 0; round < 24; ++round) {
+    const bool clear = round % 4 == 3 && !placed.empty();
+    // Rubble up to 3 voxels on a side, every other fall deep in the roadway, the others anywhere
+    // up to 10 voxels into the chamber; a clearing frees some of what fell.
+    Vec3 at;
+    if (clear) {
+      at = placed[rng() % placed.size()];
+    } else {
+      do {
+        at = round % 2 == 0 ? centre(int(rng() % 55), int(rng() % 4), int(rng() % 5))
+                            : centre(int(rng() % 70), int(rng() % 20) - 8, int(rng() % 20) - 6);
+      } while (!map->isFree(at));
+    }
+    std::vector<Vec3> voxels;
+    const int n[3] = {int(rng() % 3), int(rng() % 3), int(rng() % 3)};
+    for (int i = 0; i <= n[0]; ++i)
+      for (int j = 0; j <= n[1]; ++j)
+        for (int k = 0; k <= n[2]; ++k) voxels.push_back(at + res * Vec3(i, j, k));
+    MapChange change;
+    ASSERT_TRUE(map->setVoxels(voxels, clear ? VoxelState::kFree : VoxelState::kOccupied, &change).ok());
+    if (change.empty()) continue;
+    if (!clear) placed.insert(placed.end(), voxels.begin(), voxels.end());
+    DistanceFieldUpdateReport report;
+    ASSERT_TRUE(df->update(*map, change.box, &report).ok());
+    ASSERT_FALSE(report.full_rebuild || report.full_transform);
+    // The write box against the change grown by the map's largest clearance.
+    const Vec3 extent = change.box.size() / res;
+    double global = 1.0;
+    for (int a = 0; a < 3; ++a) global *= std::floor(extent[a]) + 1.0 + 2.0 * grow_max;
+    if (at.x() < 55 * res && double(report.voxels_recomputed) < 0.5 * global) ++narrow;
+
+    StatusOr<DistanceField> fresh = DistanceField::build(*map);
+    ASSERT_TRUE(fresh.ok());
+    for (int z = -10; z < 18; ++z)
+      for (int y = -12; y < 16; ++y)
+        for (int x = -2; x < 86; ++x) {
+          const Vec3 c = centre(x, y, z);
+          ASSERT_EQ(df->isFree(c), fresh->isFree(c)) << "round " << round << " at " << c.transpose();
+          if (fresh->isFree(c)) {
+            ASSERT_EQ(df->nearestRockVoxel(c), fresh->nearestRockVoxel(c)) << "round " << round << " at " << c.transpose();
+          }
+        }
+  }
+  // Changes deep in the roadway rewrote less than half the globally bounded box (a twentieth,
+  // measured).
+  EXPECT_GE(narrow, 5);
+}
+
 // freeVoxels() reads what isFree() says at every voxel centre of a box, whatever the box's
 // alignment to the tiles, its size, or whether it leaves the map (and the key range); distance()
 // is query()'s distance.
