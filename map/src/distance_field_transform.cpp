@@ -215,18 +215,39 @@ double DistanceField::Impl::transformBox(const BoxI& r, BoxI write) {
     return grid[(std::size_t(z - r.lo[2]) * std::size_t(n[1]) + std::size_t(y - r.lo[1])) * std::size_t(n[0]) +
                 std::size_t(x - r.lo[0])];
   };
+  // A tile's row at a time: one tile lookup per run of voxels along x, not one per voxel.
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
-    for (int y = r.lo[1]; y <= r.hi[1]; ++y)
-      for (int x = r.lo[0]; x <= r.hi[0]; ++x) {
-        at(x, y, z) = isFreeCell(cell(x, y, z)) ? kGridFree : 0;
+    for (int y = r.lo[1]; y <= r.hi[1]; ++y) {
+      std::uint64_t* row = &at(r.lo[0], y, z);
+      for (int x = r.lo[0]; x <= r.hi[0];) {
+        const int run = std::min(kTileSize - (x & kTileMask), r.hi[0] - x + 1);
+        const Cell* cells = tiles[std::size_t(tileIndex(x, y, z))].data() + localIndex(x, y, z);
+        for (int i = 0; i < run; ++i) row[x - r.lo[0] + i] = isFreeCell(cells[i]) ? kGridFree : 0;
+        x += run;
       }
+    }
   LineSolver solver;
   std::vector<std::pair<int, std::uint64_t*>> queries;
+  // Only what the written voxels read is computed: their z lines (the last pass) read the y pass
+  // at the written x and y only, those y lines the x pass at the written x only. So the y pass
+  // runs on the lines at the written x, the z pass on those at the written x and y, and each pass
+  // answers only where the next one reads. A line's envelope is built from all of its voxels, as
+  // the whole-box passes build it, so the written sites are theirs bit for bit.
   for (int axis = 0; axis < 3; ++axis) {
-    const int b1 = (axis + 1) % 3, b2 = (axis + 2) % 3;
+    // Lines next to each other in memory one after the other (the outer of the two other axes
+    // the one of larger stride): a z line steps a whole plane per voxel, and the next z line
+    // along x reads the cache lines it brought in. Lines are independent, so the order changes
+    // no site.
+    const int b1 = axis == 2 ? 1 : 2, b2 = axis == 0 ? 1 : 0;
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      const bool narrowed = (axis == 1 && a == 0) || (axis == 2 && a != 2);
+      lo[a] = narrowed ? write.lo[a] : r.lo[a];
+      hi[a] = narrowed ? write.hi[a] : r.hi[a];
+    }
     int key[3];
-    for (key[b1] = r.lo[b1]; key[b1] <= r.hi[b1]; ++key[b1])
-      for (key[b2] = r.lo[b2]; key[b2] <= r.hi[b2]; ++key[b2]) {
+    for (key[b1] = lo[b1]; key[b1] <= hi[b1]; ++key[b1])
+      for (key[b2] = lo[b2]; key[b2] <= hi[b2]; ++key[b2]) {
         solver.clear();
         queries.clear();
         for (int p = r.lo[axis]; p <= r.hi[axis]; ++p) {
@@ -236,7 +257,7 @@ double DistanceField::Impl::transformBox(const BoxI& r, BoxI write) {
             solver.add(p, 0.0, packKey(key[0], key[1], key[2]));
           } else {
             if (w & kGridSite) solver.add(p, partialF(key, w & kGridKey, axis), w & kGridKey);
-            queries.emplace_back(p, &w);
+            if (p >= write.lo[axis] && p <= write.hi[axis]) queries.emplace_back(p, &w);
           }
         }
         if (queries.empty()) continue;
