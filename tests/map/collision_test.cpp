@@ -301,6 +301,30 @@ TEST_P(CollisionOracle, SphereMatchesAnalyticDistance) {
   EXPECT_GT(separated, 50) << c.name;
 }
 
+// clearanceLowerBound() never exceeds the distance to the nearest rock cube of the whole map, at
+// free points, in rock and on the roadways' walls; and it is tight: 0.41-0.46 voxel below the
+// truth on average over the free points here, where the bound from the point's own voxel alone
+// is 0.75-0.83 voxel below (measured; that bound fails the second expectation).
+TEST_P(CollisionOracle, ClearanceLowerBoundIsProvenAndTight) {
+  const Case c = collisionCases()[GetParam()];
+  const World w(c.net);
+  const double res = w.map.resolution();
+  std::mt19937_64 rng(5000 + GetParam());
+  double gap_sum = 0.0;
+  int free_points = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vec3 p = test::randomPoint(rng, w.map.bounds());
+    const DistanceSample truth = w.brute.query(p);
+    const double lb = w.checker.clearanceLowerBound(p);
+    ASSERT_LE(lb, truth.distance + 1e-12) << c.name << " at " << p.transpose();
+    if (truth.in_rock) continue;
+    ++free_points;
+    gap_sum += truth.distance - lb;
+  }
+  ASSERT_GT(free_points, 300) << c.name;
+  EXPECT_LT(gap_sum / free_points, 0.6 * res) << c.name;
+}
+
 INSTANTIATE_TEST_SUITE_P(Roadways, CollisionOracle, ::testing::Range<std::size_t>(0, 4),
                          [](const ::testing::TestParamInfo<std::size_t>& i) {
                            return std::string(collisionCases()[i.param].name);

@@ -93,6 +93,12 @@ class CollisionChecker {
   ShapeDistance distance(const RobotShape& shape, const Eigen::Isometry3d& pose,
                          double max_distance_m = std::numeric_limits<double>::infinity()) const;
 
+  /// A proven lower bound on the distance from the point p to rock, from the field's reads
+  /// around p and no search: what distance() settles a shape far from rock with (less the
+  /// shape's bounding radius). Within about a voxel of the true distance where the clearance
+  /// varies slowly; -infinity where the field knows no rock.
+  double clearanceLowerBound(const Vec3& p) const;
+
   double resolution() const;
   const OccupancyMap& map() const { return *map_; }
   const DistanceField& field() const { return *field_; }
