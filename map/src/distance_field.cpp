@@ -24,7 +24,6 @@ std::uint64_t nextGeneration() {
   static std::atomic<std::uint64_t> counter{0};
   return ++counter;
 }
-
 }  // namespace
 
 // Squared distance (voxels^2) from voxel (x, y, z)'s centre to its stored nearest rock voxel's:
@@ -84,6 +83,7 @@ int DistanceField::Impl::localGrow(const BoxI& w, int grow_max, double& max_d2) 
   max_d2 = std::numeric_limits<double>::infinity();
   return grow_max;
 }
+
 DistanceField::DistanceField(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) { impl_->generation = nextGeneration(); }
 DistanceField::DistanceField(DistanceField&&) noexcept = default;
 DistanceField& DistanceField::operator=(DistanceField&&) noexcept = default;
