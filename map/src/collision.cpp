@@ -199,10 +199,10 @@ double clearanceLowerBound(const DistanceField& field, const Vec3& p) {
 // clearance varies slowly (the bound above loses |p - v|, up to sqrt(3)/2 voxel): with the
 // trilinear weights w_i of p among them (they sum to 1 and average the c_i to p), every point r
 // has |p - r|^2 = sum w_i |c_i - r|^2 - sum w_i |c_i - p|^2, and a rock centre r is at least the
-// stored clearance D_i from each c_i. The better of the two bounds, less a rounding margin.
-double blendedClearanceLowerBound(const DistanceField& field, const Vec3& p) {
-  const double single = clearanceLowerBound(field, p);
-  if (!allFinite(p)) return single;
+// stored clearance D_i from each c_i. Less a rounding margin; -inf where it proves nothing.
+// Callers take the better of the two.
+double eightVoxelClearanceLowerBound(const DistanceField& field, const Vec3& p) {
+  if (!allFinite(p)) return -kInf;
   const double res = field.resolution(), inv = 1.0 / res;
   const Vec3 u = p * inv - Vec3::Constant(0.5);
   const Vec3 b = u.array().floor();
@@ -217,8 +217,8 @@ double blendedClearanceLowerBound(const DistanceField& field, const Vec3& p) {
     spread += w * (centre - p).squaredNorm();
   }
   const double l2 = sum - spread;
-  if (!(l2 > 0.0)) return single;
-  return std::max(single, std::sqrt(l2) * (1.0 - 1e-12) - kHalfSqrt3 * res - 1e-9 * res);
+  if (!(l2 > 0.0)) return -kInf;
+  return std::sqrt(l2) * (1.0 - 1e-12) - kHalfSqrt3 * res - 1e-9 * res;
 }
 
 // A lower bound on the distance from the posed shape to rock from a few field reads, for the
@@ -329,7 +329,8 @@ ShapeDistance distanceImpl(const DistanceField& field, const RobotShape& shape, 
   // eight around the origin settle more, and narrow the search of step 4).
   const double radius = shape.boundingRadius();
   double clearance_lb = clearanceLowerBound(field, origin);
-  if (!(clearance_lb - radius > max_d)) clearance_lb = blendedClearanceLowerBound(field, origin);
+  if (!(clearance_lb - radius > max_d))
+    clearance_lb = std::max(clearance_lb, eightVoxelClearanceLowerBound(field, origin));
   if (clearance_lb - radius > max_d) {
     ShapeDistance r;
     r.distance_m = clearance_lb - radius;
@@ -414,7 +415,9 @@ ShapeDistance distanceImpl(const DistanceField& field, const RobotShape& shape, 
 
 }  // namespace
 
-double CollisionChecker::clearanceLowerBound(const Vec3& p) const { return blendedClearanceLowerBound(*field_, p); }
+double CollisionChecker::clearanceLowerBound(const Vec3& p) const {
+  return std::max(adit::map::clearanceLowerBound(*field_, p), eightVoxelClearanceLowerBound(*field_, p));
+}
 
 bool CollisionChecker::inCollision(const RobotShape& shape, const Eigen::Isometry3d& pose) const {
   return guardedCollide([&] { return inCollisionImpl(*field_, shape, pose); });

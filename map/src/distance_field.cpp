@@ -267,28 +267,23 @@ void DistanceField::freeVoxels(const std::int64_t lo[3], const std::int64_t n[3]
   const Impl& m = *impl_;
   auto key = [](std::int64_t v) { return v + internal::kKeyOffset; };
   auto inRange = [](std::int64_t k) { return k >= 0 && k <= 65535; };
+  // Along x, the voxels [i0, i1) have keys in range; the rest are rock.
+  const std::int64_t x0 = key(lo[0]);
+  const std::int64_t i0 = std::clamp<std::int64_t>(-x0, 0, n[0]), i1 = std::clamp<std::int64_t>(65536 - x0, 0, n[0]);
   for (std::int64_t k = 0; k < n[2]; ++k) {
     const std::int64_t z = key(lo[2] + k);
     for (std::int64_t j = 0; j < n[1]; ++j) {
       const std::int64_t y = key(lo[1] + j);
       std::uint8_t* row = out + std::size_t(n[0] * (j + n[1] * k));
-      if (!inRange(y) || !inRange(z)) {
+      if (!inRange(y) || !inRange(z) || i0 >= i1) {
         std::fill(row, row + n[0], std::uint8_t{0});
         continue;
       }
-      for (std::int64_t i = 0; i < n[0];) {
-        const std::int64_t x = key(lo[0] + i);
-        if (!inRange(x)) {
-          row[i++] = 0;
-          continue;
-        }
-        // The rest of this tile's row: one tile lookup for up to kTileSize voxels.
-        const std::int64_t run = std::min<std::int64_t>(n[0] - i, kTileSize - (x & kTileMask));
-        const Cell* cells = m.tiles[std::size_t(m.tileIndex(int(x), int(y), int(z)))].data() +
-                            localIndex(int(x), int(y), int(z));
-        for (std::int64_t q = 0; q < run; ++q) row[i + q] = isFreeCell(cells[q]) ? 1 : 0;
-        i += run;
-      }
+      std::fill(row, row + i0, std::uint8_t{0});
+      std::fill(row + i1, row + n[0], std::uint8_t{0});
+      m.forRowRuns(int(x0 + i0), int(x0 + i1 - 1), int(y), int(z), [row, x0](int x, const Cell* cells, int run) {
+        for (int q = 0; q < run; ++q) row[x - x0 + q] = isFreeCell(cells[q]) ? 1 : 0;
+      });
     }
   }
 }
@@ -307,12 +302,8 @@ Vec3 DistanceField::nearestRockVoxel(const Vec3& p) const noexcept {
 double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   int k[3];
   if (!impl_->voxelKey(p, k)) return 0.0;
-  const Cell c = impl_->cell(k[0], k[1], k[2]);
-  if (!isFreeCell(c)) return 0.0;
-  if (!hasSite(c)) return impl_->res;
-  const std::uint64_t s = impl_->siteOf(c, k[0], k[1], k[2]);
-  const double dx = keyCoord(s, 0) - k[0], dy = keyCoord(s, 1) - k[1], dz = keyCoord(s, 2) - k[2];
-  return impl_->res * std::sqrt(dx * dx + dy * dy + dz * dz);
+  const double d2 = impl_->storedClearance2(k[0], k[1], k[2]);
+  return d2 < std::numeric_limits<double>::infinity() ? impl_->res * std::sqrt(d2) : impl_->res;
 }
 
 [[gnu::always_inline]] inline DistanceSample DistanceField::sample(const Vec3& p, bool full) const noexcept {
@@ -425,16 +416,12 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   for (int c = 1; c < 8; ++c) bc = d2[c] < d2[bc] ? c : bc;
   const double best = d2[bc];
   if (!(best < std::numeric_limits<double>::infinity())) return out;  // no rock known
-  if (!full) {
-    out.in_rock = false;
-    out.distance = std::sqrt(best) * m.res;
-    return out;
-  }
+  out.in_rock = false;
+  out.distance = std::sqrt(best) * m.res;
+  if (!full) return out;
   const double bx = std::copysign(e[0][bc], qx - double(site[0][bc]));
   const double by = std::copysign(e[1][bc], qy - double(site[1][bc]));
   const double bz = std::copysign(e[2][bc], qz - double(site[2][bc]));
-  out.in_rock = false;
-  out.distance = std::sqrt(best) * m.res;
   const double dx = bx * m.res, dy = by * m.res, dz = bz * m.res;
   out.nearest = Vec3(px - dx, py - dy, pz - dz);
   if (out.distance > 0) {

@@ -6,6 +6,7 @@
 // Euclidean feature transform). See distance_field.hpp for the contract.
 #include <octomap/OcTree.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -156,6 +157,16 @@ struct DistanceField::Impl {
   }
   Cell cell(int x, int y, int z) const {
     return tiles[std::size_t(tileIndex(x, y, z))][std::size_t(localIndex(x, y, z))];
+  }
+  // fn(x, cells, run) over the voxels x0..x1 (keys) of row (y, z), a tile's row at a time: cells
+  // points at voxel x's cell and the next run - 1 voxels' follow it. One tile lookup a run.
+  template <class Fn>
+  void forRowRuns(int x0, int x1, int y, int z, Fn&& fn) const {
+    for (int x = x0; x <= x1;) {
+      const int run = std::min(kTileSize - (x & kTileMask), x1 - x + 1);
+      fn(x, tiles[std::size_t(tileIndex(x, y, z))].data() + localIndex(x, y, z), run);
+      x += run;
+    }
   }
   // The nearest rock voxel of a free cell with a site at (x, y, z), as a packed key.
   std::uint64_t siteOf(Cell c, int x, int y, int z) const {

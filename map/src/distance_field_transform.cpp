@@ -215,16 +215,12 @@ double DistanceField::Impl::transformBox(const BoxI& r, BoxI write) {
     return grid[(std::size_t(z - r.lo[2]) * std::size_t(n[1]) + std::size_t(y - r.lo[1])) * std::size_t(n[0]) +
                 std::size_t(x - r.lo[0])];
   };
-  // A tile's row at a time: one tile lookup per run of voxels along x, not one per voxel.
   for (int z = r.lo[2]; z <= r.hi[2]; ++z)
     for (int y = r.lo[1]; y <= r.hi[1]; ++y) {
       std::uint64_t* row = &at(r.lo[0], y, z);
-      for (int x = r.lo[0]; x <= r.hi[0];) {
-        const int run = std::min(kTileSize - (x & kTileMask), r.hi[0] - x + 1);
-        const Cell* cells = tiles[std::size_t(tileIndex(x, y, z))].data() + localIndex(x, y, z);
-        for (int i = 0; i < run; ++i) row[x - r.lo[0] + i] = isFreeCell(cells[i]) ? kGridFree : 0;
-        x += run;
-      }
+      forRowRuns(r.lo[0], r.hi[0], y, z, [row, x0 = r.lo[0]](int x, const Cell* cells, int run) {
+        for (int i = 0; i < run; ++i) row[x - x0 + i] = isFreeCell(cells[i]) ? kGridFree : 0;
+      });
     }
   LineSolver solver;
   std::vector<std::pair<int, std::uint64_t*>> queries;
