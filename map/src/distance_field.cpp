@@ -306,7 +306,53 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   return d2 < std::numeric_limits<double>::infinity() ? impl_->res * std::sqrt(d2) : impl_->res;
 }
 
-[[gnu::always_inline]] inline DistanceSample DistanceField::sample(const Vec3& p, bool full) const noexcept {
+// The 8 cells around `base` (base + {0,1}^3, x fastest). False when they all lie in one tile of a
+// block off the index: all rock, cells left unset.
+[[gnu::always_inline]] inline bool DistanceField::Impl::gather8(const int base[3], Cell cells[8]) const {
+  if ((base[0] & kTileMask) != kTileMask && (base[1] & kTileMask) != kTileMask &&
+      (base[2] & kTileMask) != kTileMask) {
+    // All 8 in one tile: one index read, one region read, 8 independent loads.
+    const std::int32_t r = blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
+    if (r < 0) return false;  // the whole neighbourhood, p's voxel included, is rock
+    const std::int32_t t = regions[std::size_t(r)][std::size_t(subIndex(base[0], base[1], base[2]))];
+    const Cell* tile = tiles[std::size_t(t)].data() + localIndex(base[0], base[1], base[2]);
+    constexpr int kDy = kTileSize, kDz = kTileSize * kTileSize;
+    cells[0] = tile[0];         cells[1] = tile[1];
+    cells[2] = tile[kDy];       cells[3] = tile[kDy + 1];
+    cells[4] = tile[kDz];       cells[5] = tile[kDz + 1];
+    cells[6] = tile[kDz + kDy]; cells[7] = tile[kDz + kDy + 1];
+  } else {
+    // Across tiles (tiles are small: the commoner case), perhaps across blocks. Each axis's two
+    // voxel rows give an index stride, a tile slot and a cell slot, so the 8 loads neither wait
+    // on each other nor branch but where a block lies off the index or holds no free space.
+    const std::size_t stride[3] = {1, std::size_t(bdim[0]), std::size_t(bdim[0]) * std::size_t(bdim[1])};
+    std::size_t off[3][2];
+    int sub[3][2], loc[3][2];
+    bool inside[3][2];
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < 2; ++i) {
+        const int v = base[a] + i, b = (v >> kBlockBits) - bmin[a];
+        inside[a][i] = unsigned(b) < unsigned(bdim[a]);
+        off[a][i] = std::size_t(unsigned(b)) * stride[a];
+        sub[a][i] = ((v >> kTileBits) & kSubMask) << (a * kSubBits);
+        loc[a][i] = (v & kTileMask) << (a * kTileBits);
+      }
+    const std::int32_t* ix = index.data();
+    const Region* rg = regions.data();
+    const Tile* tl = tiles.data();
+    for (int c = 0; c < 8; ++c) {
+      const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
+      const std::int32_t r =
+          inside[0][i] && inside[1][j] && inside[2][k] ? ix[off[0][i] + off[1][j] + off[2][k]] : -1;
+      const std::int32_t t = r < 0 ? kRockTile : rg[r][std::size_t(sub[0][i] | sub[1][j] | sub[2][k])];
+      cells[c] = tl[t][std::size_t(loc[0][i] | loc[1][j] | loc[2][k])];
+    }
+  }
+  return true;
+}
+
+[[gnu::always_inline]] inline DistanceSample DistanceField::sample(const Vec3& p, bool full,
+                                                                   DistanceReadCache* cache) const noexcept {
   // Plain scalars on purpose: this runs in every planner's inner loop (see tests/bench).
   DistanceSample out;
   out.nearest = p;
@@ -321,43 +367,23 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
                        internal::floorToInt(uy - 0.5) + internal::kKeyOffset,
                        internal::floorToInt(uz - 0.5) + internal::kKeyOffset};
   Cell cells[8];
-  if ((base[0] & kTileMask) != kTileMask && (base[1] & kTileMask) != kTileMask &&
-      (base[2] & kTileMask) != kTileMask) {
-    // All 8 in one tile: one index read, one region read, 8 independent loads.
-    const std::int32_t r = m.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
-    if (r < 0) return out;  // the whole neighbourhood, p's voxel included, is rock
-    const std::int32_t t = m.regions[std::size_t(r)][std::size_t(subIndex(base[0], base[1], base[2]))];
-    const Cell* tile = m.tiles[std::size_t(t)].data() + localIndex(base[0], base[1], base[2]);
-    constexpr int kDy = kTileSize, kDz = kTileSize * kTileSize;
-    cells[0] = tile[0];         cells[1] = tile[1];
-    cells[2] = tile[kDy];       cells[3] = tile[kDy + 1];
-    cells[4] = tile[kDz];       cells[5] = tile[kDz + 1];
-    cells[6] = tile[kDz + kDy]; cells[7] = tile[kDz + kDy + 1];
+  if (cache == nullptr) {
+    if (!m.gather8(base, cells)) return out;
   } else {
-    // Across tiles (tiles are small: the commoner case), perhaps across blocks. Each axis's two
-    // voxel rows give an index stride, a tile slot and a cell slot, so the 8 loads neither wait
-    // on each other nor branch but where a block lies off the index or holds no free space.
-    const std::size_t stride[3] = {1, std::size_t(m.bdim[0]), std::size_t(m.bdim[0]) * std::size_t(m.bdim[1])};
-    std::size_t off[3][2];
-    int sub[3][2], loc[3][2];
-    bool inside[3][2];
-    for (int a = 0; a < 3; ++a)
-      for (int i = 0; i < 2; ++i) {
-        const int v = base[a] + i, b = (v >> kBlockBits) - m.bmin[a];
-        inside[a][i] = unsigned(b) < unsigned(m.bdim[a]);
-        off[a][i] = std::size_t(unsigned(b)) * stride[a];
-        sub[a][i] = ((v >> kTileBits) & kSubMask) << (a * kSubBits);
-        loc[a][i] = (v & kTileMask) << (a * kTileBits);
-      }
-    const std::int32_t* index = m.index.data();
-    const Region* regions = m.regions.data();
-    const Tile* tiles = m.tiles.data();
-    for (int c = 0; c < 8; ++c) {
-      const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
-      const std::int32_t r =
-          inside[0][i] && inside[1][j] && inside[2][k] ? index[off[0][i] + off[1][j] + off[2][k]] : -1;
-      const std::int32_t t = r < 0 ? kRockTile : regions[r][std::size_t(sub[0][i] | sub[1][j] | sub[2][k])];
-      cells[c] = tiles[t][std::size_t(loc[0][i] | loc[1][j] | loc[2][k])];
+    if (cache->generation_ != m.generation) cache->reset(m.generation);
+    // A multiplicative hash of the base key: a segment's bases, neighbours in a line, spread
+    // over the slots instead of wrapping onto a few as low key bits would.
+    const std::uint32_t h = (std::uint32_t(base[0]) * 0x9E3779B1u + std::uint32_t(base[1]) * 0x85EBCA77u +
+                             std::uint32_t(base[2]) * 0xC2B2AE3Du) >> (32 - DistanceReadCache::kSlotBits);
+    DistanceReadCache::Slot& slot = cache->slots_[h];
+    if (slot.key[0] == base[0] && slot.key[1] == base[1] && slot.key[2] == base[2]) {
+      ++cache->hits_;
+      std::memcpy(cells, slot.cells, sizeof cells);
+    } else {
+      ++cache->misses_;
+      if (!m.gather8(base, cells)) std::fill(cells, cells + 8, Cell{0});
+      std::memcpy(slot.key, base, sizeof slot.key);
+      std::memcpy(slot.cells, cells, sizeof slot.cells);
     }
   }
   // Coordinates of p relative to the base voxel's centre, in voxels (each in [0, 1)).
@@ -431,8 +457,19 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   return out;
 }
 
-DistanceSample DistanceField::query(const Vec3& p) const noexcept { return sample(p, true); }
-double DistanceField::distance(const Vec3& p) const noexcept { return sample(p, false).distance; }
+DistanceSample DistanceField::query(const Vec3& p) const noexcept { return sample(p, true, nullptr); }
+double DistanceField::distance(const Vec3& p) const noexcept { return sample(p, false, nullptr).distance; }
+double DistanceField::distance(const Vec3& p, DistanceReadCache& cache) const noexcept {
+  return sample(p, false, &cache).distance;
+}
+
+DistanceReadCache::DistanceReadCache() : slots_(new Slot[std::size_t{1} << kSlotBits]) { reset(0); }
+
+void DistanceReadCache::reset(std::uint64_t generation) noexcept {
+  // Keys beyond the key range (they are 16-bit) name no base.
+  for (std::size_t i = 0; i < (std::size_t{1} << kSlotBits); ++i) slots_[i].key[0] = -1;
+  generation_ = generation;
+}
 
 Status DistanceField::update(const OccupancyMap& map, const Aabb& changed) { return update(map, changed, nullptr); }
 

@@ -144,6 +144,8 @@ struct DistanceField::Impl {
     const std::int32_t r = blockIndex(x >> kBlockBits, y >> kBlockBits, z >> kBlockBits);
     return r < 0 ? kRockTile : regions[std::size_t(r)][std::size_t(subIndex(x, y, z))];
   }
+  // The 8 cells of sample() (distance_field.cpp).
+  [[gnu::always_inline]] inline bool gather8(const int base[3], Cell cells[8]) const;
   // Sites of the far cells among the 8 (relative to base); rare, out of line.
   [[gnu::noinline, gnu::cold]] void resolveFar(const Cell cells[8], const int base[3], int s[3][8]) const;
   // Key of the voxel holding p; false for NaN and beyond the key range (rock there).

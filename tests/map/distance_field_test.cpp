@@ -303,6 +303,55 @@ TEST(DistanceField, FreeVoxelsAndDistanceAgreeWithIsFreeAndQuery) {
   }
 }
 
+// distance(p, cache) is distance(p) bit for bit: at random points and along a segment swept again
+// and again with one end moved a little (as the refiner's finite differences do: nearly every read
+// hits), on a field whose sites are in the far table, off the map, for NaN, and after the field
+// changed under the cache (an update, then another field read through the same cache).
+TEST(DistanceField, DistanceThroughAReadCacheIsDistanceBitForBit) {
+  OccupancyMap map = test::voxelizeOrFail(test::junctionNetwork(0.25));
+  StatusOr<DistanceField> near = DistanceField::build(map);
+  StatusOr<DistanceField> far = DistanceField::buildWithNearLimitForTesting(map, 1);
+  ASSERT_TRUE(near.ok() && far.ok());
+  DistanceReadCache cache;
+  std::mt19937_64 rng(31);
+  auto sweep = [&](const DistanceField& f) {
+    for (int t = 0; t < 3000; ++t) {
+      const Vec3 p = test::randomPoint(rng, map.bounds());
+      ASSERT_EQ(f.distance(p, cache), f.distance(p)) << p.transpose();
+    }
+    for (int seg = 0; seg < 20; ++seg) {
+      const Vec3 a = test::randomPoint(rng, map.bounds()), b = test::randomPoint(rng, map.bounds());
+      for (int round = 0; round < 6; ++round) {
+        const Vec3 end = b + Vec3::Constant(1e-4 * (round % 3 - 1));
+        for (int k = 0; k < 200; ++k) {
+          const Vec3 q = a + (end - a) * ((k + 0.5) / 200);
+          ASSERT_EQ(f.distance(q, cache), f.distance(q)) << q.transpose();
+        }
+      }
+    }
+    for (const Vec3& p : std::vector<Vec3>{Vec3::Constant(std::nan("")), Vec3(1e9, 0, 0), Vec3(-3276.9, 0.1, 0.1), Vec3(0, 0, -500)})
+      ASSERT_EQ(f.distance(p, cache), f.distance(p)) << p.transpose();
+  };
+  sweep(*near);
+  const std::uint64_t hits = cache.hits(), misses = cache.misses();
+  EXPECT_GT(hits, 4 * misses) << "the repeated sweeps should read mostly from the cache";
+  sweep(*far);
+  EXPECT_GT(far->stats().far_sites, 0u);
+  // Rubble across the junction: the cache must not answer with what it read before the update.
+  std::vector<Vec3> rubble;
+  for (double x = -1.0; x < 1.0; x += 0.25)
+    for (double y = -1.0; y < 1.0; y += 0.25)
+      for (double z = 0.1; z < 1.6; z += 0.25) rubble.push_back({x, y, z});
+  for (int t = 0; t < 2000; ++t) (void)near->distance(Vec3(rng() % 200 * 0.01 - 1.0, rng() % 200 * 0.01 - 1.0, 1.0), cache);
+  map.setVoxels(rubble, VoxelState::kOccupied);
+  ASSERT_TRUE(near->update(map, Aabb({-1.0, -1.0, 0.1}, {1.0, 1.0, 1.6})).ok());
+  for (double x = -1.0; x < 1.0; x += 0.05) {
+    const Vec3 p(x, 0.05, 1.0);
+    ASSERT_EQ(near->distance(p, cache), near->distance(p)) << p.transpose();
+  }
+  sweep(*near);
+}
+
 // Free space touching the end of OctoMap's key range: rock beyond it cannot be represented, so
 // the outermost key layer counts as rock, and nothing wraps round to the far side of the map.
 TEST(DistanceField, FreeSpaceAtTheEdgeOfTheKeyRangeMatchesBruteForce) {

@@ -70,6 +70,35 @@ struct DistanceFieldUpdateReport {
   double seconds = 0.0;
 };
 
+class DistanceField;
+
+/// What one reader of a DistanceField read last, so that it can read the same voxels again
+/// without looking them up: a cost integral differentiated numerically samples each segment again
+/// and again with one end moved by a finite-difference step, and nearly every sample falls among
+/// the same 8 voxels as before. DistanceField::distance(p, cache) is distance(p) bit for bit; the
+/// cache forgets what it holds when the field's generation() changes (an update(), another
+/// field). One per thread: reading through it writes it. About 46 KiB, allocated here.
+class DistanceReadCache {
+ public:
+  DistanceReadCache();
+  /// Reads answered from the cache and reads that looked the voxels up (and were kept).
+  std::uint64_t hits() const noexcept { return hits_; }
+  std::uint64_t misses() const noexcept { return misses_; }
+
+ private:
+  friend class DistanceField;
+  static constexpr int kSlotBits = 10;
+  // The 8 voxels' cells around one base voxel, as the field stores them.
+  struct Slot {
+    std::int32_t key[3];
+    std::uint32_t cells[8];
+  };
+  void reset(std::uint64_t generation) noexcept;
+  std::unique_ptr<Slot[]> slots_;
+  std::uint64_t generation_ = 0;  // of the field the slots were read from; 0: none
+  std::uint64_t hits_ = 0, misses_ = 0;
+};
+
 class DistanceField {
  public:
   /// Builds the field from the map under its unknown-space policy. Refuses maps whose free space
@@ -93,6 +122,9 @@ class DistanceField {
   /// query(p).distance, bit for bit, without the gradient and closest point (a cost integral's
   /// samples need only this).
   double distance(const Vec3& p) const noexcept;
+  /// distance(p), bit for bit, reading the 8 voxels around p from `cache` when it read them
+  /// before from this content of the field (see DistanceReadCache).
+  double distance(const Vec3& p, DistanceReadCache& cache) const noexcept;
   /// How far distance(p) may exceed the true distance to rock, proven rather than measured: the
   /// voxel holding p (centre c, |p - c| <= sqrt(3)/2 voxel) is one of the 8 read, and its stored
   /// site S is at least as near c as the centre of p's truly nearest rock voxel R, so
@@ -134,8 +166,9 @@ class DistanceField {
   friend struct MapCacheIo;
   struct Impl;
   explicit DistanceField(std::unique_ptr<Impl> impl);
-  // query()'s work; with full = false only the distance is filled in.
-  DistanceSample sample(const Vec3& p, bool full) const noexcept;
+  // query()'s work; with full = false only the distance is filled in; with a cache, the 8 cells
+  // are read through it.
+  DistanceSample sample(const Vec3& p, bool full, DistanceReadCache* cache) const noexcept;
   std::unique_ptr<Impl> impl_;
 };
 
