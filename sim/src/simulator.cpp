@@ -187,9 +187,8 @@ class Referee {
     return d.exact ? d.distance_m : std::numeric_limits<double>::infinity();
   }
   double rockDistance(const Vec3& p) const { return rockDistance(pose(p)); }
-  // Flying: the same, exact only below `compared`, the largest value it is compared with (the
-  // run's least clearance so far, a roof fall's distance): a distance beyond that changes nothing,
-  // and infinity stands for it. Most periods are then settled by the field's bound alone, without
+  // Flying: the same, exact only below `compared` (the run's least clearance so far): a distance
+  // beyond that changes nothing, and infinity stands for it. Most periods are then settled by the field's bound alone, without
   // the surface scan. Up to 10 m it is what rockDistance() gives.
   double rockDistanceBelow(const Eigen::Isometry3d& x, double compared) const {
     constexpr double kReach = 10.0;
@@ -353,9 +352,12 @@ void refereePeriod(const Scenario& sc, const Environment& env, const Vec3& acc, 
     std::string extra_what = what;
     if (extra) extra(p, t + tau, extra_d, extra_what);
     // Nearest thing to the robot at this instant, and what it is.
+    // Flying, the rock distance matters only below the least clearance so far: above it, it
+    // lowers nothing (the clearance reported is the least of rock, fall, obstacles and movers),
+    // and it names no contact (a contact is a distance of 0, below any of them). A roof fall's
+    // distance need not be told from it there: which of two is nearer matters only at contact.
     if (d > 0.0)
-      d = ground ? referee.groundRockDistance(body, extra_d)
-                 : referee.rockDistanceBelow(body, std::max(res.min_clearance_m, std::isfinite(extra_d) ? extra_d : 0.0));
+      d = ground ? referee.groundRockDistance(body, extra_d) : referee.rockDistanceBelow(body, res.min_clearance_m);
     // What the run reports as its clearance: the same, but for a ground robot the rock is what
     // stands beside it, not the floor it drives on (read once a period: the band scan is the
     // costly part; contact is still judged on every sub-sample by the exact distance d).
