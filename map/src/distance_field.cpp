@@ -13,6 +13,10 @@
 #include <sstream>
 #include <tuple>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "distance_field_impl.hpp"
 
 namespace adit::map {
@@ -321,10 +325,31 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
     cells[2] = tile[kDy];       cells[3] = tile[kDy + 1];
     cells[4] = tile[kDz];       cells[5] = tile[kDz + 1];
     cells[6] = tile[kDz + kDy]; cells[7] = tile[kDz + kDy + 1];
+  } else if ((base[0] & kBlockMask) != kBlockMask && (base[1] & kBlockMask) != kBlockMask &&
+             (base[2] & kBlockMask) != kBlockMask) {
+    // Across tiles within one block (most of the rest): one index read, one region; each axis's
+    // two voxel rows give a tile slot and a cell slot, and the 8 loads are written out (the loop
+    // below kept its per-corner block tests and index reads: 50 instructions a corner).
+    const std::int32_t r = blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
+    if (r < 0) return false;
+    const std::int32_t* region = regions[std::size_t(r)].data();
+    const Tile* tl = tiles.data();
+    int sub[3][2], loc[3][2];
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < 2; ++i) {
+        const int v = base[a] + i;
+        sub[a][i] = ((v >> kTileBits) & kSubMask) << (a * kSubBits);
+        loc[a][i] = (v & kTileMask) << (a * kTileBits);
+      }
+#pragma GCC unroll 8
+    for (int c = 0; c < 8; ++c) {
+      const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
+      cells[c] = tl[region[sub[0][i] | sub[1][j] | sub[2][k]]][std::size_t(loc[0][i] | loc[1][j] | loc[2][k])];
+    }
   } else {
-    // Across tiles (tiles are small: the commoner case), perhaps across blocks. Each axis's two
-    // voxel rows give an index stride, a tile slot and a cell slot, so the 8 loads neither wait
-    // on each other nor branch but where a block lies off the index or holds no free space.
+    // Across blocks. Each axis's two voxel rows give an index stride, a tile slot and a cell
+    // slot, so the 8 loads neither wait on each other nor branch but where a block lies off the
+    // index or holds no free space.
     const std::size_t stride[3] = {1, std::size_t(bdim[0]), std::size_t(bdim[0]) * std::size_t(bdim[1])};
     std::size_t off[3][2];
     int sub[3][2], loc[3][2];
@@ -340,6 +365,7 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
     const std::int32_t* ix = index.data();
     const Region* rg = regions.data();
     const Tile* tl = tiles.data();
+#pragma GCC unroll 8
     for (int c = 0; c < 8; ++c) {
       const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
       const std::int32_t r =
@@ -398,7 +424,6 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   // bit for bit the one a plain loop gives.
   using V4i = std::int32_t __attribute__((vector_size(16)));
   using V4u = std::uint32_t __attribute__((vector_size(16)));
-  using V2i = std::int32_t __attribute__((vector_size(8)));
   using V2d = double __attribute__((vector_size(16)));
   using V2u = std::uint64_t __attribute__((vector_size(16)));
   alignas(16) int site[3][8];
@@ -420,14 +445,22 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   // Distance from p to each candidate site's cube, per corner max(|q - s| - 0.5, 0) on each
   // axis, summed as ((ex^2 + ey^2) + ez^2); then the first nearest.
   const double q[3] = {qx, qy, qz};
-  alignas(16) double e[3][8];  // all 24 kept: recomputing the nearest corner's 3 after the choice measured slower
-  alignas(16) double d2[8];
+  alignas(32) double e[3][8];  // all 24 kept: recomputing the nearest corner's 3 after the choice measured slower
+  alignas(32) double d2[8];
+  // Two corners to a vector, their sites converted from the four sites' int vector.
   for (int h = 0; h < 4; ++h) {
     V2d ea[3];
     for (int a = 0; a < 3; ++a) {
-      V2i si;
-      std::memcpy(&si, &site[a][2 * h], sizeof si);
-      const V2d t = q[a] - __builtin_convertvector(si, V2d);
+      V4i si;
+      std::memcpy(&si, &site[a][4 * (h >> 1)], sizeof si);
+#if defined(__SSE2__)
+      // GCC converts an int pair one by one; this is the one instruction for it.
+      const __m128i pair = (h & 1) ? _mm_unpackhi_epi64(__m128i(si), __m128i(si)) : __m128i(si);
+      const V2d sd = V2d(_mm_cvtepi32_pd(pair));
+#else
+      const V2d sd = (h & 1) ? V2d{double(si[2]), double(si[3])} : V2d{double(si[0]), double(si[1])};
+#endif
+      const V2d t = q[a] - sd;
       const V2d mag = V2d(V2u(t) & ~(std::uint64_t{1} << 63)) - 0.5;  // fabs, then - 0.5
       ea[a] = mag < 0.0 ? V2d{0.0, 0.0} : mag;                         // std::max(mag, 0.0)
       std::memcpy(&e[a][2 * h], &ea[a], sizeof ea[a]);
@@ -438,13 +471,23 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   // A free corner without a site knows no rock: it offers none.
   for (int c = 0; c < 8; ++c)
     if ((cells[c] & (kFreeBit | kSiteBit)) == kFreeBit) d2[c] = std::numeric_limits<double>::infinity();
+  if (!full) {
+    // The least value alone, four and two to a vector: the one the first-nearest search gives.
+    V2d v[4];
+    std::memcpy(v, d2, sizeof v);
+    const V2d a = v[0] < v[1] ? v[0] : v[1], b = v[2] < v[3] ? v[2] : v[3], c = a < b ? a : b;
+    const double best = c[0] < c[1] ? c[0] : c[1];
+    if (!(best < std::numeric_limits<double>::infinity())) return out;  // no rock known
+    out.in_rock = false;
+    out.distance = std::sqrt(best) * m.res;
+    return out;
+  }
   int bc = 0;
   for (int c = 1; c < 8; ++c) bc = d2[c] < d2[bc] ? c : bc;
   const double best = d2[bc];
   if (!(best < std::numeric_limits<double>::infinity())) return out;  // no rock known
   out.in_rock = false;
   out.distance = std::sqrt(best) * m.res;
-  if (!full) return out;
   const double bx = std::copysign(e[0][bc], qx - double(site[0][bc]));
   const double by = std::copysign(e[1][bc], qy - double(site[1][bc]));
   const double bz = std::copysign(e[2][bc], qz - double(site[2][bc]));
