@@ -85,15 +85,13 @@ std::string hex16(std::uint64_t v) {
 // child bitmask, depth at most 16, exactly `nodes` nodes filling exactly the bytes. OctoMap's
 // reader recurses on whatever it is given; nothing reaches it that has not passed here.
 Status checkOctreeStream(const std::string& data, std::uint64_t nodes) {
-  struct Frame {
-    unsigned char mask;
-    int next;
-  };
-  Frame stack[17];
+  // Per depth, the children not yet read, taken lowest bit first (a scan bit by bit was 80
+  // instructions a node: 40 % of a cached load's CPU on the district).
+  unsigned pending[17];
   int depth = 0;
   std::size_t pos = 0;
   std::uint64_t seen = 0;
-  auto readNode = [&](unsigned char& mask) -> bool {
+  auto readNode = [&](unsigned& mask) -> bool {
     if (data.size() - pos < 5) return false;
     float v;
     std::memcpy(&v, data.data() + pos, 4);
@@ -102,20 +100,19 @@ Status checkOctreeStream(const std::string& data, std::uint64_t nodes) {
     ++seen;
     return std::isfinite(v);
   };
-  unsigned char mask = 0;
+  unsigned mask = 0;
   if (!readNode(mask)) return dataLoss("octree: the root node is cut or not finite");
-  stack[0] = {mask, 0};
+  pending[0] = mask;
   while (depth >= 0) {
-    Frame& f = stack[depth];
-    while (f.next < 8 && !((f.mask >> f.next) & 1u)) ++f.next;
-    if (f.next == 8) {
+    unsigned& left = pending[depth];
+    if (left == 0) {
       --depth;
       continue;
     }
-    ++f.next;
+    left &= left - 1;
     if (depth == 16) return dataLoss("octree: a node below depth 16");
     if (!readNode(mask)) return dataLoss("octree: node " + std::to_string(seen) + " is cut or not finite");
-    stack[++depth] = {mask, 0};
+    pending[++depth] = mask;
   }
   if (pos != data.size()) return dataLoss("octree: " + std::to_string(data.size() - pos) + " bytes after the tree");
   if (seen != nodes)

@@ -11,7 +11,11 @@
 #include <sys/ioctl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstring>
+#include <iterator>
+#include <limits>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -206,6 +210,56 @@ TEST_F(MapCache, ATruncatedCacheIsRefusedAndRebuilt) {
   ASSERT_TRUE(w.ok());
   ASSERT_EQ(w->cacheReport().refused.size(), 1u);
   EXPECT_NE(w->cacheReport().refused[0].find("after the last section"), std::string::npos) << w->cacheReport().refused[0];
+}
+
+// A hostile cache: the octree's bytes are edited and every checksum made right again, so only the
+// check of the stream's shape stands between them and OctoMap's recursive reader. Offsets follow
+// map_cache.cpp's header: the octree's section descriptor (offset, size, checksum) at byte 64, the
+// header's checksum at byte 208, of the 208 bytes before it.
+TEST_F(MapCache, AnOctreeWithRightChecksumsButAWrongShapeIsRefused) {
+  ASSERT_TRUE(load().ok());
+  std::string pristine;
+  {
+    std::ifstream in(beside(), std::ios::binary);
+    pristine.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  auto u64 = [](const std::string& b, std::size_t at) {
+    std::uint64_t v;
+    std::memcpy(&v, b.data() + at, 8);
+    return v;
+  };
+  const std::size_t off = std::size_t(u64(pristine, 64)), size = std::size_t(u64(pristine, 72));
+  ASSERT_GT(size, 50u);
+  ASSERT_EQ(checksum64(pristine.data() + off, size), u64(pristine, 80)) << "the header layout moved";
+  auto install = [&](std::string b) {
+    const std::uint64_t section = checksum64(b.data() + off, size);
+    std::memcpy(b.data() + 80, &section, 8);
+    const std::uint64_t header = checksum64(b.data(), 208);
+    std::memcpy(b.data() + 208, &header, 8);
+    std::ofstream(beside(), std::ios::binary | std::ios::trunc) << b;
+  };
+  // Node k's value at off + 5k, its child mask at off + 5k + 4.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::string not_finite = pristine, no_children = pristine, a_child_too_many = pristine;
+  std::memcpy(not_finite.data() + off + 5 * 3, &nan, 4);
+  no_children[off + 4] = 0;                  // the root ends the tree: the rest is left over
+  a_child_too_many[off + size - 1] = 1;      // the last node, a leaf, names a child past the end
+  const std::pair<std::string, std::vector<const char*>> cases[] = {
+      {not_finite, {"node 4 is cut or not finite"}},
+      {no_children, {"bytes after the tree"}},
+      {a_child_too_many, {"is cut or not finite", "below depth 16"}}};
+  for (const auto& [bytes, whys] : cases) {
+    install(bytes);
+    StatusOr<World> w = load();
+    ASSERT_TRUE(w.ok()) << w.status().message();
+    EXPECT_TRUE(w->cacheReport().used.empty()) << whys[0];
+    ASSERT_EQ(w->cacheReport().refused.size(), 1u) << whys[0];
+    const std::string& why = w->cacheReport().refused[0];
+    EXPECT_TRUE(std::any_of(whys.begin(), whys.end(), [&](const char* s) { return why.find(s) != std::string::npos; }))
+        << why;
+    EXPECT_EQ(w->cacheReport().written, beside());
+    expectSameWorld(freshWorld(map_), *w);
+  }
 }
 
 TEST_F(MapCache, AForeignCacheIsRefusedAndRebuilt) {
