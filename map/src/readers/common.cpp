@@ -1,14 +1,16 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "common.hpp"
 
-#include <open3d/utility/Logging.h>
+#include <dlfcn.h>
 #include <sys/mman.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <cstdlib>
 #include <mutex>
+#include <vector>
 
 namespace adit::map::readers_internal {
 
@@ -42,20 +44,56 @@ MemFile::~MemFile() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-std::string& open3dLastError() {
-  static std::string last;
-  return last;
+StatusOr<const Open3dModule*> open3dModule() {
+  static std::once_flag once;
+  static const Open3dModule* module = nullptr;
+  static std::string why;
+  std::call_once(once, [] {
+    std::vector<std::string> candidates;
+    if (const char* env = std::getenv("ADIT_OPEN3D_MODULE"); env && *env) candidates.push_back(env);
+    std::error_code ec;
+    const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+    if (!ec) candidates.push_back((exe.parent_path() / ADIT_OPEN3D_MODULE_FROM_BIN).lexically_normal().string());
+    candidates.push_back(ADIT_OPEN3D_MODULE_INSTALLED);
+    candidates.push_back(ADIT_OPEN3D_MODULE_BUILT);
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+      const std::string& path = candidates[i];
+      if (std::find(candidates.begin(), candidates.begin() + std::ptrdiff_t(i), path) != candidates.begin() + std::ptrdiff_t(i))
+        continue;  // the build's own place, reached twice
+      if (!std::filesystem::exists(path, ec)) {
+        why += (why.empty() ? "" : "; ") + path + ": not there";
+        continue;
+      }
+      // Never closed: the decoders stay loaded for the process.
+      void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (!handle) {
+        const char* e = ::dlerror();
+        why += (why.empty() ? "" : "; ") + path + ": " + (e ? e : "cannot load");
+        continue;
+      }
+      using Entry = const Open3dModule* (*)();
+      const auto entry = reinterpret_cast<Entry>(::dlsym(handle, kOpen3dModuleEntry));
+      const Open3dModule* m = entry ? entry() : nullptr;
+      if (!m || m->version != kOpen3dModuleVersion || !m->read_cloud || !m->read_png) {
+        why += (why.empty() ? "" : "; ") + path + ": not this build's module";
+        continue;
+      }
+      module = m;
+      return;
+    }
+  });
+  if (module) return module;
+  return failedPrecondition("decoding PCD, PLY and PNG needs adit's Open3D module, which did not load (" + why +
+                            "); set ADIT_OPEN3D_MODULE to its path");
 }
 
-void quietOpen3d() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    auto& logger = open3d::utility::Logger::GetInstance();
-    logger.SetPrintFunction([](const std::string& msg) { open3dLastError() = msg; });
-    logger.SetVerbosityLevel(open3d::utility::VerbosityLevel::Warning);
-  });
-  open3dLastError().clear();
+std::vector<Vec3> triples(const std::vector<double>& xyz) {
+  std::vector<Vec3> pts(xyz.size() / 3);
+  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = Vec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  return pts;
 }
+
+std::string open3dWhy(const std::string& error) { return error.empty() ? std::string() : " (" + error + ")"; }
 
 std::string extensionOf(const std::string& path) {
   std::string e = std::filesystem::path(path).extension().string();

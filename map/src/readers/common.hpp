@@ -5,8 +5,10 @@
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include "adit/map/readers/geometry.hpp"
+#include "readers/open3d_module.hpp"
 
 namespace adit::map::readers_internal {
 
@@ -28,10 +30,14 @@ class MemFile {
   std::string path_;
 };
 
-/// Silences Open3D's logger (it prints to stdout, which is adit's result channel) and keeps its
-/// last error message for our own report.
-std::string& open3dLastError();
-void quietOpen3d();
+/// The Open3D module (readers/open3d_module.hpp), loaded on the first call: from ADIT_OPEN3D_MODULE
+/// when set, else beside the program as installed (../lib/adit from its bin folder), else where
+/// this build put it. An error says where it looked and why each failed.
+StatusOr<const Open3dModule*> open3dModule();
+/// x, y, z triples as points.
+std::vector<Vec3> triples(const std::vector<double>& xyz);
+/// Open3D's message for a failed decode, as " (message)", or "".
+std::string open3dWhy(const std::string& error);
 
 template <class T>
 T loadLE(const std::string& b, std::size_t off) {

@@ -2,8 +2,6 @@
 #include "adit/map/readers/ros_map.hpp"
 
 #include <octomap/OcTree.h>
-#include <open3d/geometry/Image.h>
-#include <open3d/io/ImageIO.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
@@ -169,22 +167,22 @@ Status decodeRosMapImage(const std::string& b, const std::string& name, RosMap* 
     if (pw == 0 || ph == 0 || pw * ph > max_pixels)
       return outOfRange(at(name, 16) + ": PNG of " + std::to_string(pw) + " x " + std::to_string(ph) +
                         " pixels is empty or exceeds the limit of " + std::to_string(max_pixels));
-    quietOpen3d();
-    open3d::geometry::Image img;
-    if (!open3d::io::ReadPNGFromMemory(reinterpret_cast<const unsigned char*>(b.data()), b.size(), img) ||
-        img.width_ <= 0 || img.height_ <= 0)
-      return dataLoss(name + ": cannot decode the PNG" +
-                      (open3dLastError().empty() ? std::string() : " (" + open3dLastError() + ")"));
-    w = img.width_;
-    h = img.height_;
-    const int ch = img.num_of_channels_, bpc = img.bytes_per_channel_;
+    ADIT_ASSIGN_OR_RETURN(const Open3dModule* o3d, open3dModule());
+    Open3dImage img;
+    std::string why;
+    if (!o3d->read_png(reinterpret_cast<const unsigned char*>(b.data()), b.size(), &img, &why) || img.width <= 0 ||
+        img.height <= 0)
+      return dataLoss(name + ": cannot decode the PNG" + open3dWhy(why));
+    w = img.width;
+    h = img.height;
+    const int ch = img.channels, bpc = img.bytes_per_channel;
     const bool has_alpha = ch == 2 || ch == 4;
     const int colours = has_alpha ? ch - 1 : ch;
     grey.resize(std::size_t(w) * std::size_t(h));
     alpha.assign(grey.size(), 255);
     for (std::size_t i = 0; i < grey.size(); ++i) {
       auto sample = [&](int c) {
-        const std::uint8_t* p = img.data_.data() + (i * std::size_t(ch) + std::size_t(c)) * std::size_t(bpc);
+        const std::uint8_t* p = img.data.data() + (i * std::size_t(ch) + std::size_t(c)) * std::size_t(bpc);
         return bpc == 2 ? int(((unsigned(p[0]) << 8) | p[1]) >> 8) : int(p[0]);
       };
       int sum = 0;
