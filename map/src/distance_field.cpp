@@ -325,15 +325,11 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
     cells[2] = tile[kDy];       cells[3] = tile[kDy + 1];
     cells[4] = tile[kDz];       cells[5] = tile[kDz + 1];
     cells[6] = tile[kDz + kDy]; cells[7] = tile[kDz + kDy + 1];
-  } else if ((base[0] & kBlockMask) != kBlockMask && (base[1] & kBlockMask) != kBlockMask &&
-             (base[2] & kBlockMask) != kBlockMask) {
-    // Across tiles within one block (most of the rest): one index read, one region; each axis's
-    // two voxel rows give a tile slot and a cell slot, and the 8 loads are written out (the loop
-    // below kept its per-corner block tests and index reads: 50 instructions a corner).
-    const std::int32_t r = blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
-    if (r < 0) return false;
-    const std::int32_t* region = regions[std::size_t(r)].data();
-    const Tile* tl = tiles.data();
+  } else {
+    // Across tiles (tiles are small: the commoner case), perhaps across blocks. Each axis's two
+    // voxel rows give a tile slot and a cell slot (and across blocks an index stride), so the 8
+    // loads neither wait on each other nor branch but where a block lies off the index or holds
+    // no free space.
     int sub[3][2], loc[3][2];
     for (int a = 0; a < 3; ++a)
       for (int i = 0; i < 2; ++i) {
@@ -341,37 +337,40 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
         sub[a][i] = ((v >> kTileBits) & kSubMask) << (a * kSubBits);
         loc[a][i] = (v & kTileMask) << (a * kTileBits);
       }
-#pragma GCC unroll 8
-    for (int c = 0; c < 8; ++c) {
-      const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
-      cells[c] = tl[region[sub[0][i] | sub[1][j] | sub[2][k]]][std::size_t(loc[0][i] | loc[1][j] | loc[2][k])];
-    }
-  } else {
-    // Across blocks. Each axis's two voxel rows give an index stride, a tile slot and a cell
-    // slot, so the 8 loads neither wait on each other nor branch but where a block lies off the
-    // index or holds no free space.
-    const std::size_t stride[3] = {1, std::size_t(bdim[0]), std::size_t(bdim[0]) * std::size_t(bdim[1])};
-    std::size_t off[3][2];
-    int sub[3][2], loc[3][2];
-    bool inside[3][2];
-    for (int a = 0; a < 3; ++a)
-      for (int i = 0; i < 2; ++i) {
-        const int v = base[a] + i, b = (v >> kBlockBits) - bmin[a];
-        inside[a][i] = unsigned(b) < unsigned(bdim[a]);
-        off[a][i] = std::size_t(unsigned(b)) * stride[a];
-        sub[a][i] = ((v >> kTileBits) & kSubMask) << (a * kSubBits);
-        loc[a][i] = (v & kTileMask) << (a * kTileBits);
-      }
-    const std::int32_t* ix = index.data();
-    const Region* rg = regions.data();
     const Tile* tl = tiles.data();
+    if ((base[0] & kBlockMask) != kBlockMask && (base[1] & kBlockMask) != kBlockMask &&
+        (base[2] & kBlockMask) != kBlockMask) {
+      // Within one block (most of them): one index read, one region, the 8 loads written out
+      // (the loop below, with its per-corner block tests and index reads, is 50 instructions a
+      // corner).
+      const std::int32_t r = blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
+      if (r < 0) return false;
+      const std::int32_t* region = regions[std::size_t(r)].data();
 #pragma GCC unroll 8
-    for (int c = 0; c < 8; ++c) {
-      const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
-      const std::int32_t r =
-          inside[0][i] && inside[1][j] && inside[2][k] ? ix[off[0][i] + off[1][j] + off[2][k]] : -1;
-      const std::int32_t t = r < 0 ? kRockTile : rg[r][std::size_t(sub[0][i] | sub[1][j] | sub[2][k])];
-      cells[c] = tl[t][std::size_t(loc[0][i] | loc[1][j] | loc[2][k])];
+      for (int c = 0; c < 8; ++c) {
+        const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
+        cells[c] = tl[region[sub[0][i] | sub[1][j] | sub[2][k]]][std::size_t(loc[0][i] | loc[1][j] | loc[2][k])];
+      }
+    } else {
+      const std::size_t stride[3] = {1, std::size_t(bdim[0]), std::size_t(bdim[0]) * std::size_t(bdim[1])};
+      std::size_t off[3][2];
+      bool inside[3][2];
+      for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < 2; ++i) {
+          const int b = ((base[a] + i) >> kBlockBits) - bmin[a];
+          inside[a][i] = unsigned(b) < unsigned(bdim[a]);
+          off[a][i] = std::size_t(unsigned(b)) * stride[a];
+        }
+      const std::int32_t* ix = index.data();
+      const Region* rg = regions.data();
+#pragma GCC unroll 8
+      for (int c = 0; c < 8; ++c) {
+        const int i = c & 1, j = (c >> 1) & 1, k = c >> 2;
+        const std::int32_t r =
+            inside[0][i] && inside[1][j] && inside[2][k] ? ix[off[0][i] + off[1][j] + off[2][k]] : -1;
+        const std::int32_t t = r < 0 ? kRockTile : rg[r][std::size_t(sub[0][i] | sub[1][j] | sub[2][k])];
+        cells[c] = tl[t][std::size_t(loc[0][i] | loc[1][j] | loc[2][k])];
+      }
     }
   }
   return true;
