@@ -444,8 +444,8 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   // Distance from p to each candidate site's cube, per corner max(|q - s| - 0.5, 0) on each
   // axis, summed as ((ex^2 + ey^2) + ez^2); then the first nearest.
   const double q[3] = {qx, qy, qz};
-  alignas(32) double e[3][8];  // all 24 kept: recomputing the nearest corner's 3 after the choice measured slower
-  alignas(32) double d2[8];
+  alignas(16) double e[3][8];  // all 24 kept: recomputing the nearest corner's 3 after the choice measured slower
+  alignas(16) double d2[8];
   // Two corners to a vector, their sites converted from the four sites' int vector.
   for (int h = 0; h < 4; ++h) {
     V2d ea[3];
@@ -470,23 +470,23 @@ double DistanceField::voxelClearance(const Vec3& p) const noexcept {
   // A free corner without a site knows no rock: it offers none.
   for (int c = 0; c < 8; ++c)
     if ((cells[c] & (kFreeBit | kSiteBit)) == kFreeBit) d2[c] = std::numeric_limits<double>::infinity();
-  if (!full) {
-    // The least value alone, four and two to a vector: the one the first-nearest search gives.
+  // The first nearest corner when the gradient is wanted; the distance alone needs only the least
+  // value, taken four and two to a vector.
+  int bc = 0;
+  double best;
+  if (full) {
+    for (int c = 1; c < 8; ++c) bc = d2[c] < d2[bc] ? c : bc;
+    best = d2[bc];
+  } else {
     V2d v[4];
     std::memcpy(v, d2, sizeof v);
     const V2d a = v[0] < v[1] ? v[0] : v[1], b = v[2] < v[3] ? v[2] : v[3], c = a < b ? a : b;
-    const double best = c[0] < c[1] ? c[0] : c[1];
-    if (!(best < std::numeric_limits<double>::infinity())) return out;  // no rock known
-    out.in_rock = false;
-    out.distance = std::sqrt(best) * m.res;
-    return out;
+    best = c[0] < c[1] ? c[0] : c[1];
   }
-  int bc = 0;
-  for (int c = 1; c < 8; ++c) bc = d2[c] < d2[bc] ? c : bc;
-  const double best = d2[bc];
   if (!(best < std::numeric_limits<double>::infinity())) return out;  // no rock known
   out.in_rock = false;
   out.distance = std::sqrt(best) * m.res;
+  if (!full) return out;
   const double bx = std::copysign(e[0][bc], qx - double(site[0][bc]));
   const double by = std::copysign(e[1][bc], qy - double(site[1][bc]));
   const double bz = std::copysign(e[2][bc], qz - double(site[2][bc]));

@@ -56,26 +56,29 @@ StatusOr<const Open3dModule*> open3dModule() {
     if (!ec) candidates.push_back((exe.parent_path() / ADIT_OPEN3D_MODULE_FROM_BIN).lexically_normal().string());
     candidates.push_back(ADIT_OPEN3D_MODULE_INSTALLED);
     candidates.push_back(ADIT_OPEN3D_MODULE_BUILT);
+    auto failed = [](const std::string& path, const std::string& reason) {
+      why += (why.empty() ? "" : "; ") + path + ": " + reason;
+    };
     for (std::size_t i = 0; i < candidates.size(); ++i) {
       const std::string& path = candidates[i];
       if (std::find(candidates.begin(), candidates.begin() + std::ptrdiff_t(i), path) != candidates.begin() + std::ptrdiff_t(i))
         continue;  // the build's own place, reached twice
       if (!std::filesystem::exists(path, ec)) {
-        why += (why.empty() ? "" : "; ") + path + ": not there";
+        failed(path, "not there");
         continue;
       }
       // Never closed: the decoders stay loaded for the process.
       void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
       if (!handle) {
         const char* e = ::dlerror();
-        why += (why.empty() ? "" : "; ") + path + ": " + (e ? e : "cannot load");
+        failed(path, e ? e : "cannot load");
         continue;
       }
       using Entry = const Open3dModule* (*)();
       const auto entry = reinterpret_cast<Entry>(::dlsym(handle, kOpen3dModuleEntry));
       const Open3dModule* m = entry ? entry() : nullptr;
       if (!m || m->version != kOpen3dModuleVersion || !m->read_cloud || !m->read_png) {
-        why += (why.empty() ? "" : "; ") + path + ": not this build's module";
+        failed(path, "not this build's module");
         continue;
       }
       module = m;
