@@ -787,11 +787,11 @@ int run(const SimulateArgs& a) {
     if (!env.ok()) return report(env.status());
     phases.mark("map other");
     phases.splitWorld("map other", world->times());
-    // The run needs the nodes (the falls, the sensor's rays): built now from the cached bytes, so
-    // that the time line names it instead of charging it to the first period that asks.
+    // The run queries voxels (the falls, the sensor's rays): their states are read now from the
+    // cached bytes, so that the time line names it instead of charging it to the first period.
     if (!world->cacheReport().used.empty()) {
-      (void)world->map().octree();
-      phases.mark("octree from cache");
+      world->map().prepareVoxelQueries();
+      phases.mark("voxel states from cache");
     }
   }
   std::optional<sim::NavigatedRun> nav;

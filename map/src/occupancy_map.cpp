@@ -10,6 +10,8 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "voxel_states.hpp"
+
 namespace adit::map {
 
 const char* voxelStateName(VoxelState s) {
@@ -106,21 +108,32 @@ class TreeFromBytes : public octomap::OcTree {
 }  // namespace
 
 // Built once, by whichever thread asks first; the bytes are checksummed and their shape checked
-// by the cache reader, so a failure here is a bug, not bad input.
+// by the cache reader, so a failure here is a bug, not bad input. Voxel queries need only the
+// states (VoxelStates, from the same bytes, built on the first query) and key arithmetic (an
+// empty tree of the same resolution): the nodes are built for whole-tree readers and writers.
 struct OccupancyMap::LazyTree {
-  LazyTree(std::string d, double r) : data(std::move(d)), resolution(r) {}
+  LazyTree(std::string d, double r, std::uint64_t n) : data(std::move(d)), resolution(r), nodes(n), keys(r) {}
   std::string data;  // OcTree::writeData's stream (lossless: every node's log-odds)
   double resolution;
-  std::once_flag once;
+  std::uint64_t nodes;  // the built tree's size()
+  octomap::OcTree keys;  // no nodes: coordToKey, computeRayKeys, keyToCoord, the threshold
+  std::once_flag once, states_once;
   std::shared_ptr<octomap::OcTree> tree;
+  std::unique_ptr<VoxelStates> states;  // null when the leaves span too much (then the tree answers)
   const std::shared_ptr<octomap::OcTree>& shared() {
     std::call_once(once, [this] {
+      // The stream goes below: states not built by now never will be (the tree answers).
+      std::call_once(states_once, [] {});
       auto t = std::make_shared<TreeFromBytes>(resolution);
       ADIT_DEMAND(t->read(data));  // checked bytes that do not parse: a bug in the cache writer
       tree = std::move(t);
       std::string().swap(data);
     });
     return tree;
+  }
+  const VoxelStates* voxelStates() {
+    std::call_once(states_once, [this] { states = VoxelStates::fromStream(data, keys.getOccupancyThresLog()); });
+    return states.get();
   }
 };
 
@@ -227,12 +240,27 @@ double OccupancyMap::resolution() const { return tree_ ? tree_->getResolution() 
 
 OccupancyMap OccupancyMap::fromOctreeData(std::string data, UnknownPolicy policy, const MapStats& stats) {
   OccupancyMap map(nullptr, policy);
-  map.lazy_ = std::make_shared<LazyTree>(std::move(data), stats.resolution_m);
+  map.lazy_ = std::make_shared<LazyTree>(std::move(data), stats.resolution_m, stats.octree_nodes);
   map.stats_ = stats;
   return map;
 }
 
 octomap::OcTree& OccupancyMap::lazyTree() const { return *lazy_->shared(); }
+
+const octomap::OcTree& OccupancyMap::keys() const { return tree_ ? *tree_ : lazy_->keys; }
+
+std::uint64_t OccupancyMap::baseNodes() const { return tree_ ? tree_->size() : lazy_->nodes; }
+
+VoxelState OccupancyMap::baseState(const octomap::OcTreeKey& key) const {
+  if (!tree_) {
+    if (const VoxelStates* states = lazy_->voxelStates()) return states->at(key[0], key[1], key[2]);
+  }
+  return nodeState(base(), key);
+}
+
+void OccupancyMap::prepareVoxelQueries() const {
+  if (!tree_ && !lazy_->voxelStates()) (void)lazy_->shared();
+}
 
 octomap::OcTree& OccupancyMap::tree() const {
   if (!overlay_) return base();
@@ -264,7 +292,7 @@ VoxelState OccupancyMap::keyState(const octomap::OcTreeKey& key) const {
       if (it != overlay_->changes.end()) return it->second;
     }
   }
-  return nodeState(base(), key);
+  return baseState(key);
 }
 
 namespace {
@@ -294,7 +322,7 @@ void OccupancyMap::recomputeStats() {
 
 VoxelState OccupancyMap::state(const Vec3& p) const {
   octomap::OcTreeKey key;
-  if (!allFinite(p) || !base().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return VoxelState::kUnknown;
+  if (!allFinite(p) || !keys().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return VoxelState::kUnknown;
   return keyState(key);
 }
 
@@ -302,7 +330,7 @@ bool OccupancyMap::isFree(const Vec3& p) const {
   // The outermost layer of the key range is rock whatever the tree says, so that every free voxel
   // has representable rock around it (the distance field relies on it).
   octomap::OcTreeKey key;
-  if (!allFinite(p) || !base().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return false;
+  if (!allFinite(p) || !keys().coordToKeyChecked(p.x(), p.y(), p.z(), key)) return false;
   for (int a = 0; a < 3; ++a)
     if (key[a] == 0 || key[a] == 65535) return false;
   switch (keyState(key)) {
@@ -328,10 +356,10 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
 }
 
 Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state, MapChange* change) {
-  std::vector<octomap::OcTreeKey> keys(points.size());
+  std::vector<octomap::OcTreeKey> point_keys(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Vec3& p = points[i];
-    if (!allFinite(p) || !base().coordToKeyChecked(p.x(), p.y(), p.z(), keys[i])) {
+    if (!allFinite(p) || !keys().coordToKeyChecked(p.x(), p.y(), p.z(), point_keys[i])) {
       std::ostringstream os;
       os << "point " << i << " (" << p.transpose() << ") is outside the map's key range";
       return outOfRange(os.str());
@@ -339,7 +367,7 @@ Status OccupancyMap::setVoxels(const std::vector<Vec3>& points, VoxelState state
   }
   prepareWrite();
   MapChange local;
-  for (const octomap::OcTreeKey& key : keys) applyKey(key, state, local);
+  for (const octomap::OcTreeKey& key : point_keys) applyKey(key, state, local);
   finishUpdate();
   if (change) *change = local;
   return {};
@@ -352,11 +380,11 @@ void OccupancyMap::applyKey(const octomap::OcTreeKey& key, VoxelState state, Map
   // before is the entry's, else the tree's, and a write back to the tree's state drops the entry.
   const bool in_overlay = overlay_ && !overlay_->own.load(std::memory_order_acquire);
   auto entry = in_overlay ? overlay_->changes.find(key) : decltype(overlay_->changes.end()){};
-  const VoxelState shared = in_overlay ? nodeState(base(), key) : VoxelState::kUnknown;
+  const VoxelState shared = in_overlay ? baseState(key) : VoxelState::kUnknown;
   const VoxelState before = !in_overlay ? keyState(key) : entry != overlay_->changes.end() ? entry->second : shared;
   if (before != VoxelState::kUnknown) (before == VoxelState::kOccupied ? stats_.occupied_voxels : stats_.free_voxels) -= 1;
-  const double res = base().getResolution();
-  const octomap::point3d c = base().keyToCoord(key);
+  const double res = keys().getResolution();
+  const octomap::point3d c = keys().keyToCoord(key);
   const Vec3 centre(c.x(), c.y(), c.z());
   if (before != state) {
     (state == VoxelState::kOccupied ? change.to_occupied : state == VoxelState::kFree ? change.to_free : change.to_unknown) += 1;
@@ -381,7 +409,7 @@ void OccupancyMap::applyKey(const octomap::OcTreeKey& key, VoxelState state, Map
 
 void OccupancyMap::finishUpdate() {
   stats_.octree_nodes = overlay_ && !overlay_->own.load(std::memory_order_acquire)
-                            ? base().size() + overlay_->changes.size()
+                            ? baseNodes() + overlay_->changes.size()
                             : tree().size();
   setUnknownFromBounds(stats_);
 }
@@ -393,7 +421,7 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
     return invalidArgument(os.str());
   }
   octomap::OcTreeKey origin_key;
-  if (!allFinite(origin) || !base().coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) {
+  if (!allFinite(origin) || !keys().coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) {
     std::ostringstream os;
     os << "insertRays: the origin (" << origin.transpose() << ") is outside the map's key range";
     return outOfRange(os.str());
@@ -411,8 +439,8 @@ StatusOr<MapChange> OccupancyMap::insertRays(const Vec3& origin, const std::vect
     const bool hit = d <= max_range_m;
     const Vec3 end = hit ? p : Vec3(origin + (p - origin) * (max_range_m / d));
     octomap::OcTreeKey end_key;
-    if (!allFinite(p) || !base().coordToKeyChecked(end.x(), end.y(), end.z(), end_key) ||
-        !base().computeRayKeys(o, octomap::point3d(float(end.x()), float(end.y()), float(end.z())), ray)) {
+    if (!allFinite(p) || !keys().coordToKeyChecked(end.x(), end.y(), end.z(), end_key) ||
+        !keys().computeRayKeys(o, octomap::point3d(float(end.x()), float(end.y()), float(end.z())), ray)) {
       std::ostringstream os;
       os << "insertRays: return " << i << " (" << p.transpose() << ") is not finite or its ray leaves the map's key range";
       return outOfRange(os.str());
@@ -438,11 +466,11 @@ void OccupancyMap::lineOfSight(const Vec3& origin, const std::vector<Vec3>& targ
   const octomap::point3d o(float(origin.x()), float(origin.y()), float(origin.z()));
   for (std::size_t i = 0; i < targets.size(); ++i) {
     const Vec3& p = targets[i];
-    if (!allFinite(p) || !base().computeRayKeys(o, octomap::point3d(float(p.x()), float(p.y()), float(p.z())), ray))
+    if (!allFinite(p) || !keys().computeRayKeys(o, octomap::point3d(float(p.x()), float(p.y()), float(p.z())), ray))
       continue;
     bool clear = true;
     for (const octomap::OcTreeKey& k : ray) {
-      const octomap::point3d c = base().keyToCoord(k);
+      const octomap::point3d c = keys().keyToCoord(k);
       const Vec3 centre(c.x(), c.y(), c.z());
       if (!isFree(centre) || (opaque && opaque(centre))) {
         clear = false;

@@ -18,9 +18,12 @@
 #include <limits>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <map>
 #include <tuple>
+
+#include <octomap/OcTree.h>
 
 #include "adit/map/content_hash.hpp"
 #include "adit/map/file_io.hpp"
@@ -157,6 +160,105 @@ TEST_F(MapCache, ACopyOfACachedWorldSharesNothingAChangeReaches) {
   ASSERT_TRUE(belief.map().setVoxel(p, VoxelState::kOccupied).ok());
   EXPECT_EQ(belief.map().state(p), VoxelState::kOccupied);
   EXPECT_EQ(cached->map().state(p), VoxelState::kFree);
+}
+
+// An octree with leaves of every size a cached map's voxel states file differently: a free cube
+// of 64^3 voxels and more (whole superblocks), free and occupied cubes of 8-32 (whole bricks),
+// single voxels of both states and unknown holes (split bricks), written as .ot (log-odds kept).
+std::string writeOctree(const std::string& path, const std::function<void(octomap::OcTree&)>& more = {}) {
+  octomap::OcTree t(0.2);
+  const float occupied = t.getClampingThresMaxLog(), free = t.getClampingThresMinLog();
+  constexpr unsigned kC = 32768;  // the key of coordinate 0
+  for (unsigned z = kC - 8; z < kC + 72; ++z)
+    for (unsigned y = kC - 8; y < kC + 72; ++y)
+      for (unsigned x = kC - 8; x < kC + 140; ++x) {
+        const bool shell = x == kC - 8 || x == kC + 139 || y == kC - 8 || y == kC + 71 || z == kC - 8 || z == kC + 71;
+        const bool rubble = x >= kC + 96 && x < kC + 112 && y >= kC + 16 && y < kC + 32 && z < kC + 8;
+        t.setNodeValue(octomap::OcTreeKey(std::uint16_t(x), std::uint16_t(y), std::uint16_t(z)), shell || rubble ? occupied : free,
+                       /*lazy_eval=*/true);
+      }
+  std::uint64_t s = 12345;  // single voxels: rock specks and unknown holes, away from the 64^3 cube
+  for (int i = 0; i < 400; ++i) {
+    s = s * 6364136223846793005ull + 1442695040888963407ull;
+    const octomap::OcTreeKey k(std::uint16_t(kC + 70 + (s >> 33) % 60), std::uint16_t(kC + (s >> 43) % 60),
+                               std::uint16_t(kC + (s >> 53) % 60));
+    if (i % 3 == 0) t.deleteNode(k);
+    else t.setNodeValue(k, i % 3 == 1 ? occupied : free, true);
+  }
+  if (more) more(t);
+  t.updateInnerOccupancy();
+  t.prune();
+  EXPECT_TRUE(t.write(path));
+  return path;
+}
+
+// Every voxel of `box` (grown by two voxels) has the state a fresh load gives, in the map and in
+// a copy after the same scan (what a campaign's believed map is).
+void expectSameStates(const World& fresh, const World& cached, const Aabb& box) {
+  const double res = fresh.map().resolution();
+  std::size_t known = 0;
+  for (double z = box.min.z() - 1.5 * res; z < box.max.z() + 2 * res; z += res)
+    for (double y = box.min.y() - 1.5 * res; y < box.max.y() + 2 * res; y += res)
+      for (double x = box.min.x() - 1.5 * res; x < box.max.x() + 2 * res; x += res) {
+        const Vec3 p(x, y, z);
+        ASSERT_EQ(fresh.map().state(p), cached.map().state(p)) << p.transpose();
+        ASSERT_EQ(fresh.map().isFree(p), cached.map().isFree(p)) << p.transpose();
+        known += fresh.map().state(p) != VoxelState::kUnknown;
+      }
+  EXPECT_GT(known, 100000u);
+  World a = fresh.copy(), b = cached.copy();
+  std::vector<Vec3> returns;
+  for (int i = 0; i < 200; ++i)
+    returns.push_back(Vec3(1.0, 1.0, 1.0) + 30.0 * Vec3(std::cos(0.1 * i), std::sin(0.1 * i), 0.02 * (i % 10) - 0.1));
+  const StatusOr<MapChange> ca = a.map().insertRays({1.0, 1.0, 1.0}, returns, 20.0);
+  const StatusOr<MapChange> cb = b.map().insertRays({1.0, 1.0, 1.0}, returns, 20.0);
+  ASSERT_TRUE(ca.ok() && cb.ok());
+  EXPECT_GT(ca->changed(), 0u);
+  EXPECT_EQ(ca->to_free, cb->to_free);
+  EXPECT_EQ(ca->to_occupied, cb->to_occupied);
+  EXPECT_EQ(ca->box.min, cb->box.min);
+  EXPECT_EQ(ca->box.max, cb->box.max);
+  std::vector<char> va, vb;
+  a.map().lineOfSight({1.0, 1.0, 1.0}, returns, va);
+  b.map().lineOfSight({1.0, 1.0, 1.0}, returns, vb);
+  EXPECT_EQ(va, vb);
+  EXPECT_EQ(a.map().stats().octree_nodes, b.map().stats().octree_nodes);
+}
+
+TEST_F(MapCache, ACachedMapsVoxelStatesAreTheOctreesAtEveryVoxel) {
+  // Oracle: OcTree::search() on the fresh load's octree, voxel by voxel.
+  const std::string ot = writeOctree(dir_ + "/maps/cubes.ot");
+  ASSERT_TRUE(World::load(ot, options_).ok());
+  StatusOr<World> cached = World::load(ot, options_);
+  ASSERT_TRUE(cached.ok()) << cached.status().message();
+  ASSERT_FALSE(cached->cacheReport().used.empty());
+  const World fresh = freshWorld(ot);
+  expectSameStates(fresh, *cached, fresh.map().bounds());
+  expectSameWorld(fresh, *cached);
+}
+
+TEST_F(MapCache, AMapWhoseLeavesSpanTheKeyRangeAnswersFromItsOctree) {
+  // A rock leaf of 16384^3 voxels (keys 0-16383) away from the roadway: the states would need
+  // more superblocks than they allow, so the cached map's octree answers, as it must, the same.
+  const std::string ot = writeOctree(dir_ + "/maps/half.ot", [](octomap::OcTree& t) {
+    ASSERT_TRUE(t.nodeChildExists(t.getRoot(), 0));  // the roadway's corner, in its child 7
+    octomap::OcTreeNode* lower = t.getNodeChild(t.getRoot(), 0);
+    ASSERT_FALSE(t.nodeChildExists(lower, 0));
+    octomap::OcTreeNode* rock = t.createNodeChild(lower, 0);
+    rock->setLogOdds(t.getClampingThresMaxLog());
+  });
+  const StatusOr<World> first = World::load(ot, options_);
+  ASSERT_TRUE(first.ok()) << first.status().message();
+  StatusOr<World> cached = World::load(ot, options_);
+  ASSERT_TRUE(cached.ok()) << cached.status().message();
+  ASSERT_FALSE(cached->cacheReport().used.empty());
+  const World fresh = freshWorld(ot);
+  const Vec3 far(-5000.0, -4000.0, -4000.0);  // key 7768, 12768, 12768
+  ASSERT_EQ(cached->map().state(far), VoxelState::kOccupied);
+  Aabb roadway;
+  roadway.extend(Vec3(-1.6, -1.6, -1.6));
+  roadway.extend(Vec3(28.0, 14.4, 14.4));
+  expectSameStates(fresh, *cached, roadway);
 }
 
 // Flips one byte at `offset` from the end (or the start) of the cache file.

@@ -124,6 +124,9 @@ StatusOr<BatchSetup> loadBatchSetup(const std::string& scenario_file, const std:
     if (!r.ok()) return invalidArgument(map_path + ": no roadways to draw starts and goals on: " + r.status().message());
     roadways = std::move(r).value();
   }
+  // Read the voxels' states now, so that the workers forked later share them instead of each
+  // building them (or a cached map's octree) on its first scan.
+  believed.map().prepareVoxelQueries();
   ADIT_ASSIGN_OR_RETURN(sim::Environment truth, sim::Environment::borrow(believed));
   return BatchSetup{std::move(sc).value(), std::move(roadways), std::move(believed), std::move(truth)};
 }

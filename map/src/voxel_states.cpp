@@ -1,0 +1,139 @@
+// SPDX-License-Identifier: BSD-3-Clause
+#include "voxel_states.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+namespace adit::map {
+
+namespace {
+
+// Calls leaf(origin key, edge in voxels, log-odds) for every leaf of the stream, in its order.
+// The stream is OcTree::writeData's: a node's float log-odds and its child bitmask, then its
+// children, lowest bit first; child bit 1 adds half the node's edge to x, 2 to y, 4 to z
+// (OcTreeKey's computeChildIdx). The shape was checked before (see the header).
+template <typename Leaf>
+void forEachStreamLeaf(const std::string& data, Leaf&& leaf) {
+  struct Level {
+    unsigned pending;
+    std::array<unsigned, 3> origin;
+  };
+  Level level[17];
+  const char* p = data.data();
+  auto read = [&p](float& value) {
+    std::memcpy(&value, p, sizeof value);
+    const unsigned mask = static_cast<unsigned char>(p[4]);
+    p += 5;
+    return mask;
+  };
+  float value;
+  level[0] = {read(value), {0, 0, 0}};
+  if (level[0].pending == 0) leaf(level[0].origin, 65536u, value);
+  int depth = 0;
+  while (depth >= 0) {
+    unsigned& left = level[depth].pending;
+    if (left == 0) {
+      --depth;
+      continue;
+    }
+    const unsigned child = unsigned(__builtin_ctz(left));
+    left &= left - 1;
+    const unsigned half = 1u << (15 - depth);
+    const std::array<unsigned, 3>& o = level[depth].origin;
+    const std::array<unsigned, 3> origin{o[0] + ((child & 1u) ? half : 0u), o[1] + ((child & 2u) ? half : 0u),
+                                         o[2] + ((child & 4u) ? half : 0u)};
+    const unsigned mask = read(value);
+    if (mask == 0) {
+      leaf(origin, half, value);
+      continue;
+    }
+    level[++depth] = {mask, origin};
+  }
+}
+
+constexpr std::uint64_t kUnknownWord = 0xAAAAAAAAAAAAAAAAull;  // 2 (kUnknown) in every 2 bits
+
+}  // namespace
+
+std::unique_ptr<VoxelStates> VoxelStates::fromStream(const std::string& data, float occupied_log_odds) {
+  static_assert(unsigned(VoxelState::kFree) == 0 && unsigned(VoxelState::kOccupied) == 1 &&
+                unsigned(VoxelState::kUnknown) == 2);
+  if (data.size() < 5) return nullptr;
+  // First pass: the leaves' key range, in superblocks.
+  std::array<unsigned, 3> lo{~0u, ~0u, ~0u}, hi{0, 0, 0};
+  forEachStreamLeaf(data, [&](const std::array<unsigned, 3>& o, unsigned size, float) {
+    for (int a = 0; a < 3; ++a) {
+      lo[std::size_t(a)] = std::min(lo[std::size_t(a)], o[std::size_t(a)] >> 6);
+      hi[std::size_t(a)] = std::max(hi[std::size_t(a)], (o[std::size_t(a)] + size - 1) >> 6);
+    }
+  });
+  auto s = std::unique_ptr<VoxelStates>(new VoxelStates());
+  if (lo[0] > hi[0]) {  // no leaf at all
+    s->top_.assign(1, std::uint32_t(VoxelState::kUnknown));
+    s->dim_ = {1, 1, 1};
+    return s;
+  }
+  std::size_t cells = 1;
+  for (int a = 0; a < 3; ++a) {
+    s->lo_[std::size_t(a)] = int(lo[std::size_t(a)]);
+    s->dim_[std::size_t(a)] = int(hi[std::size_t(a)] - lo[std::size_t(a)] + 1);
+    cells *= std::size_t(s->dim_[std::size_t(a)]);
+  }
+  if (cells > kMaxSuperblocks) return nullptr;
+  s->top_.assign(cells, std::uint32_t(VoxelState::kUnknown));
+  forEachStreamLeaf(data, [&](const std::array<unsigned, 3>& o, unsigned size, float log_odds) {
+    s->mark(o, size, log_odds >= occupied_log_odds ? VoxelState::kOccupied : VoxelState::kFree);
+  });
+  s->sub_.shrink_to_fit();
+  s->bricks_.shrink_to_fit();
+  return s;
+}
+
+// Leaves partition space, so a cube given here was never split before and is set whole: a
+// superblock or brick inside it gets its state as one code, a smaller cube its voxels' bits.
+void VoxelStates::mark(const std::array<unsigned, 3>& o, unsigned size, VoxelState state) {
+  const auto code = std::uint32_t(state);
+  auto topAt = [this](unsigned x, unsigned y, unsigned z) -> std::uint32_t& {
+    return top_[(std::size_t(z - unsigned(lo_[2])) * unsigned(dim_[1]) + (y - unsigned(lo_[1]))) * unsigned(dim_[0]) +
+                (x - unsigned(lo_[0]))];
+  };
+  if (size >= 64) {
+    for (unsigned z = o[2] >> 6; z < (o[2] + size) >> 6; ++z)
+      for (unsigned y = o[1] >> 6; y < (o[1] + size) >> 6; ++y)
+        for (unsigned x = o[0] >> 6; x < (o[0] + size) >> 6; ++x) topAt(x, y, z) = code;
+    return;
+  }
+  std::uint32_t& top = topAt(o[0] >> 6, o[1] >> 6, o[2] >> 6);
+  if (top < kSplit) {
+    top = kSplit + std::uint32_t(sub_.size() / 512);
+    sub_.resize(sub_.size() + 512, std::uint32_t(VoxelState::kUnknown));
+  }
+  std::uint32_t* sub = sub_.data() + std::size_t(top - kSplit) * 512;
+  if (size >= 8) {
+    for (unsigned z = o[2]; z < o[2] + size; z += 8)
+      for (unsigned y = o[1]; y < o[1] + size; y += 8)
+        for (unsigned x = o[0]; x < o[0] + size; x += 8) sub[brickSlot(x, y, z)] = code;
+    return;
+  }
+  std::uint32_t& brick = sub[brickSlot(o[0], o[1], o[2])];
+  if (brick < kSplit) {
+    brick = kSplit + std::uint32_t(bricks_.size());
+    Brick b;
+    b.fill(kUnknownWord);
+    bricks_.push_back(b);
+  }
+  Brick& bits = bricks_[brick - kSplit];
+  for (unsigned z = o[2]; z < o[2] + size; ++z)
+    for (unsigned y = o[1]; y < o[1] + size; ++y)
+      for (unsigned x = o[0]; x < o[0] + size; ++x) {
+        const unsigned v = voxelSlot(x, y, z), shift = (v & 31u) * 2;
+        bits[v >> 5] = (bits[v >> 5] & ~(std::uint64_t{3} << shift)) | (std::uint64_t(code) << shift);
+      }
+}
+
+std::size_t VoxelStates::bytes() const {
+  return top_.capacity() * sizeof(std::uint32_t) + sub_.capacity() * sizeof(std::uint32_t) +
+         bricks_.capacity() * sizeof(Brick);
+}
+
+}  // namespace adit::map
