@@ -112,8 +112,11 @@ class TreeFromBytes : public octomap::OcTree {
 // states (VoxelStates, from the same bytes, built on the first query) and key arithmetic (an
 // empty tree of the same resolution): the nodes are built for whole-tree readers and writers.
 struct OccupancyMap::LazyTree {
-  LazyTree(std::string d, double r, std::uint64_t n) : data(std::move(d)), resolution(r), nodes(n), keys(r) {}
-  std::string data;  // OcTree::writeData's stream (lossless: every node's log-odds)
+  LazyTree(std::string d, double r, std::uint64_t n)
+      : data(std::make_shared<const std::string>(std::move(d))), resolution(r), nodes(n), keys(r) {}
+  // OcTree::writeData's stream (lossless: every node's log-odds), released once the tree is built
+  // (under data_mutex: a walk of the leaves holds its own reference).
+  std::shared_ptr<const std::string> data;
   double resolution;
   std::uint64_t nodes;  // the built tree's size()
   octomap::OcTree keys;  // no nodes: coordToKey, computeRayKeys, keyToCoord, the threshold
@@ -125,14 +128,35 @@ struct OccupancyMap::LazyTree {
       // The stream goes below: states not built by now never will be (the tree answers).
       std::call_once(states_once, [] {});
       auto t = std::make_shared<TreeFromBytes>(resolution);
-      ADIT_DEMAND(t->read(data));  // checked bytes that do not parse: a bug in the cache writer
+      ADIT_DEMAND(t->read(*data));  // checked bytes that do not parse: a bug in the cache writer
       tree = std::move(t);
-      std::string().swap(data);
+      std::lock_guard<std::mutex> lock(data_mutex);
+      data.reset();
     });
     return tree;
   }
+  // Every leaf from the bytes, as the tree's leaf iterator gives them (the same order, centres,
+  // sizes and states): a map's picture or mesh does not need the nodes. False once the tree is
+  // built (the bytes are gone).
+  bool forEachLeaf(const std::function<void(const Vec3&, double, VoxelState)>& fn) {
+    std::shared_ptr<const std::string> bytes;
+    {
+      std::lock_guard<std::mutex> lock(data_mutex);
+      bytes = data;
+    }
+    if (!bytes) return false;
+    const float occupied = keys.getOccupancyThresLog();
+    forEachStreamLeaf(*bytes, [&](const std::array<unsigned, 3>& o, unsigned size, float log_odds) {
+      const auto depth = unsigned(16 - __builtin_ctz(size));
+      fn(Vec3(keys.keyToCoord(octomap::key_type(o[0]), depth), keys.keyToCoord(octomap::key_type(o[1]), depth),
+              keys.keyToCoord(octomap::key_type(o[2]), depth)),
+         keys.getNodeSize(depth), log_odds >= occupied ? VoxelState::kOccupied : VoxelState::kFree);
+    });
+    return true;
+  }
+  std::mutex data_mutex;
   const VoxelStates* voxelStates() {
-    std::call_once(states_once, [this] { states = VoxelStates::fromStream(data, keys.getOccupancyThresLog()); });
+    std::call_once(states_once, [this] { states = VoxelStates::fromStream(*data, keys.getOccupancyThresLog()); });
     return states.get();
   }
 };
@@ -342,6 +366,9 @@ bool OccupancyMap::isFree(const Vec3& p) const {
 }
 
 void OccupancyMap::forEachLeaf(const std::function<void(const Vec3&, double, VoxelState)>& fn) const {
+  // A map read from the cache and not written since: its leaves are in the bytes.
+  const bool unwritten = !overlay_ || (!overlay_->own.load(std::memory_order_acquire) && overlay_->changes.empty());
+  if (!tree_ && unwritten && lazy_->forEachLeaf(fn)) return;
   for (auto it = tree().begin_leafs(), end = tree().end_leafs(); it != end; ++it) {
     // Centres in double (getX/Y/Z): the iterator's getCoordinate() is a float point3d, whose
     // rounding moves a voxel face off the grid (0.55f - 0.05 > 0.5), so a caller testing whether

@@ -234,6 +234,13 @@ TEST_F(MapCache, ACachedMapsVoxelStatesAreTheOctreesAtEveryVoxel) {
   ASSERT_FALSE(cached->cacheReport().used.empty());
   const World fresh = freshWorld(ot);
   expectSameStates(fresh, *cached, fresh.map().bounds());
+  // The leaves read from the bytes come in the tree iterator's order, with its centres and sizes.
+  std::vector<std::tuple<double, double, double, double, VoxelState>> la, lb;
+  fresh.map().forEachLeaf([&](const Vec3& c, double e, VoxelState v) { la.emplace_back(c.x(), c.y(), c.z(), e, v); });
+  cached->map().forEachLeaf([&](const Vec3& c, double e, VoxelState v) { lb.emplace_back(c.x(), c.y(), c.z(), e, v); });
+  EXPECT_EQ(la, lb);
+  EXPECT_GT(std::count_if(la.begin(), la.end(), [](const auto& l) { return std::get<3>(l) > 12.0; }), 0)
+      << "a leaf of 64^3 voxels or more";
   expectSameWorld(fresh, *cached);
 }
 
