@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cstring>
 
+#include "adit/status.hpp"
+
 namespace adit::map {
 
 namespace {
@@ -16,12 +18,30 @@ std::unique_ptr<VoxelStates> VoxelStates::fromStream(const std::string& data, fl
   static_assert(unsigned(VoxelState::kFree) == 0 && unsigned(VoxelState::kOccupied) == 1 &&
                 unsigned(VoxelState::kUnknown) == 2);
   if (data.size() < 5) return nullptr;
-  // First pass: the leaves' key range, in superblocks.
+  // First pass: the leaves' key range, in superblocks, and how many superblocks and bricks are
+  // split. The stream is depth first, so the leaves inside one superblock (or brick) come one
+  // after another: a split one is a run of smaller leaves, counted once (the arrays are then
+  // allocated once, not grown).
   std::array<unsigned, 3> lo{~0u, ~0u, ~0u}, hi{0, 0, 0};
+  std::size_t split = 0, mixed = 0;
+  std::uint64_t last_split = ~std::uint64_t{0}, last_mixed = ~std::uint64_t{0};
+  auto pack = [](const std::array<unsigned, 3>& o, int shift) {
+    return (std::uint64_t(o[0] >> shift) << 32) | (std::uint64_t(o[1] >> shift) << 16) | std::uint64_t(o[2] >> shift);
+  };
   forEachStreamLeaf(data, [&](const std::array<unsigned, 3>& o, unsigned size, float) {
     for (int a = 0; a < 3; ++a) {
       lo[std::size_t(a)] = std::min(lo[std::size_t(a)], o[std::size_t(a)] >> 6);
       hi[std::size_t(a)] = std::max(hi[std::size_t(a)], (o[std::size_t(a)] + size - 1) >> 6);
+    }
+    if (size >= 64) return;
+    if (const std::uint64_t k = pack(o, 6); k != last_split) {
+      ++split;
+      last_split = k;
+    }
+    if (size >= 8) return;
+    if (const std::uint64_t k = pack(o, 3); k != last_mixed) {
+      ++mixed;
+      last_mixed = k;
     }
   });
   auto s = std::unique_ptr<VoxelStates>(new VoxelStates());
@@ -38,11 +58,12 @@ std::unique_ptr<VoxelStates> VoxelStates::fromStream(const std::string& data, fl
   }
   if (cells > kMaxSuperblocks) return nullptr;
   s->top_.assign(cells, std::uint32_t(VoxelState::kUnknown));
+  s->sub_.reserve(split * 512);
+  s->bricks_.reserve(mixed);
   forEachStreamLeaf(data, [&](const std::array<unsigned, 3>& o, unsigned size, float log_odds) {
     s->mark(o, size, log_odds >= occupied_log_odds ? VoxelState::kOccupied : VoxelState::kFree);
   });
-  s->sub_.shrink_to_fit();
-  s->bricks_.shrink_to_fit();
+  ADIT_DEMAND(s->sub_.size() == split * 512 && s->bricks_.size() == mixed);
   return s;
 }
 
