@@ -84,7 +84,10 @@ inline int subIndex(int x, int y, int z) {
          (((z >> kTileBits) & kSubMask) << (2 * kSubBits));
 }
 
-// Tiles are read at random by queries: 2 MiB pages spare most TLB misses.
+// Tiles are read at random by queries: 2 MiB pages spare most TLB misses. The first form
+// advises the 2 MiB-aligned part of any buffer, before it is first written: a page fault costs
+// about 10 us on these virtual machines, and 2 MiB pages take 512 times fewer.
+void adviseHugePages(void* data, std::size_t bytes);
 void adviseHugePages(std::vector<Tile>& tiles);
 
 struct BoxI {

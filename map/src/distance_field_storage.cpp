@@ -13,17 +13,20 @@
 namespace adit::map {
 namespace dfield {
 
-void adviseHugePages(std::vector<Tile>& tiles) {
+void adviseHugePages(void* data, std::size_t bytes) {
 #ifdef MADV_HUGEPAGE
   constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
-  const auto begin = reinterpret_cast<std::uintptr_t>(tiles.data());
-  const std::uintptr_t end = begin + tiles.capacity() * sizeof(Tile);
+  const auto begin = reinterpret_cast<std::uintptr_t>(data);
+  const std::uintptr_t end = begin + bytes;
   const std::uintptr_t lo = (begin + kHuge - 1) & ~(kHuge - 1), hi = end & ~(kHuge - 1);
   if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
 #else
-  (void)tiles;
+  (void)data;
+  (void)bytes;
 #endif
 }
+
+void adviseHugePages(std::vector<Tile>& tiles) { adviseHugePages(tiles.data(), tiles.capacity() * sizeof(Tile)); }
 
 }  // namespace dfield
 

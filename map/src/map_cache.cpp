@@ -322,7 +322,10 @@ StatusOr<World> MapCacheIo::read(const std::string& cache_path, const std::strin
   if (!(m.map_resolution > 0.0) || m.map_resolution != m.field_resolution || !checkResolution(m.map_resolution).ok())
     return refuse("resolution of the map and the field disagree or are invalid");
 
-  std::string tree(std::size_t(h.section[kOctree].size), '\0');
+  std::string tree;
+  tree.reserve(std::size_t(h.section[kOctree].size));
+  adviseHugePages(tree.data(), tree.capacity());
+  tree.resize(std::size_t(h.section[kOctree].size));
   ADIT_RETURN_IF_ERROR(section(kOctree, tree.data(), tree.size()));
   if (Status s = checkOctreeStream(tree, m.octree_nodes); !s.ok()) return refuse(s.message());
 
