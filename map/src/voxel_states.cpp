@@ -109,9 +109,4 @@ void VoxelStates::mark(const std::array<unsigned, 3>& o, unsigned size, VoxelSta
       }
 }
 
-std::size_t VoxelStates::bytes() const {
-  return top_.capacity() * sizeof(std::uint32_t) + sub_.capacity() * sizeof(std::uint32_t) +
-         bricks_.capacity() * sizeof(Brick);
-}
-
 }  // namespace adit::map

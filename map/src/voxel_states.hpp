@@ -89,9 +89,6 @@ class VoxelStates {
     return VoxelState((bricks_[code - kSplit][v >> 5] >> ((v & 31u) * 2)) & 3u);
   }
 
-  /// Bytes held (the arrays' capacities).
-  std::size_t bytes() const;
-
   static constexpr std::size_t kMaxSuperblocks = std::size_t{1} << 22;  // 16 MiB of codes
 
  private:
