@@ -30,6 +30,7 @@
 #include "adit/map/survey_network.hpp"
 #include "distance_field_impl.hpp"
 #include "map_cache_io.hpp"
+#include "octree_stream.hpp"
 
 namespace adit::map {
 
@@ -82,41 +83,23 @@ std::string hex16(std::uint64_t v) {
 }
 
 // The octree stream's structure without building it: each node is a finite float log-odds and a
-// child bitmask, depth at most 16, exactly `nodes` nodes filling exactly the bytes. OctoMap's
-// reader recurses on whatever it is given; nothing reaches it that has not passed here.
+// child bitmask, depth at most 16, exactly `nodes` nodes filling exactly the bytes. The tree, the
+// voxel states and the leaves read from these bytes trust that; nothing reaches them that has
+// not passed here.
 Status checkOctreeStream(const std::string& data, std::uint64_t nodes) {
-  // Per depth, the children not yet read, taken lowest bit first (a scan bit by bit was 80
-  // instructions a node: 40 % of a cached load's CPU on the district).
-  unsigned pending[17];
-  int depth = 0;
-  std::size_t pos = 0;
-  std::uint64_t seen = 0;
-  auto readNode = [&](unsigned& mask) -> bool {
-    if (data.size() - pos < 5) return false;
-    float v;
-    std::memcpy(&v, data.data() + pos, 4);
-    mask = static_cast<unsigned char>(data[pos + 4]);
-    pos += 5;
-    ++seen;
-    return std::isfinite(v);
-  };
-  unsigned mask = 0;
-  if (!readNode(mask)) return dataLoss("octree: the root node is cut or not finite");
-  pending[0] = mask;
-  while (depth >= 0) {
-    unsigned& left = pending[depth];
-    if (left == 0) {
-      --depth;
-      continue;
-    }
-    left &= left - 1;
-    if (depth == 16) return dataLoss("octree: a node below depth 16");
-    if (!readNode(mask)) return dataLoss("octree: node " + std::to_string(seen) + " is cut or not finite");
-    pending[++depth] = mask;
+  bool finite = true;
+  const StreamWalk w = walkOctreeStream<false>(data, [&finite](const StreamNode& n) { return finite = std::isfinite(n.log_odds); });
+  switch (w.end) {
+    case StreamWalk::kWhole: break;
+    case StreamWalk::kTooDeep: return dataLoss("octree: a node below depth 16");
+    case StreamWalk::kCut:
+    case StreamWalk::kStopped:
+      if (w.nodes == 0 || (w.nodes == 1 && !finite)) return dataLoss("octree: the root node is cut or not finite");
+      return dataLoss("octree: node " + std::to_string(w.nodes) + " is cut or not finite");
   }
-  if (pos != data.size()) return dataLoss("octree: " + std::to_string(data.size() - pos) + " bytes after the tree");
-  if (seen != nodes)
-    return dataLoss("octree: " + std::to_string(seen) + " nodes, the statistics say " + std::to_string(nodes));
+  if (w.bytes != data.size()) return dataLoss("octree: " + std::to_string(data.size() - w.bytes) + " bytes after the tree");
+  if (w.nodes != nodes)
+    return dataLoss("octree: " + std::to_string(w.nodes) + " nodes, the statistics say " + std::to_string(nodes));
   return {};
 }
 

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "octree_stream.hpp"
 #include "voxel_states.hpp"
 
 namespace adit::map {
@@ -84,25 +85,17 @@ class TreeFromBytes : public octomap::OcTree {
   bool read(const std::string& data) {
     tree_size = 0;
     size_changed = true;
-    root = new octomap::OcTreeNode();
-    const char* p = data.data();
-    const char* const end = p + data.size();
-    const bool ok = readNodes(root, p, end) && p == end;
+    // A node's parent is the last node read one level up (the stream is depth first).
+    octomap::OcTreeNode* last[17];
+    const StreamWalk w = walkOctreeStream<false>(data, [&](const StreamNode& n) {
+      octomap::OcTreeNode* node = n.depth == 0 ? (root = new octomap::OcTreeNode())
+                                               : createNodeChild(last[n.depth - 1], n.child);
+      node->setValue(n.log_odds);
+      last[n.depth] = node;
+      return true;
+    });
     tree_size = calcNumNodes();
-    return ok;
-  }
-
- private:
-  bool readNodes(octomap::OcTreeNode* node, const char*& p, const char* end) {
-    if (end - p < 5) return false;
-    float value;
-    std::memcpy(&value, p, sizeof value);
-    node->setValue(value);
-    const unsigned children = static_cast<unsigned char>(p[4]);
-    p += 5;
-    for (unsigned i = 0; i < 8; ++i)
-      if (((children >> i) & 1u) && !readNodes(createNodeChild(node, i), p, end)) return false;
-    return true;
+    return w.end == StreamWalk::kWhole && w.bytes == data.size();
   }
 };
 }  // namespace
@@ -113,11 +106,10 @@ class TreeFromBytes : public octomap::OcTree {
 // empty tree of the same resolution): the nodes are built for whole-tree readers and writers.
 struct OccupancyMap::LazyTree {
   LazyTree(std::string d, double r, std::uint64_t n)
-      : data(std::make_shared<const std::string>(std::move(d))), resolution(r), nodes(n), keys(r) {}
+      : data(std::make_shared<const std::string>(std::move(d))), nodes(n), keys(r) {}
   // OcTree::writeData's stream (lossless: every node's log-odds), released once the tree is built
   // (under data_mutex: a walk of the leaves holds its own reference).
   std::shared_ptr<const std::string> data;
-  double resolution;
   std::uint64_t nodes;  // the built tree's size()
   octomap::OcTree keys;  // no nodes: coordToKey, computeRayKeys, keyToCoord, the threshold
   std::once_flag once, states_once;
@@ -127,7 +119,7 @@ struct OccupancyMap::LazyTree {
     std::call_once(once, [this] {
       // The stream goes below: states not built by now never will be (the tree answers).
       std::call_once(states_once, [] {});
-      auto t = std::make_shared<TreeFromBytes>(resolution);
+      auto t = std::make_shared<TreeFromBytes>(keys.getResolution());
       ADIT_DEMAND(t->read(*data));  // checked bytes that do not parse: a bug in the cache writer
       tree = std::move(t);
       std::lock_guard<std::mutex> lock(data_mutex);
@@ -146,11 +138,11 @@ struct OccupancyMap::LazyTree {
     }
     if (!bytes) return false;
     const float occupied = keys.getOccupancyThresLog();
-    forEachStreamLeaf(*bytes, [&](const std::array<unsigned, 3>& o, unsigned size, float log_odds) {
-      const auto depth = unsigned(16 - __builtin_ctz(size));
-      fn(Vec3(keys.keyToCoord(octomap::key_type(o[0]), depth), keys.keyToCoord(octomap::key_type(o[1]), depth),
-              keys.keyToCoord(octomap::key_type(o[2]), depth)),
-         keys.getNodeSize(depth), log_odds >= occupied ? VoxelState::kOccupied : VoxelState::kFree);
+    forEachStreamLeaf(*bytes, [&](const StreamNode& n) {
+      const auto depth = unsigned(n.depth);
+      fn(Vec3(keys.keyToCoord(octomap::key_type(n.origin[0]), depth), keys.keyToCoord(octomap::key_type(n.origin[1]), depth),
+              keys.keyToCoord(octomap::key_type(n.origin[2]), depth)),
+         keys.getNodeSize(depth), n.log_odds >= occupied ? VoxelState::kOccupied : VoxelState::kFree);
     });
     return true;
   }

@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "adit/status.hpp"
+#include "octree_stream.hpp"
 
 namespace adit::map {
 
@@ -28,7 +29,9 @@ std::unique_ptr<VoxelStates> VoxelStates::fromStream(const std::string& data, fl
   auto pack = [](const std::array<unsigned, 3>& o, int shift) {
     return (std::uint64_t(o[0] >> shift) << 32) | (std::uint64_t(o[1] >> shift) << 16) | std::uint64_t(o[2] >> shift);
   };
-  forEachStreamLeaf(data, [&](const std::array<unsigned, 3>& o, unsigned size, float) {
+  forEachStreamLeaf(data, [&](const StreamNode& n) {
+    const std::array<unsigned, 3>& o = n.origin;
+    const unsigned size = n.edge;
     for (int a = 0; a < 3; ++a) {
       lo[std::size_t(a)] = std::min(lo[std::size_t(a)], o[std::size_t(a)] >> 6);
       hi[std::size_t(a)] = std::max(hi[std::size_t(a)], (o[std::size_t(a)] + size - 1) >> 6);
@@ -60,8 +63,8 @@ std::unique_ptr<VoxelStates> VoxelStates::fromStream(const std::string& data, fl
   s->top_.assign(cells, std::uint32_t(VoxelState::kUnknown));
   s->sub_.reserve(split * 512);
   s->bricks_.reserve(mixed);
-  forEachStreamLeaf(data, [&](const std::array<unsigned, 3>& o, unsigned size, float log_odds) {
-    s->mark(o, size, log_odds >= occupied_log_odds ? VoxelState::kOccupied : VoxelState::kFree);
+  forEachStreamLeaf(data, [&](const StreamNode& n) {
+    s->mark(n.origin, n.edge, n.log_odds >= occupied_log_odds ? VoxelState::kOccupied : VoxelState::kFree);
   });
   ADIT_DEMAND(s->sub_.size() == split * 512 && s->bricks_.size() == mixed);
   return s;

@@ -13,7 +13,6 @@
 // a brick lies inside one leaf or is split by smaller ones: the codes are exact.
 
 #include <array>
-#include <cstring>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -23,49 +22,6 @@
 #include "adit/map/occupancy_map.hpp"
 
 namespace adit::map {
-
-// Calls leaf(origin key, edge in voxels, log-odds) for every leaf of the stream, in its order.
-// The stream is OcTree::writeData's: a node's float log-odds and its child bitmask, then its
-// children, lowest bit first; child bit 1 adds half the node's edge to x, 2 to y, 4 to z
-// (OcTreeKey's computeChildIdx). The shape was checked before (see the header).
-template <typename Leaf>
-void forEachStreamLeaf(const std::string& data, Leaf&& leaf) {
-  struct Level {
-    unsigned pending;
-    std::array<unsigned, 3> origin;
-  };
-  Level level[17];
-  const char* p = data.data();
-  auto read = [&p](float& value) {
-    std::memcpy(&value, p, sizeof value);
-    const unsigned mask = static_cast<unsigned char>(p[4]);
-    p += 5;
-    return mask;
-  };
-  float value;
-  level[0] = {read(value), {0, 0, 0}};
-  if (level[0].pending == 0) leaf(level[0].origin, 65536u, value);
-  int depth = 0;
-  while (depth >= 0) {
-    unsigned& left = level[depth].pending;
-    if (left == 0) {
-      --depth;
-      continue;
-    }
-    const unsigned child = unsigned(__builtin_ctz(left));
-    left &= left - 1;
-    const unsigned half = 1u << (15 - depth);
-    const std::array<unsigned, 3>& o = level[depth].origin;
-    const std::array<unsigned, 3> origin{o[0] + ((child & 1u) ? half : 0u), o[1] + ((child & 2u) ? half : 0u),
-                                         o[2] + ((child & 4u) ? half : 0u)};
-    const unsigned mask = read(value);
-    if (mask == 0) {
-      leaf(origin, half, value);
-      continue;
-    }
-    level[++depth] = {mask, origin};
-  }
-}
 
 class VoxelStates {
  public:
