@@ -90,13 +90,22 @@ StatusOr<const Open3dModule*> open3dModule() {
                             "); set ADIT_OPEN3D_MODULE to its path");
 }
 
-std::vector<Vec3> triples(const std::vector<double>& xyz) {
+std::string open3dWhy(const std::string& error) { return error.empty() ? std::string() : " (" + error + ")"; }
+
+StatusOr<std::vector<Vec3>> decodeCloud(const std::string& path, const char* format, const std::string& name,
+                                        const std::string& what, std::uint64_t expected, const char* noun) {
+  ADIT_ASSIGN_OR_RETURN(const Open3dModule* o3d, open3dModule());
+  std::vector<double> xyz;
+  std::string why;
+  if (!o3d->read_cloud(path.c_str(), format, &xyz, &why))
+    return dataLoss(name + ": cannot decode " + what + open3dWhy(why));
+  if (xyz.size() / 3 != expected)
+    return dataLoss(name + ": decoded " + std::to_string(xyz.size() / 3) + " " + noun + ", header says " +
+                    std::to_string(expected));
   std::vector<Vec3> pts(xyz.size() / 3);
   for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = Vec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
   return pts;
 }
-
-std::string open3dWhy(const std::string& error) { return error.empty() ? std::string() : " (" + error + ")"; }
 
 std::string extensionOf(const std::string& path) {
   std::string e = std::filesystem::path(path).extension().string();

@@ -34,8 +34,11 @@ class MemFile {
 /// when set, else beside the program as installed (../lib/adit from its bin folder), else where
 /// this build put it. An error says where it looked and why each failed.
 StatusOr<const Open3dModule*> open3dModule();
-/// x, y, z triples as points.
-std::vector<Vec3> triples(const std::vector<double>& xyz);
+/// The points of the cloud file `path` in `format` ("pcd", "ply"), decoded by the Open3D module,
+/// which must give exactly `expected` of them. Errors name `name`: "cannot decode " + `what`
+/// (with Open3D's message), or "decoded N " + `noun` + ", header says M".
+StatusOr<std::vector<Vec3>> decodeCloud(const std::string& path, const char* format, const std::string& name,
+                                        const std::string& what, std::uint64_t expected, const char* noun);
 /// Open3D's message for a failed decode, as " (message)", or "".
 std::string open3dWhy(const std::string& error);
 

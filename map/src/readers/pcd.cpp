@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "adit/map/readers/pcd.hpp"
 
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -170,16 +169,8 @@ StatusOr<Geometry> parsePcd(const std::string& bytes, const std::string& name, c
   ADIT_ASSIGN_OR_RETURN(PcdHeader h, parseHeader(bytes, name, limits));
   ADIT_RETURN_IF_ERROR(checkDataSize(bytes, h, name));
   ADIT_ASSIGN_OR_RETURN(MemFile mem, MemFile::create(bytes, name));
-  ADIT_ASSIGN_OR_RETURN(const Open3dModule* o3d, open3dModule());
-  std::vector<double> xyz;
-  std::string why;
-  if (!o3d->read_cloud(mem.path().c_str(), "pcd", &xyz, &why))
-    return dataLoss(name + ": cannot decode the PCD " + h.data + " data" + open3dWhy(why));
-  if (xyz.size() / 3 != h.points)
-    return dataLoss(name + ": decoded " + std::to_string(xyz.size() / 3) + " points, header says " +
-                    std::to_string(h.points));
   Geometry g;
-  g.points = triples(xyz);
+  ADIT_ASSIGN_OR_RETURN(g.points, decodeCloud(mem.path(), "pcd", name, "the PCD " + h.data + " data", h.points, "points"));
   const std::int64_t bad = firstNonFinite(g.points);
   if (bad >= 0) {
     const std::string coords = "(" + std::to_string(g.points[bad].x()) + ", " + std::to_string(g.points[bad].y()) +

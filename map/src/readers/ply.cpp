@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: BSD-3-Clause
 #include "adit/map/readers/ply.hpp"
 
-
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -203,16 +202,8 @@ StatusOr<Geometry> parsePly(const std::string& b, const std::string& name, const
     return parseMesh(b, name, "ply", limits);
   }
   ADIT_ASSIGN_OR_RETURN(MemFile mem, MemFile::create(b, name));
-  ADIT_ASSIGN_OR_RETURN(const Open3dModule* o3d, open3dModule());
-  std::vector<double> xyz;
-  std::string why;
-  if (!o3d->read_cloud(mem.path().c_str(), "ply", &xyz, &why))
-    return dataLoss(name + ": cannot decode the PLY vertices" + open3dWhy(why));
-  if (xyz.size() / 3 != vertex->count)
-    return dataLoss(name + ": decoded " + std::to_string(xyz.size() / 3) + " vertices, header says " +
-                    std::to_string(vertex->count));
   Geometry g;
-  g.points = triples(xyz);
+  ADIT_ASSIGN_OR_RETURN(g.points, decodeCloud(mem.path(), "ply", name, "the PLY vertices", vertex->count, "vertices"));
   const std::int64_t bad = firstNonFinite(g.points);
   if (bad >= 0) return invalidArgument(name + ": vertex " + std::to_string(bad + 1) + " has a non-finite coordinate");
   return g;
