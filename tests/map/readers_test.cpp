@@ -4,6 +4,8 @@
 // with a message naming the file and the offset or line.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -172,6 +174,19 @@ TEST(PcdReader, LyingAndAbsurdHeaders) {
   EXPECT_FALSE(parsePcd(c, "g.pcd").ok());
   expectError(parsePcd(replaceOnce(test::pcdAscii(pts), "FIELDS x y z", "FIELDS a b c"), "h.pcd"), "no 'x' field");
   expectError(parsePcd(replaceOnce(test::pcdAscii(pts), "SIZE 4 4 4", "SIZE 4 4"), "i.pcd"), "3 FIELDS but 2 SIZE");
+}
+
+TEST(PcdReader, AnAsciiLineShortOfValuesOrNotANumberIsRefusedNamingIt) {
+  // Open3D leaves a short line's missing values unset: the point would be whatever memory held.
+  const std::string good = test::pcdAscii(samplePoints());
+  const std::size_t data = good.find("DATA ascii\n") + 11, second = good.find('\n', data) + 1;
+  const std::size_t line = std::size_t(std::count(good.begin(), good.begin() + std::ptrdiff_t(second), '\n')) + 1;
+  const std::string rest = good.substr(good.find('\n', second));
+  expectError(parsePcd(good.substr(0, second) + "1.5 2.5" + rest, "s.pcd"),
+              "s.pcd:" + std::to_string(line) + ": 2 values, the header's FIELDS and COUNT name 3");
+  expectError(parsePcd(good.substr(0, second) + "1.5 2.5 z3" + rest, "t.pcd"),
+              "t.pcd:" + std::to_string(line) + ": 'z3' is not a number");
+  EXPECT_TRUE(parsePcd(good.substr(0, second) + "1.5 2.5 3.5e0" + rest, "u.pcd").ok());
 }
 
 TEST(PcdReader, ViewpointIsKeptWhenSet) {

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <cstdlib>
@@ -90,7 +91,22 @@ StatusOr<const Open3dModule*> open3dModule() {
                             "); set ADIT_OPEN3D_MODULE to its path");
 }
 
-std::string open3dWhy(const std::string& error) { return error.empty() ? std::string() : " (" + error + ")"; }
+std::string open3dWhy(const std::string& error) {
+  // Open3D colours its messages for a terminal ("\x1b[1;33m[Open3D WARNING] ...\x1b[0;m"): our
+  // report is plain text, perhaps in a log or JSON.
+  std::string plain;
+  for (std::size_t i = 0; i < error.size(); ++i) {
+    if (error[i] == '\x1b' && i + 1 < error.size() && error[i + 1] == '[') {
+      const std::size_t m = error.find('m', i);
+      if (m == std::string::npos) break;
+      i = m;
+      continue;
+    }
+    plain.push_back(error[i]);
+  }
+  while (!plain.empty() && std::isspace(static_cast<unsigned char>(plain.back()))) plain.pop_back();
+  return plain.empty() ? std::string() : " (" + plain + ")";
+}
 
 StatusOr<std::vector<Vec3>> decodeCloud(const std::string& path, const char* format, const std::string& name,
                                         const std::string& what, std::uint64_t expected, const char* noun) {

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 #include "adit/map/map_io.hpp"
@@ -149,11 +150,30 @@ Status checkDataSize(const std::string& b, const PcdHeader& h, const std::string
       return dataLoss(at(name, h.data_offset) + ": truncated compressed block: " + std::to_string(comp) +
                       " bytes announced, " + std::to_string(avail - 8) + " follow");
   } else {
-    std::uint64_t lines = 0;
-    for (std::size_t p = h.data_offset; p < b.size() && lines < h.points;) {
+    // Open3D reads a line's values by position and leaves what a short line lacks unset (the
+    // coordinates are then whatever memory held), so every line is checked here: as many values
+    // as the header's FIELDS and COUNT name, each a number.
+    std::uint64_t values = 0;
+    for (const std::uint64_t c : h.count) values += c;
+    std::uint64_t lines = 0, line = h.data_line;
+    for (std::size_t p = h.data_offset; p < b.size() && lines < h.points; ++line) {
       std::size_t e = b.find('\n', p);
       if (e == std::string::npos) e = b.size();
-      if (b.find_first_not_of(" \t\r", p) < e) ++lines;
+      std::uint64_t n = 0;
+      for (std::size_t q = b.find_first_not_of(" \t\r", p); q < e; q = b.find_first_not_of(" \t\r", q)) {
+        const std::size_t t = std::min(b.find_first_of(" \t\r\n", q), e);
+        char* end = nullptr;
+        std::strtod(b.c_str() + q, &end);
+        if (end != b.c_str() + t)
+          return dataLoss(atLine(name, line) + ": '" + b.substr(q, std::min<std::size_t>(t - q, 40)) +
+                          "' is not a number");
+        ++n;
+        q = t;
+      }
+      if (n > 0 && n < values)
+        return dataLoss(atLine(name, line) + ": " + std::to_string(n) + " values, the header's FIELDS and COUNT name " +
+                        std::to_string(values));
+      lines += n > 0;
       p = e + 1;
     }
     if (lines < h.points)
